@@ -1,0 +1,20 @@
+//! Hardware abstraction layer of `tmo`.
+//!
+//! One small trait per device role of the Tactile Model O rig ([`TactileSensor`], [`Hand`],
+//! [`Arm`], [`MarkerTracker`], [`Clock`]), each taking its error type from [`ErrorType`], and
+//! every backend error mapping onto the shared [`ErrorKind`] so generic code (the protocol
+//! runner) can react to "timeout" or "out of limits" without knowing the backend.
+//!
+//! Traits only do I/O. Building a backend (opening ports, loading a log, building a simulated
+//! world) is the job of that backend's constructor; see [`sim::SimRig`].
+
+pub mod error;
+pub mod sim;
+pub mod traits;
+pub mod types;
+
+pub use error::{Error, ErrorKind, ErrorType};
+pub use traits::{Arm, Clock, Hand, MarkerTracker, TactileSensor};
+pub use types::{
+    HandPositions, MarkerSample, PinFrame, Pose, SensorId, HAND_ACTUATORS, TMO_PINS_PER_SENSOR,
+};

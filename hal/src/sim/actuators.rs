@@ -1,0 +1,162 @@
+//! Servo and arm motion: latency, speed and acceleration limits, nothing else.
+
+use std::collections::VecDeque;
+
+use crate::types::{HandPositions, HAND_ACTUATORS};
+
+/// A command that reaches the servos after the bus and firmware latency.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum ServoCommand {
+    Targets(HandPositions),
+    TorqueLimit(f64),
+}
+
+/// The hand's four position-controlled servos.
+#[derive(Debug, Clone)]
+pub struct Servos {
+    pub position: HandPositions,
+    pub target: HandPositions,
+    pub torque_limit: f64,
+    pending: VecDeque<(f64, ServoCommand)>,
+    latency_s: f64,
+    max_speed_per_s: f64,
+}
+
+impl Servos {
+    pub fn new(start: HandPositions, torque_limit: f64, latency_s: f64, max_speed_per_s: f64) -> Self {
+        Self { position: start, target: start, torque_limit, pending: VecDeque::new(), latency_s, max_speed_per_s }
+    }
+
+    pub fn command(&mut self, now_s: f64, command: ServoCommand) {
+        self.pending.push_back((now_s + self.latency_s, command));
+    }
+
+    /// Advances to `now_s`: applies commands that have arrived, moves at most max speed.
+    pub fn step(&mut self, now_s: f64, step_s: f64) {
+        while let Some(&(at, cmd)) = self.pending.front() {
+            if at > now_s + 1e-12 {
+                break;
+            }
+            self.pending.pop_front();
+            match cmd {
+                ServoCommand::Targets(t) => self.target = t,
+                ServoCommand::TorqueLimit(l) => self.torque_limit = l,
+            }
+        }
+        let max_move = self.max_speed_per_s * step_s;
+        for i in 0..HAND_ACTUATORS {
+            let d = self.target[i] - self.position[i];
+            self.position[i] += d.clamp(-max_move, max_move);
+        }
+    }
+}
+
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum ArmMotion {
+    Hold,
+    Linear { target_mm: [f64; 3], speed_mm_s: f64 },
+    Velocity([f64; 3]),
+}
+
+/// The arm's tool centre point, moved with bounded acceleration.
+#[derive(Debug, Clone)]
+pub struct ArmState {
+    pub position_mm: [f64; 3],
+    pub velocity_mm_s: [f64; 3],
+    pub acceleration_mm_s2: [f64; 3],
+    pub motion: ArmMotion,
+    max_acceleration: f64,
+}
+
+fn norm(v: [f64; 3]) -> f64 {
+    (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt()
+}
+
+impl ArmState {
+    pub fn new(position_mm: [f64; 3], max_acceleration: f64) -> Self {
+        Self {
+            position_mm,
+            velocity_mm_s: [0.0; 3],
+            acceleration_mm_s2: [0.0; 3],
+            motion: ArmMotion::Hold,
+            max_acceleration,
+        }
+    }
+
+    pub fn step(&mut self, step_s: f64) {
+        let desired = match self.motion {
+            ArmMotion::Hold => [0.0; 3],
+            ArmMotion::Velocity(v) => v,
+            ArmMotion::Linear { target_mm, speed_mm_s } => {
+                let d = [0, 1, 2].map(|i| target_mm[i] - self.position_mm[i]);
+                let dist = norm(d);
+                if dist < 1e-3 && norm(self.velocity_mm_s) < self.max_acceleration * step_s {
+                    self.position_mm = target_mm;
+                    self.velocity_mm_s = [0.0; 3];
+                    self.acceleration_mm_s2 = [0.0; 3];
+                    self.motion = ArmMotion::Hold;
+                    return;
+                }
+                // Decelerate so as to stop at the target.
+                let speed = speed_mm_s.min((2.0 * self.max_acceleration * dist).sqrt());
+                d.map(|x| x / dist.max(1e-12) * speed)
+            }
+        };
+        let dv = [0, 1, 2].map(|i| desired[i] - self.velocity_mm_s[i]);
+        let dv_norm = norm(dv);
+        let max_dv = self.max_acceleration * step_s;
+        let scale = if dv_norm > max_dv { max_dv / dv_norm } else { 1.0 };
+        for (i, dv) in dv.iter().enumerate() {
+            let v0 = self.velocity_mm_s[i];
+            let v1 = v0 + dv * scale;
+            self.acceleration_mm_s2[i] = (v1 - v0) / step_s;
+            self.position_mm[i] += 0.5 * (v0 + v1) * step_s;
+            self.velocity_mm_s[i] = v1;
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn servo_waits_for_latency_then_moves_at_max_speed() {
+        let mut s = Servos::new([0.0; 4], 1.0, 0.008, 2.0);
+        s.command(0.0, ServoCommand::Targets([1.0, 0.0, 0.0, 0.0]));
+        let mut t = 0.0;
+        for _ in 0..7 {
+            t += 0.001;
+            s.step(t, 0.001);
+        }
+        assert_eq!(s.position[0], 0.0);
+        for _ in 0..11 {
+            t += 0.001;
+            s.step(t, 0.001);
+        }
+        assert!((s.position[0] - 0.022).abs() < 1e-9, "{}", s.position[0]);
+    }
+
+    #[test]
+    fn linear_move_ends_on_target() {
+        let mut a = ArmState::new([0.0; 3], 1000.0);
+        a.motion = ArmMotion::Linear { target_mm: [0.0, 0.0, 10.0], speed_mm_s: 20.0 };
+        for _ in 0..2000 {
+            a.step(0.001);
+        }
+        assert_eq!(a.motion, ArmMotion::Hold);
+        assert_eq!(a.position_mm, [0.0, 0.0, 10.0]);
+    }
+
+    #[test]
+    fn velocity_move_ramps_up_with_bounded_acceleration() {
+        let mut a = ArmState::new([0.0; 3], 1000.0);
+        a.motion = ArmMotion::Velocity([0.0, 0.0, 17.0]);
+        a.step(0.001);
+        assert!((a.velocity_mm_s[2] - 1.0).abs() < 1e-9);
+        for _ in 0..100 {
+            a.step(0.001);
+        }
+        assert!((a.velocity_mm_s[2] - 17.0).abs() < 1e-9);
+    }
+}

@@ -1,0 +1,283 @@
+//! Parameters of the simulated rig. Every field has a default; the defaults are the values
+//! documented in `docs/simulator.md`. Unknown fields are rejected.
+
+use serde::{Deserialize, Serialize};
+
+/// Everything that defines one simulated trial.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct SimConfig {
+    pub seed: u64,
+    pub rig: RigSetup,
+    pub physics: PhysicsParams,
+    pub servo: ServoParams,
+    pub arm: ArmParams,
+    pub tactip: TactipParams,
+    pub faults: FaultRates,
+    pub marker: MarkerParams,
+}
+
+impl Default for SimConfig {
+    fn default() -> Self {
+        Self {
+            seed: 0,
+            rig: RigSetup::Hand(HandSetup::default()),
+            physics: PhysicsParams::default(),
+            servo: ServoParams::default(),
+            arm: ArmParams::default(),
+            tactip: TactipParams::default(),
+            faults: FaultRates::default(),
+            marker: MarkerParams::default(),
+        }
+    }
+}
+
+/// Which rig is built.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "snake_case")]
+pub enum RigSetup {
+    /// The whole hand in a pinch grasp: thumb against two fingers, three sensors.
+    Hand(HandSetup),
+    /// One finger pressing an object against the low-friction vertical rail; one sensor.
+    Rail(RailSetup),
+}
+
+/// How the object starts relative to the hand.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ObjectStart {
+    /// Between the fingers, in the air, not moving: held if the grip suffices.
+    InHand,
+    /// Standing on a table, centred between the open fingers.
+    OnTable,
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct HandSetup {
+    /// Name in the object library.
+    pub object: String,
+    /// Extra mass fixed to the object (the paper's cat with 100 g), g.
+    pub extra_mass_g: f64,
+    /// Hand roll about the arm's tool axis: 0 or 180 in the paper; it changes how the load
+    /// is shared between thumb and fingers and flips the slip direction in the images.
+    pub grasp_deg: f64,
+    /// Initial position of the three fingers, 0..1.
+    pub initial_closure: f64,
+    pub start: ObjectStart,
+    /// Mass poured into the object (rice), g/s, from `pour_start_s` on.
+    pub pour_rate_g_per_s: f64,
+    pub pour_start_s: f64,
+}
+
+impl Default for HandSetup {
+    fn default() -> Self {
+        Self {
+            object: "crisps_can".into(),
+            extra_mass_g: 0.0,
+            grasp_deg: 0.0,
+            initial_closure: 0.0,
+            start: ObjectStart::InHand,
+            pour_rate_g_per_s: 0.0,
+            pour_start_s: 0.0,
+        }
+    }
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct RailSetup {
+    pub object: String,
+    /// How far (mm) the arm starts past the point where the fingertip touches the object.
+    pub preload_mm: f64,
+    /// Friction coefficient of the rail's guides (acts with the finger's normal force).
+    pub rail_mu: f64,
+    /// The rail's end stop, mm below the start height.
+    pub end_stop_mm: f64,
+    /// Finger position, 0..1 (the finger holds still; the arm sets the normal force).
+    pub finger_closure: f64,
+}
+
+impl Default for RailSetup {
+    fn default() -> Self {
+        Self {
+            object: "rail_object".into(),
+            preload_mm: 3.0,
+            rail_mu: 0.05,
+            end_stop_mm: 150.0,
+            finger_closure: 0.5,
+        }
+    }
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct PhysicsParams {
+    /// Integration step, s.
+    pub step_s: f64,
+    pub gravity_m_s2: f64,
+    /// Travel of one fingertip from open (0) to closed (1), mm.
+    pub finger_travel_mm: f64,
+    /// Compliance of the under-actuated finger at its tip, N/mm.
+    pub finger_stiffness_n_per_mm: f64,
+    /// Normal stiffness of the TacTip skin, N/mm.
+    pub skin_stiffness_n_per_mm: f64,
+    /// Largest normal force a finger can press with at full torque, N.
+    pub stall_force_n: f64,
+    /// Extra share of the load the thumb takes at grasp 0 deg (and gives up at 180 deg).
+    pub thumb_load_bias: f64,
+    /// Relative amplitude of friction fluctuation while sliding (stick-slip).
+    pub stick_slip_amplitude: f64,
+    /// Correlation time of that fluctuation, s.
+    pub stick_slip_time_s: f64,
+    /// Fall below the held height that counts as a drop, mm.
+    pub drop_limit_mm: f64,
+}
+
+impl Default for PhysicsParams {
+    fn default() -> Self {
+        Self {
+            step_s: 0.001,
+            gravity_m_s2: 9.81,
+            finger_travel_mm: 75.0,
+            finger_stiffness_n_per_mm: 1.2,
+            skin_stiffness_n_per_mm: 3.0,
+            stall_force_n: 25.0,
+            thumb_load_bias: 0.3,
+            stick_slip_amplitude: 0.15,
+            stick_slip_time_s: 0.01,
+            drop_limit_mm: 80.0,
+        }
+    }
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct ServoParams {
+    /// Delay from a command to the servo starting to act on it (bus + firmware), s.
+    pub latency_s: f64,
+    /// Fastest finger motion, fraction of range per s.
+    pub max_speed_per_s: f64,
+    /// Torque limit at start, fraction of maximum.
+    pub initial_torque_limit: f64,
+}
+
+impl Default for ServoParams {
+    fn default() -> Self {
+        Self { latency_s: 0.008, max_speed_per_s: 2.0, initial_torque_limit: 1.0 }
+    }
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct ArmParams {
+    /// Refuse moves faster than this, mm/s.
+    pub max_speed_mm_s: f64,
+    pub acceleration_mm_s2: f64,
+    /// TCP position at start, mm.
+    pub start_mm: [f64; 3],
+    /// Height of the hand's marker above the TCP, mm.
+    pub hand_marker_offset_mm: f64,
+}
+
+impl Default for ArmParams {
+    fn default() -> Self {
+        Self {
+            max_speed_mm_s: 250.0,
+            acceleration_mm_s2: 1200.0,
+            start_mm: [400.0, 0.0, 300.0],
+            hand_marker_offset_mm: 60.0,
+        }
+    }
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct TactipParams {
+    pub pins: usize,
+    pub image_px: [f64; 2],
+    /// Radius of the pin dome in the image, px.
+    pub dome_radius_px: f64,
+    pub frame_rate_hz: f64,
+    /// Arrival-time jitter (standard deviation), s.
+    pub frame_jitter_s: f64,
+    /// Largest deviation of a sensor's frame clock from nominal, parts per million.
+    pub clock_error_ppm: f64,
+    /// Pixel noise of each pin coordinate (standard deviation), px.
+    pub noise_px: f64,
+    /// Peak radial pin displacement per mm of skin indentation, px/mm.
+    pub radial_gain_px_per_mm: f64,
+    /// Radius from the contact centre where the radial displacement peaks, px.
+    pub contact_radius_px: f64,
+    /// Shear of the contact region per newton of tangential load, px/N.
+    pub shear_gain_px_per_n: f64,
+    /// Largest extra shear by an object sliding over the skin, px.
+    pub slip_drag_px: f64,
+    /// Sliding speed at which that drag saturates, mm/s.
+    pub slip_drag_speed_mm_s: f64,
+    /// Viscoelastic time constant of the skin, s.
+    pub skin_time_s: f64,
+    /// Spread of the contact centre from the image centre (standard deviation), px.
+    pub contact_offset_px: f64,
+    /// Unit-to-unit variation of the gains (uniform, +-), fraction.
+    pub unit_variation: f64,
+}
+
+impl Default for TactipParams {
+    fn default() -> Self {
+        Self {
+            pins: crate::TMO_PINS_PER_SENSOR,
+            image_px: [340.0, 280.0],
+            dome_radius_px: 120.0,
+            frame_rate_hz: 60.0,
+            frame_jitter_s: 0.0008,
+            clock_error_ppm: 300.0,
+            noise_px: 0.08,
+            radial_gain_px_per_mm: 5.0,
+            contact_radius_px: 40.0,
+            shear_gain_px_per_n: 0.5,
+            slip_drag_px: 3.0,
+            slip_drag_speed_mm_s: 15.0,
+            skin_time_s: 0.02,
+            contact_offset_px: 8.0,
+            unit_variation: 0.1,
+        }
+    }
+}
+
+/// Rates of the faults real pin trackers show.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct FaultRates {
+    /// Probability per pin per frame that the blob detector reports a wrong position.
+    pub pin_misdetect: f64,
+    /// Probability per frame that the frame is lost.
+    pub dropped_frame: f64,
+    /// Probability per frame that the camera repeats its previous pin positions.
+    pub stale_frame: f64,
+}
+
+impl Default for FaultRates {
+    fn default() -> Self {
+        Self { pin_misdetect: 0.0005, dropped_frame: 0.002, stale_frame: 0.002 }
+    }
+}
+
+impl FaultRates {
+    pub fn none() -> Self {
+        Self { pin_misdetect: 0.0, dropped_frame: 0.0, stale_frame: 0.0 }
+    }
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct MarkerParams {
+    pub rate_hz: f64,
+    pub noise_mm: f64,
+}
+
+impl Default for MarkerParams {
+    fn default() -> Self {
+        Self { rate_hz: 60.0, noise_mm: 0.3 }
+    }
+}

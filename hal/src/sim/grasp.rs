@@ -1,0 +1,170 @@
+//! Contact mechanics of a grasp, as pure functions: normal forces from finger travel, and
+//! how a tangential load is shared between contacts and when they slip.
+//!
+//! The model (see `docs/simulator.md`): each contact is a linear spring (finger, skin and
+//! object compliance in series) capped at the force the finger's torque limit allows. In a
+//! pinch grasp the object shifts sideways until the thumb's force balances the two fingers'.
+//! A tangential load is shared between stuck contacts in proportion to `weight * normal`;
+//! a contact whose share exceeds `mu_static * normal` slips locally and then carries only
+//! `mu_kinetic * normal`, which can cascade into gross slip of the whole grasp.
+
+/// Most contacts any grasp of the rig has (three fingertips and the slip rail).
+pub const MAX_CONTACTS: usize = 4;
+
+/// Normal forces (N) of a pinch grasp, thumb (index 0) opposed to two fingers.
+///
+/// `travel_mm[i]` is how far finger `i` has moved past the point where it would touch the
+/// object if the object were centred (negative: not there yet). The object shifts sideways
+/// by `y` until `N_thumb = N_1 + N_2`; `N_i = clamp(k_i * penetration_i, 0, cap_i)`.
+pub fn pinch_normal_forces(travel_mm: [f64; 3], stiffness: [f64; 3], cap_n: [f64; 3]) -> [f64; 3] {
+    let forces = |y: f64| {
+        [
+            (stiffness[0] * (travel_mm[0] + y)).clamp(0.0, cap_n[0]),
+            (stiffness[1] * (travel_mm[1] - y)).clamp(0.0, cap_n[1]),
+            (stiffness[2] * (travel_mm[2] - y)).clamp(0.0, cap_n[2]),
+        ]
+    };
+    // imbalance(y) = N_thumb - N_1 - N_2 never decreases with y, so bisection finds the
+    // balance; the bracket spans every travel, so it holds a root.
+    let span = travel_mm.iter().map(|t| t.abs()).sum::<f64>() + 1.0;
+    let (mut lo, mut hi) = (-span, span);
+    for _ in 0..60 {
+        let mid = 0.5 * (lo + hi);
+        let n = forces(mid);
+        if n[0] - n[1] - n[2] < 0.0 {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    forces(0.5 * (lo + hi))
+}
+
+/// One contact's properties for sharing a tangential load.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Contact {
+    pub normal_n: f64,
+    /// Relative share of load per newton of normal force (grasp geometry).
+    pub weight: f64,
+    pub mu_static: f64,
+    pub mu_kinetic: f64,
+}
+
+/// How a load is carried while the object does not move relative to the fingers.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct StuckShare {
+    pub tangential_n: [f64; MAX_CONTACTS],
+    /// Contacts that slip locally (incipient slip) although the grasp as a whole holds.
+    pub local_slip: [bool; MAX_CONTACTS],
+}
+
+/// Shares `load_n` (N, > 0 pulls the object down through the grasp) between `contacts`.
+/// Returns `None` when the grasp cannot hold it: gross slip.
+pub fn share_stuck_load(load_n: f64, contacts: &[Contact]) -> Option<StuckShare> {
+    assert!(contacts.len() <= MAX_CONTACTS);
+    let mut share = StuckShare::default();
+    if load_n <= 0.0 {
+        return Some(share);
+    }
+    let mut slipping = [false; MAX_CONTACTS];
+    loop {
+        let carried_by_slipping: f64 = contacts
+            .iter()
+            .zip(&slipping)
+            .filter(|(_, s)| **s)
+            .map(|(c, _)| c.mu_kinetic * c.normal_n)
+            .sum();
+        let remaining = load_n - carried_by_slipping;
+        let stuck_weight: f64 = contacts
+            .iter()
+            .zip(&slipping)
+            .filter(|(c, s)| !**s && c.normal_n > 0.0)
+            .map(|(c, _)| c.weight * c.normal_n)
+            .sum();
+        if stuck_weight <= 0.0 {
+            return None;
+        }
+        // The contact most over its static limit slips first; then the load is shared again.
+        let mut worst: Option<(usize, f64)> = None;
+        for (i, c) in contacts.iter().enumerate() {
+            if slipping[i] || c.normal_n <= 0.0 {
+                continue;
+            }
+            let t = remaining * c.weight * c.normal_n / stuck_weight;
+            share.tangential_n[i] = t;
+            let ratio = t / (c.mu_static * c.normal_n);
+            if ratio > 1.0 && worst.is_none_or(|(_, r)| ratio > r) {
+                worst = Some((i, ratio));
+            }
+        }
+        match worst {
+            None => {
+                for (i, c) in contacts.iter().enumerate() {
+                    if slipping[i] {
+                        share.tangential_n[i] = c.mu_kinetic * c.normal_n;
+                    } else if c.normal_n <= 0.0 {
+                        share.tangential_n[i] = 0.0;
+                    }
+                }
+                share.local_slip = slipping;
+                return Some(share);
+            }
+            Some((i, _)) => slipping[i] = true,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn contact(n: f64) -> Contact {
+        Contact { normal_n: n, weight: 1.0, mu_static: 0.8, mu_kinetic: 0.6 }
+    }
+
+    #[test]
+    fn symmetric_pinch_balances_thumb_against_two_fingers() {
+        let n = pinch_normal_forces([2.0, 2.0, 2.0], [1.0; 3], [100.0; 3]);
+        assert!((n[0] - n[1] - n[2]).abs() < 1e-9);
+        // y solves 2 + y = 2 * (2 - y): y = 2/3, thumb 8/3 N.
+        assert!((n[0] - 8.0 / 3.0).abs() < 1e-9, "{n:?}");
+    }
+
+    #[test]
+    fn no_force_without_opposition() {
+        // The thumb is 1 mm past centre-contact but the fingers 2 mm short: a 1 mm gap remains.
+        let n = pinch_normal_forces([1.0, -2.0, -2.0], [1.0; 3], [100.0; 3]);
+        assert!(n.iter().all(|f| f.abs() < 1e-6), "{n:?}");
+    }
+
+    #[test]
+    fn torque_cap_limits_the_squeeze() {
+        let n = pinch_normal_forces([10.0, 10.0, 10.0], [1.0; 3], [2.0, 100.0, 100.0]);
+        assert!((n[0] - 2.0).abs() < 1e-9 && (n[1] - 1.0).abs() < 1e-6, "{n:?}");
+    }
+
+    #[test]
+    fn light_load_is_shared_by_normal_force() {
+        let s = share_stuck_load(1.0, &[contact(2.0), contact(1.0), contact(1.0)]).unwrap();
+        assert!((s.tangential_n[0] - 0.5).abs() < 1e-12);
+        assert!((s.tangential_n[1] - 0.25).abs() < 1e-12);
+        assert!(!s.local_slip.iter().any(|s| *s));
+    }
+
+    #[test]
+    fn heavy_load_slips_grossly() {
+        // capacity 0.8 * 4 = 3.2 N
+        assert!(share_stuck_load(3.3, &[contact(2.0), contact(1.0), contact(1.0)]).is_none());
+        assert!(share_stuck_load(3.1, &[contact(2.0), contact(1.0), contact(1.0)]).is_some());
+    }
+
+    #[test]
+    fn overloaded_contact_slips_locally_and_sheds_load() {
+        let mut light = contact(1.0);
+        light.weight = 4.0;
+        let s = share_stuck_load(1.5, &[contact(2.0), light]).unwrap();
+        assert!(s.local_slip[1] && !s.local_slip[0]);
+        assert!((s.tangential_n[1] - 0.6).abs() < 1e-12);
+        assert!((s.tangential_n[0] - 0.9).abs() < 1e-12);
+    }
+}

@@ -1,0 +1,573 @@
+//! The simulated world: one fixed-step integrator over hand, arm, object, skins, cameras and
+//! marker tracker. Device handles (see `mod.rs`) read from and command this state; only the
+//! virtual clock advances it.
+
+use std::collections::VecDeque;
+
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use rand_distr::{Distribution, Normal, StandardNormal};
+
+use super::actuators::{ArmState, Servos};
+use super::config::{ObjectStart, RigSetup, SimConfig};
+use super::grasp::{pinch_normal_forces, share_stuck_load, Contact, MAX_CONTACTS};
+use super::objects::{ObjectLibrary, ObjectSpec};
+use super::tactip::{dome_layout, pin_positions, relax_towards, shear_target_px, SensorOptics};
+use super::SimError;
+use crate::types::{HandPositions, MarkerSample, PinFrame};
+
+/// Frames a sensor buffers before the oldest are lost, as a serial buffer overflows.
+const SENSOR_QUEUE_LIMIT: usize = 4096;
+
+/// Ground truth at one instant, for diagnostics and tests only: never a detector input.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct TruthState {
+    pub time_s: f64,
+    pub object_mm: f64,
+    pub object_velocity_mm_s: f64,
+    pub hand_mm: f64,
+    pub hand_velocity_mm_s: f64,
+    pub mass_g: f64,
+    /// Normal and tangential force at each fingertip sensor, N.
+    pub normal_n: Vec<f64>,
+    pub tangential_n: Vec<f64>,
+    pub local_slip: Vec<bool>,
+    pub indentation_mm: Vec<f64>,
+    pub shear_px: Vec<f64>,
+    /// The object slides relative to the fingers (gross slip).
+    pub sliding: bool,
+    /// Static friction capacity of the grasp, N (rail friction included on the rail).
+    pub capacity_n: f64,
+    /// Weight of the object, N.
+    pub weight_n: f64,
+    pub in_grasp: bool,
+    pub dropped: bool,
+    pub finger_positions: HandPositions,
+}
+
+/// Events the simulation knows for certain, for diagnostics and tests only.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct TruthEvents {
+    /// Times gross slip began.
+    pub slip_onsets_s: Vec<f64>,
+    /// Times the grasp stuck again after slipping.
+    pub catches_s: Vec<f64>,
+    pub drop_s: Option<f64>,
+}
+
+struct SensorUnit {
+    optics: SensorOptics,
+    shear_gain: f64,
+    drag_px: f64,
+    shear_px: f64,
+    period_s: f64,
+    next_capture_s: f64,
+    seq: u64,
+    last_time_s: f64,
+    last_pins: Option<Vec<[f32; 2]>>,
+    queue: VecDeque<PinFrame>,
+    rng: ChaCha8Rng,
+    scratch: Vec<[f64; 2]>,
+}
+
+struct MarkerUnit {
+    period_s: f64,
+    next_s: f64,
+    queue: VecDeque<MarkerSample>,
+    rng: ChaCha8Rng,
+}
+
+enum Geometry {
+    Hand { weights: [f64; 3] },
+    Rail { arm_touch_x_mm: f64, finger_touch: f64, rail_mu: f64 },
+}
+
+pub(crate) struct World {
+    cfg: SimConfig,
+    object: ObjectSpec,
+    geometry: Geometry,
+    step_index: u64,
+    pub(crate) servos: Servos,
+    pub(crate) arm: ArmState,
+    contact_stiffness: f64,
+    // Object state along the vertical axis (mm, mm/s) and its relation to the hand.
+    z_mm: f64,
+    vz_mm_s: f64,
+    stuck: bool,
+    in_grasp: bool,
+    /// Object height minus hand height when the grasp started; contact is lost once the
+    /// object has slid half its length from there.
+    grasp_offset_mm: f64,
+    support_mm: Option<f64>,
+    held_mm: f64,
+    normal_n: [f64; 3],
+    tangential_n: [f64; 3],
+    local_slip: [bool; 3],
+    capacity_n: f64,
+    jitter: [f64; MAX_CONTACTS],
+    rng: ChaCha8Rng,
+    sensors: Vec<SensorUnit>,
+    markers: MarkerUnit,
+    events: TruthEvents,
+}
+
+fn series(k: &[f64]) -> f64 {
+    1.0 / k.iter().map(|k| 1.0 / k).sum::<f64>()
+}
+
+impl World {
+    pub(crate) fn new(cfg: SimConfig, library: &ObjectLibrary) -> Result<Self, SimError> {
+        validate(&cfg)?;
+        let p = &cfg.physics;
+        let (object_name, sensor_count) = match &cfg.rig {
+            RigSetup::Hand(h) => (h.object.as_str(), 3),
+            RigSetup::Rail(r) => (r.object.as_str(), 1),
+        };
+        let object = library.get(object_name)?.clone();
+        let contact_stiffness = series(&[p.finger_stiffness_n_per_mm, p.skin_stiffness_n_per_mm, object.stiffness_n_per_mm]);
+        let mut rng = ChaCha8Rng::seed_from_u64(cfg.seed);
+        let arm = ArmState::new(cfg.arm.start_mm, cfg.arm.acceleration_mm_s2);
+        let hand_z = cfg.arm.start_mm[2];
+        let (geometry, start_positions, support_mm, grasp_deg) = match &cfg.rig {
+            RigSetup::Hand(h) => {
+                let bias = p.thumb_load_bias * h.grasp_deg.to_radians().cos();
+                let support = (h.start == ObjectStart::OnTable).then_some(hand_z);
+                let q = h.initial_closure;
+                (Geometry::Hand { weights: [1.0 + bias, 1.0 - bias, 1.0 - bias] }, [q, q, q, 0.0], support, h.grasp_deg)
+            }
+            RigSetup::Rail(r) => (
+                Geometry::Rail {
+                    arm_touch_x_mm: cfg.arm.start_mm[0] - r.preload_mm,
+                    finger_touch: r.finger_closure,
+                    rail_mu: r.rail_mu,
+                },
+                [r.finger_closure, 0.0, 0.0, 0.0],
+                Some(hand_z - r.end_stop_mm),
+                0.0,
+            ),
+        };
+        let servos = Servos::new(start_positions, cfg.servo.initial_torque_limit, cfg.servo.latency_s, cfg.servo.max_speed_per_s);
+        let t = &cfg.tactip;
+        let centre = [t.image_px[0] / 2.0, t.image_px[1] / 2.0];
+        let rest = dome_layout(t.pins, centre, t.dome_radius_px);
+        // Thumb and fingers face each other, so their cameras see "down" in opposite
+        // directions; each mount is a few degrees off nominal.
+        let mount_deg = [0.0, 180.0, 180.0];
+        let offset = Normal::new(0.0, t.contact_offset_px.max(1e-12)).expect("valid normal");
+        let sensors = (0..sensor_count)
+            .map(|i| {
+                let mut srng = ChaCha8Rng::seed_from_u64(cfg.seed);
+                srng.set_stream(10 + i as u64);
+                let vary = |r: &mut ChaCha8Rng| 1.0 + t.unit_variation * r.gen_range(-1.0..=1.0);
+                let angle = (mount_deg[i] + grasp_deg + 5.0 * srng.sample::<f64, _>(StandardNormal)).to_radians();
+                let optics = SensorOptics {
+                    rest_px: rest.clone(),
+                    contact_centre_px: [centre[0] + offset.sample(&mut srng), centre[1] + offset.sample(&mut srng)],
+                    slip_direction: [angle.sin(), angle.cos()],
+                    radial_gain_px_per_mm: t.radial_gain_px_per_mm * vary(&mut srng),
+                    contact_radius_px: t.contact_radius_px * vary(&mut srng),
+                };
+                let period = (1.0 + t.clock_error_ppm * 1e-6 * srng.gen_range(-1.0..=1.0)) / t.frame_rate_hz;
+                SensorUnit {
+                    optics,
+                    shear_gain: t.shear_gain_px_per_n * vary(&mut srng),
+                    drag_px: t.slip_drag_px * vary(&mut srng),
+                    shear_px: 0.0,
+                    period_s: period,
+                    next_capture_s: srng.gen_range(0.0..period),
+                    seq: 0,
+                    last_time_s: 0.0,
+                    last_pins: None,
+                    queue: VecDeque::new(),
+                    rng: srng,
+                    scratch: Vec::with_capacity(t.pins),
+                }
+            })
+            .collect();
+        let mut mrng = ChaCha8Rng::seed_from_u64(cfg.seed);
+        mrng.set_stream(1);
+        let marker_period = 1.0 / cfg.marker.rate_hz;
+        let markers = MarkerUnit { period_s: marker_period, next_s: mrng.gen_range(0.0..marker_period), queue: VecDeque::new(), rng: mrng };
+        rng.set_stream(2);
+        let mut world = Self {
+            object,
+            geometry,
+            step_index: 0,
+            servos,
+            arm,
+            contact_stiffness,
+            z_mm: hand_z,
+            vz_mm_s: 0.0,
+            stuck: true,
+            in_grasp: true,
+            grasp_offset_mm: 0.0,
+            support_mm,
+            held_mm: hand_z,
+            normal_n: [0.0; 3],
+            tangential_n: [0.0; 3],
+            local_slip: [false; 3],
+            capacity_n: 0.0,
+            jitter: [0.0; MAX_CONTACTS],
+            rng,
+            sensors,
+            markers,
+            events: TruthEvents::default(),
+            cfg,
+        };
+        world.update_normal_forces();
+        // A grip too weak for the object starts slipping at once, and that is not an onset
+        // the experiment caused: only hand-held starts can slip at t = 0.
+        Ok(world)
+    }
+
+    pub(crate) fn now_s(&self) -> f64 {
+        self.step_index as f64 * self.cfg.physics.step_s
+    }
+
+    pub(crate) fn sensor_count(&self) -> usize {
+        self.sensors.len()
+    }
+
+    pub(crate) fn config(&self) -> &SimConfig {
+        &self.cfg
+    }
+
+    pub(crate) fn advance_to(&mut self, time_s: f64) {
+        let dt = self.cfg.physics.step_s;
+        let target = (time_s / dt - 1e-9).ceil().max(0.0) as u64;
+        while self.step_index < target {
+            self.step();
+        }
+    }
+
+    pub(crate) fn pop_frame(&mut self, sensor: usize) -> Option<PinFrame> {
+        self.sensors[sensor].queue.pop_front()
+    }
+
+    pub(crate) fn pop_marker(&mut self) -> Option<MarkerSample> {
+        self.markers.queue.pop_front()
+    }
+
+    pub(crate) fn events(&self) -> &TruthEvents {
+        &self.events
+    }
+
+    fn mass_kg(&self) -> f64 {
+        let extra = match &self.cfg.rig {
+            RigSetup::Hand(h) => h.extra_mass_g + h.pour_rate_g_per_s * (self.now_s() - h.pour_start_s).max(0.0),
+            RigSetup::Rail(_) => 0.0,
+        };
+        (self.object.mass_g + extra) / 1000.0
+    }
+
+    fn hand_z(&self) -> f64 {
+        self.arm.position_mm[2]
+    }
+
+    /// Present finger positions: a finger whose force is capped by its torque limit is held
+    /// back by the object, short of where its servo is driving.
+    pub(crate) fn present_positions(&self) -> HandPositions {
+        let mut q = self.servos.position;
+        let travel = self.cfg.physics.finger_travel_mm;
+        for (i, qi) in q.iter_mut().enumerate().take(self.sensors.len()) {
+            let uncapped = self.contact_stiffness * self.travel_past_contact(i);
+            let excess = (uncapped - self.normal_n[i]).max(0.0);
+            if self.in_grasp && excess > 0.0 && self.normal_n[i] > 0.0 {
+                *qi -= excess / self.contact_stiffness / travel;
+            }
+        }
+        q
+    }
+
+    /// How far finger `i` has pressed past first touch, mm (negative: not touching).
+    fn travel_past_contact(&self, i: usize) -> f64 {
+        let travel = self.cfg.physics.finger_travel_mm;
+        match self.geometry {
+            Geometry::Hand { .. } => self.object.width_mm / 2.0 - travel * (1.0 - self.servos.position[i]),
+            Geometry::Rail { arm_touch_x_mm, finger_touch, .. } => {
+                (self.arm.position_mm[0] - arm_touch_x_mm) + (self.servos.position[0] - finger_touch) * travel
+            }
+        }
+    }
+
+    fn update_normal_forces(&mut self) {
+        let cap = self.servos.torque_limit * self.cfg.physics.stall_force_n;
+        let k = self.contact_stiffness;
+        self.normal_n = if !self.in_grasp {
+            [0.0; 3]
+        } else {
+            match self.geometry {
+                Geometry::Hand { .. } => {
+                    pinch_normal_forces([0, 1, 2].map(|i| self.travel_past_contact(i)), [k; 3], [cap; 3])
+                }
+                Geometry::Rail { .. } => [(k * self.travel_past_contact(0)).clamp(0.0, cap), 0.0, 0.0],
+            }
+        };
+    }
+
+    fn contacts(&self) -> ([Contact; MAX_CONTACTS], usize) {
+        let mut c = [Contact::default(); MAX_CONTACTS];
+        let o = &self.object;
+        match self.geometry {
+            Geometry::Hand { weights } => {
+                for i in 0..3 {
+                    c[i] = Contact { normal_n: self.normal_n[i], weight: weights[i], mu_static: o.mu_static, mu_kinetic: o.mu_kinetic };
+                }
+                (c, 3)
+            }
+            Geometry::Rail { rail_mu, .. } => {
+                c[0] = Contact { normal_n: self.normal_n[0], weight: 1.0, mu_static: o.mu_static, mu_kinetic: o.mu_kinetic };
+                // The rail's guides press back with the same normal force; their friction is
+                // low and nearly the same static and sliding.
+                c[1] = Contact { normal_n: self.normal_n[0], weight: 0.2, mu_static: rail_mu, mu_kinetic: rail_mu };
+                (c, 2)
+            }
+        }
+    }
+
+    fn step(&mut self) {
+        let p = self.cfg.physics.clone();
+        let dt = p.step_s;
+        self.step_index += 1;
+        let now = self.now_s();
+        self.servos.step(now, dt);
+        let hand_z_before = self.hand_z();
+        self.arm.step(dt);
+        let hand_v = self.arm.velocity_mm_s[2];
+        let hand_a = self.arm.acceleration_mm_s2[2];
+        let hand_dz = self.hand_z() - hand_z_before;
+
+        self.update_normal_forces();
+        let (contacts, n_contacts) = self.contacts();
+        let contacts = &contacts[..n_contacts];
+        self.capacity_n = contacts.iter().map(|c| c.mu_static * c.normal_n).sum();
+        let m = self.mass_kg();
+        let g = p.gravity_m_s2;
+        let on_support = self.support_mm.is_some_and(|s| self.z_mm <= s + 1e-9);
+        // Force the fingers must supply for the object to move with the hand.
+        let need_n = if on_support && hand_v <= 0.0 && hand_a <= 0.0 { 0.0 } else { m * (g + hand_a / 1000.0) };
+
+        // Stick-slip: sliding friction fluctuates (Ornstein-Uhlenbeck, unit variance).
+        let decay = (-dt / p.stick_slip_time_s).exp();
+        let kick = (1.0 - decay * decay).sqrt();
+        for j in self.jitter.iter_mut() {
+            *j = *j * decay + kick * self.rng.sample::<f64, _>(StandardNormal);
+        }
+
+        let mut tangential = [0.0; MAX_CONTACTS];
+        let mut local_slip = [false; MAX_CONTACTS];
+        if self.stuck {
+            match share_stuck_load(need_n, contacts) {
+                Some(share) => {
+                    tangential = share.tangential_n;
+                    local_slip = share.local_slip;
+                    self.z_mm += hand_dz;
+                    self.vz_mm_s = hand_v;
+                    if let Some(s) = self.support_mm {
+                        self.z_mm = self.z_mm.max(s);
+                    }
+                    self.held_mm = self.z_mm;
+                }
+                None => {
+                    self.stuck = false;
+                    self.events.slip_onsets_s.push(now);
+                }
+            }
+        }
+        let mut sliding_down = 0.0;
+        if !self.stuck {
+            let v_rel = self.vz_mm_s - hand_v;
+            // Friction opposes relative motion; at rest it opposes the pull of the load.
+            let direction = if v_rel < -1e-9 {
+                1.0
+            } else if v_rel > 1e-9 {
+                -1.0
+            } else {
+                need_n.signum()
+            };
+            let amp = p.stick_slip_amplitude;
+            let mut friction = 0.0;
+            for (i, c) in contacts.iter().enumerate() {
+                let f = c.mu_kinetic * c.normal_n * (1.0 + amp * self.jitter[i]).max(0.0);
+                tangential[i] = direction * f;
+                friction += direction * f;
+            }
+            let a = (friction / m - g) * 1000.0;
+            self.z_mm += self.vz_mm_s * dt + 0.5 * a * dt * dt;
+            self.vz_mm_s += a * dt;
+            if let Some(s) = self.support_mm {
+                if self.z_mm <= s {
+                    self.z_mm = s;
+                    self.vz_mm_s = self.vz_mm_s.max(0.0);
+                }
+            }
+            let v_rel_new = self.vz_mm_s - hand_v;
+            sliding_down = -v_rel_new;
+            let crossed = v_rel_new.abs() < 1e-9 || v_rel_new.signum() != v_rel.signum();
+            if self.in_grasp && crossed && v_rel.abs() > 1e-9 && share_stuck_load(need_n, contacts).is_some() {
+                self.stuck = true;
+                self.vz_mm_s = hand_v;
+                self.events.catches_s.push(now);
+            }
+        }
+        if self.in_grasp {
+            let slid = (self.z_mm - self.hand_z()) - self.grasp_offset_mm;
+            if slid.abs() > self.object.length_mm / 2.0 {
+                self.in_grasp = false;
+                self.stuck = false;
+            }
+        }
+        if self.events.drop_s.is_none() && (!self.in_grasp || self.held_mm - self.z_mm > p.drop_limit_mm) {
+            self.events.drop_s = Some(now);
+        }
+        for i in 0..3 {
+            self.tangential_n[i] = tangential[i];
+            self.local_slip[i] = local_slip[i];
+        }
+        self.update_skins(dt, sliding_down);
+        self.capture_frames(now);
+        self.capture_markers(now);
+    }
+
+    fn update_skins(&mut self, dt: f64, sliding_down_mm_s: f64) {
+        let t = &self.cfg.tactip;
+        let amp = self.cfg.physics.stick_slip_amplitude;
+        for (i, s) in self.sensors.iter_mut().enumerate() {
+            let touching = self.normal_n[i] > 0.0;
+            let target = if touching {
+                let speed = if self.stuck { 0.0 } else { sliding_down_mm_s * (1.0 + amp * self.jitter[i]) };
+                shear_target_px(self.tangential_n[i], speed, s.shear_gain, s.drag_px, t.slip_drag_speed_mm_s)
+            } else {
+                0.0
+            };
+            s.shear_px = relax_towards(s.shear_px, target, dt, t.skin_time_s);
+        }
+    }
+
+    fn capture_frames(&mut self, now: f64) {
+        let t = &self.cfg.tactip;
+        let faults = &self.cfg.faults;
+        let noise = Normal::new(0.0, t.noise_px.max(1e-12)).expect("valid normal");
+        let jitter = Normal::new(0.0, t.frame_jitter_s.max(1e-12)).expect("valid normal");
+        for (i, s) in self.sensors.iter_mut().enumerate() {
+            while s.next_capture_s <= now {
+                s.next_capture_s += s.period_s;
+                s.seq += 1;
+                let time = (now + jitter.sample(&mut s.rng).abs()).max(s.last_time_s);
+                if s.rng.gen_bool(faults.dropped_frame) {
+                    continue;
+                }
+                let pins: Vec<[f32; 2]> = match (&s.last_pins, s.rng.gen_bool(faults.stale_frame)) {
+                    (Some(last), true) => last.clone(),
+                    _ => {
+                        let indentation = self.normal_n[i] / self.cfg.physics.skin_stiffness_n_per_mm;
+                        pin_positions(&s.optics, indentation, s.shear_px, &mut s.scratch);
+                        let mut pins = Vec::with_capacity(s.scratch.len());
+                        for &[x, y] in &s.scratch {
+                            let (mut x, mut y) = (x + noise.sample(&mut s.rng), y + noise.sample(&mut s.rng));
+                            if faults.pin_misdetect > 0.0 && s.rng.gen_bool(faults.pin_misdetect) {
+                                // The blob detector latched onto something else in the image.
+                                x = s.rng.gen_range(0.0..t.image_px[0]);
+                                y = s.rng.gen_range(0.0..t.image_px[1]);
+                            }
+                            pins.push([x as f32, y as f32]);
+                        }
+                        pins
+                    }
+                };
+                s.last_pins = Some(pins.clone());
+                s.last_time_s = time;
+                if s.queue.len() >= SENSOR_QUEUE_LIMIT {
+                    s.queue.pop_front();
+                }
+                s.queue.push_back(PinFrame { sensor: i as u8, seq: s.seq, time_s: time, pins });
+            }
+        }
+    }
+
+    fn capture_markers(&mut self, now: f64) {
+        let noise = Normal::new(0.0, self.cfg.marker.noise_mm.max(1e-12)).expect("valid normal");
+        let hand_marker = self.hand_z() + self.cfg.arm.hand_marker_offset_mm;
+        let mk = &mut self.markers;
+        while mk.next_s <= now {
+            mk.next_s += mk.period_s;
+            let sample = MarkerSample {
+                time_s: now,
+                object_mm: self.z_mm + noise.sample(&mut mk.rng),
+                hand_mm: hand_marker + noise.sample(&mut mk.rng),
+            };
+            if mk.queue.len() >= SENSOR_QUEUE_LIMIT {
+                mk.queue.pop_front();
+            }
+            mk.queue.push_back(sample);
+        }
+    }
+
+    pub(crate) fn truth(&self) -> TruthState {
+        let n = self.sensors.len();
+        TruthState {
+            time_s: self.now_s(),
+            object_mm: self.z_mm,
+            object_velocity_mm_s: self.vz_mm_s,
+            hand_mm: self.hand_z(),
+            hand_velocity_mm_s: self.arm.velocity_mm_s[2],
+            mass_g: self.mass_kg() * 1000.0,
+            normal_n: self.normal_n[..n].to_vec(),
+            tangential_n: self.tangential_n[..n].to_vec(),
+            local_slip: self.local_slip[..n].to_vec(),
+            indentation_mm: self.normal_n[..n].iter().map(|f| f / self.cfg.physics.skin_stiffness_n_per_mm).collect(),
+            shear_px: self.sensors.iter().map(|s| s.shear_px).collect(),
+            sliding: !self.stuck,
+            capacity_n: self.capacity_n,
+            weight_n: self.mass_kg() * self.cfg.physics.gravity_m_s2,
+            in_grasp: self.in_grasp,
+            dropped: self.events.drop_s.is_some(),
+            finger_positions: self.present_positions(),
+        }
+    }
+}
+
+fn validate(cfg: &SimConfig) -> Result<(), SimError> {
+    let bad = |field: &str, expected: &str| SimError::Config { origin: "sim config".into(), message: format!("`{field}`: expected {expected}") };
+    let p = &cfg.physics;
+    if !(p.step_s > 0.0 && p.step_s <= 0.005) {
+        return Err(bad("physics.step_s", "0 < step_s <= 0.005 s"));
+    }
+    for (name, v) in [
+        ("physics.finger_stiffness_n_per_mm", p.finger_stiffness_n_per_mm),
+        ("physics.skin_stiffness_n_per_mm", p.skin_stiffness_n_per_mm),
+        ("physics.stall_force_n", p.stall_force_n),
+        ("physics.stick_slip_time_s", p.stick_slip_time_s),
+        ("physics.finger_travel_mm", p.finger_travel_mm),
+        ("tactip.frame_rate_hz", cfg.tactip.frame_rate_hz),
+        ("tactip.skin_time_s", cfg.tactip.skin_time_s),
+        ("tactip.contact_radius_px", cfg.tactip.contact_radius_px),
+        ("tactip.slip_drag_speed_mm_s", cfg.tactip.slip_drag_speed_mm_s),
+        ("marker.rate_hz", cfg.marker.rate_hz),
+        ("servo.max_speed_per_s", cfg.servo.max_speed_per_s),
+        ("arm.acceleration_mm_s2", cfg.arm.acceleration_mm_s2),
+    ] {
+        if !(v > 0.0 && v.is_finite()) {
+            return Err(bad(name, "a positive number"));
+        }
+    }
+    if cfg.tactip.pins == 0 {
+        return Err(bad("tactip.pins", "at least one pin"));
+    }
+    for (name, v) in [
+        ("faults.pin_misdetect", cfg.faults.pin_misdetect),
+        ("faults.dropped_frame", cfg.faults.dropped_frame),
+        ("faults.stale_frame", cfg.faults.stale_frame),
+        ("servo.initial_torque_limit", cfg.servo.initial_torque_limit),
+    ] {
+        if !(0.0..=1.0).contains(&v) {
+            return Err(bad(name, "a fraction in 0..=1"));
+        }
+    }
+    if let RigSetup::Hand(h) = &cfg.rig {
+        if !(0.0..=1.0).contains(&h.initial_closure) {
+            return Err(bad("rig.initial_closure", "a position in 0..=1"));
+        }
+    }
+    Ok(())
+}

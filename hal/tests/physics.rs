@@ -1,0 +1,162 @@
+//! Physical sanity of the simulated rig: free fall, holding, slow release, the slip rail,
+//! and lifting heavier objects.
+
+use tmo_hal::sim::{FaultRates, HandSetup, ObjectStart, RailSetup, RigSetup, SimConfig, SimRig};
+use tmo_hal::{Arm, Clock, Hand};
+
+fn hand_config(object: &str, closure: f64, start: ObjectStart) -> SimConfig {
+    SimConfig {
+        seed: 7,
+        rig: RigSetup::Hand(HandSetup { object: object.into(), initial_closure: closure, start, ..Default::default() }),
+        faults: FaultRates::none(),
+        ..Default::default()
+    }
+}
+
+fn contact_closure(object: &str) -> f64 {
+    SimRig::new(hand_config(object, 0.0, ObjectStart::OnTable)).unwrap().probe().contact_closure().unwrap()
+}
+
+#[test]
+fn object_without_grip_falls_at_g() {
+    let rig = SimRig::new(hand_config("crisps_can", 0.0, ObjectStart::InHand)).unwrap();
+    let start = rig.probe().state().object_mm;
+    rig.clock().sleep_until(0.1);
+    let fall = start - rig.probe().state().object_mm;
+    // 1/2 g t^2 = 49.05 mm
+    assert!((fall - 49.05).abs() < 0.05 * 49.05, "fell {fall} mm");
+}
+
+#[test]
+fn firm_grip_holds_still_for_ten_seconds() {
+    let q = contact_closure("crisps_can") + 0.05;
+    let rig = SimRig::new(hand_config("crisps_can", q, ObjectStart::InHand)).unwrap();
+    let probe = rig.probe();
+    let start = probe.state().object_mm;
+    let mut clock = rig.clock();
+    while clock.now_s() < 10.0 {
+        clock.sleep(0.05);
+        let s = probe.state();
+        assert!(!s.sliding, "slid at {}", s.time_s);
+        assert!((s.object_mm - start).abs() < 1e-9);
+    }
+    assert!(probe.events().slip_onsets_s.is_empty());
+}
+
+/// Releases at 0.5 % of the fingers' maximum speed (0.01 of range per s) from a firm grip.
+/// Returns (truth just before onset, truth at onset).
+fn slow_release(object: &str, grasp_deg: f64) -> (tmo_hal::sim::TruthState, tmo_hal::sim::TruthState) {
+    let q0 = contact_closure(object) + 0.04;
+    let mut cfg = hand_config(object, q0, ObjectStart::InHand);
+    if let RigSetup::Hand(h) = &mut cfg.rig {
+        h.grasp_deg = grasp_deg;
+    }
+    let rig = SimRig::new(cfg).unwrap();
+    let (mut clock, mut hand, probe) = (rig.clock(), rig.hand(), rig.probe());
+    let mut before = probe.state();
+    while clock.now_s() < 10.0 {
+        let t = clock.now_s();
+        let q = (q0 - 0.01 * t).max(0.0);
+        hand.set_targets([q, q, q, 0.0]).unwrap();
+        clock.sleep(0.001);
+        let now = probe.state();
+        if now.sliding {
+            return (before, now);
+        }
+        before = now;
+    }
+    panic!("no slip within 10 s");
+}
+
+#[test]
+fn slow_release_slips_when_friction_capacity_falls_below_load() {
+    // Gross slip needs the load to exceed what the stuck contacts can carry. With all
+    // contacts stuck that is the static capacity sum(mu_s N); contacts that already slip
+    // locally carry only mu_k N, so onset can come earlier, at most when the load reaches
+    // (mu_k / mu_s) of the static capacity. So at onset:
+    //   1 <= capacity / load <= mu_s / mu_k      (crisps can: 0.85 / 0.60 = 1.417)
+    // and one 1 ms step of release changes capacity by far less than the 1 % slack allowed.
+    for grasp in [0.0, 180.0] {
+        let (before, at) = slow_release("crisps_can", grasp);
+        let ratio_before = before.capacity_n / before.weight_n;
+        let ratio_at = at.capacity_n / at.weight_n;
+        assert!(ratio_before >= 0.99, "held while capacity/load = {ratio_before}");
+        assert!(ratio_at <= 0.85 / 0.60 + 0.01, "slipped with capacity/load = {ratio_at}");
+        assert!(ratio_at >= 0.99 || at.local_slip.iter().any(|s| *s) || before.local_slip.iter().any(|s| *s));
+    }
+}
+
+#[test]
+fn grasp_angle_changes_which_finger_carries_the_load() {
+    let thumb_share = |grasp_deg: f64| {
+        let mut cfg = hand_config("crisps_can", contact_closure("crisps_can") + 0.05, ObjectStart::InHand);
+        if let RigSetup::Hand(h) = &mut cfg.rig {
+            h.grasp_deg = grasp_deg;
+        }
+        let rig = SimRig::new(cfg).unwrap();
+        rig.clock().sleep(0.1);
+        let s = rig.probe().state();
+        s.tangential_n[0] / s.tangential_n.iter().sum::<f64>()
+    };
+    let (at0, at180) = (thumb_share(0.0), thumb_share(180.0));
+    assert!(at0 > at180 + 0.1, "thumb carries {at0} at 0 deg, {at180} at 180 deg");
+}
+
+#[test]
+fn rail_object_slips_when_the_arm_retracts() {
+    let cfg = SimConfig {
+        seed: 3,
+        rig: RigSetup::Rail(RailSetup::default()),
+        faults: FaultRates::none(),
+        ..Default::default()
+    };
+    let rig = SimRig::new(cfg).unwrap();
+    let (mut clock, mut arm, probe) = (rig.clock(), rig.arm(), rig.probe());
+    clock.sleep(1.0);
+    assert!(probe.events().slip_onsets_s.is_empty(), "slipped before retracting");
+    let start = probe.state();
+    assert!(start.capacity_n > start.weight_n);
+    arm.move_linear([-5.0, 0.0, 0.0], 2.0).unwrap();
+    clock.sleep(4.0);
+    let events = probe.events();
+    let onset = *events.slip_onsets_s.first().expect("the object slipped");
+    // Slip starts once (mu_s + mu_rail) * k * (preload - retraction) < m g.
+    let s = probe.state();
+    assert!(s.object_mm < start.object_mm - 10.0, "object did not fall: {s:?}");
+    assert!(onset > 1.0 && onset < 4.0, "onset at {onset}");
+}
+
+/// Lifts the object off the table with all fingers at `closure`; true if it came up.
+fn lifts(extra_mass_g: f64, closure: f64) -> bool {
+    let mut cfg = hand_config("soup_can", closure, ObjectStart::OnTable);
+    if let RigSetup::Hand(h) = &mut cfg.rig {
+        h.extra_mass_g = extra_mass_g;
+    }
+    let rig = SimRig::new(cfg).unwrap();
+    let (mut clock, mut arm, probe) = (rig.clock(), rig.arm(), rig.probe());
+    let table = probe.state().object_mm;
+    arm.move_velocity([0.0, 0.0, 17.0]).unwrap();
+    clock.sleep(2.0);
+    probe.state().object_mm > table + 20.0
+}
+
+fn minimal_lifting_closure(extra_mass_g: f64) -> f64 {
+    let (mut lo, mut hi) = (contact_closure("soup_can"), 1.0);
+    assert!(!lifts(extra_mass_g, lo) && lifts(extra_mass_g, hi));
+    for _ in 0..14 {
+        let mid = 0.5 * (lo + hi);
+        if lifts(extra_mass_g, mid) {
+            hi = mid;
+        } else {
+            lo = mid;
+        }
+    }
+    hi
+}
+
+#[test]
+fn heavier_object_needs_a_tighter_grasp_to_lift() {
+    let light = minimal_lifting_closure(0.0);
+    let heavy = minimal_lifting_closure(300.0);
+    assert!(heavy > light + 0.005, "light {light}, heavy {heavy}");
+}
