@@ -158,5 +158,6 @@ fn minimal_lifting_closure(extra_mass_g: f64) -> f64 {
 fn heavier_object_needs_a_tighter_grasp_to_lift() {
     let light = minimal_lifting_closure(0.0);
     let heavy = minimal_lifting_closure(300.0);
+    eprintln!("minimal lifting closure: light {light:.4}, heavy {heavy:.4}");
     assert!(heavy > light + 0.005, "light {light}, heavy {heavy}");
 }
