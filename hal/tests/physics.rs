@@ -7,14 +7,23 @@ use tmo_hal::{Arm, Clock, Hand};
 fn hand_config(object: &str, closure: f64, start: ObjectStart) -> SimConfig {
     SimConfig {
         seed: 7,
-        rig: RigSetup::Hand(HandSetup { object: object.into(), initial_closure: closure, start, ..Default::default() }),
+        rig: RigSetup::Hand(HandSetup {
+            object: object.into(),
+            initial_closure: closure,
+            start,
+            ..Default::default()
+        }),
         faults: FaultRates::none(),
         ..Default::default()
     }
 }
 
 fn contact_closure(object: &str) -> f64 {
-    SimRig::new(hand_config(object, 0.0, ObjectStart::OnTable)).unwrap().probe().contact_closure().unwrap()
+    SimRig::new(hand_config(object, 0.0, ObjectStart::OnTable))
+        .unwrap()
+        .probe()
+        .contact_closure()
+        .unwrap()
 }
 
 #[test]
@@ -45,7 +54,10 @@ fn firm_grip_holds_still_for_ten_seconds() {
 
 /// Releases at 0.5 % of the fingers' maximum speed (0.01 of range per s) from a firm grip.
 /// Returns (truth just before onset, truth at onset).
-fn slow_release(object: &str, grasp_deg: f64) -> (tmo_hal::sim::TruthState, tmo_hal::sim::TruthState) {
+fn slow_release(
+    object: &str,
+    grasp_deg: f64,
+) -> (tmo_hal::sim::TruthState, tmo_hal::sim::TruthState) {
     let q0 = contact_closure(object) + 0.04;
     let mut cfg = hand_config(object, q0, ObjectStart::InHand);
     if let RigSetup::Hand(h) = &mut cfg.rig {
@@ -80,16 +92,30 @@ fn slow_release_slips_when_friction_capacity_falls_below_load() {
         let (before, at) = slow_release("crisps_can", grasp);
         let ratio_before = before.capacity_n / before.weight_n;
         let ratio_at = at.capacity_n / at.weight_n;
-        assert!(ratio_before >= 0.99, "held while capacity/load = {ratio_before}");
-        assert!(ratio_at <= 0.85 / 0.60 + 0.01, "slipped with capacity/load = {ratio_at}");
-        assert!(ratio_at >= 0.99 || at.local_slip.iter().any(|s| *s) || before.local_slip.iter().any(|s| *s));
+        assert!(
+            ratio_before >= 0.99,
+            "held while capacity/load = {ratio_before}"
+        );
+        assert!(
+            ratio_at <= 0.85 / 0.60 + 0.01,
+            "slipped with capacity/load = {ratio_at}"
+        );
+        assert!(
+            ratio_at >= 0.99
+                || at.local_slip.iter().any(|s| *s)
+                || before.local_slip.iter().any(|s| *s)
+        );
     }
 }
 
 #[test]
 fn grasp_angle_changes_which_finger_carries_the_load() {
     let thumb_share = |grasp_deg: f64| {
-        let mut cfg = hand_config("crisps_can", contact_closure("crisps_can") + 0.05, ObjectStart::InHand);
+        let mut cfg = hand_config(
+            "crisps_can",
+            contact_closure("crisps_can") + 0.05,
+            ObjectStart::InHand,
+        );
         if let RigSetup::Hand(h) = &mut cfg.rig {
             h.grasp_deg = grasp_deg;
         }
@@ -99,7 +125,10 @@ fn grasp_angle_changes_which_finger_carries_the_load() {
         s.tangential_n[0] / s.tangential_n.iter().sum::<f64>()
     };
     let (at0, at180) = (thumb_share(0.0), thumb_share(180.0));
-    assert!(at0 > at180 + 0.1, "thumb carries {at0} at 0 deg, {at180} at 180 deg");
+    assert!(
+        at0 > at180 + 0.1,
+        "thumb carries {at0} at 0 deg, {at180} at 180 deg"
+    );
 }
 
 #[test]
@@ -113,7 +142,10 @@ fn rail_object_slips_when_the_arm_retracts() {
     let rig = SimRig::new(cfg).unwrap();
     let (mut clock, mut arm, probe) = (rig.clock(), rig.arm(), rig.probe());
     clock.sleep(1.0);
-    assert!(probe.events().slip_onsets_s.is_empty(), "slipped before retracting");
+    assert!(
+        probe.events().slip_onsets_s.is_empty(),
+        "slipped before retracting"
+    );
     let start = probe.state();
     assert!(start.capacity_n > start.weight_n);
     arm.move_linear([-5.0, 0.0, 0.0], 2.0).unwrap();
@@ -122,7 +154,10 @@ fn rail_object_slips_when_the_arm_retracts() {
     let onset = *events.slip_onsets_s.first().expect("the object slipped");
     // Slip starts once (mu_s + mu_rail) * k * (preload - retraction) < m g.
     let s = probe.state();
-    assert!(s.object_mm < start.object_mm - 10.0, "object did not fall: {s:?}");
+    assert!(
+        s.object_mm < start.object_mm - 10.0,
+        "object did not fall: {s:?}"
+    );
     assert!(onset > 1.0 && onset < 4.0, "onset at {onset}");
 }
 

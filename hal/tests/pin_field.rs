@@ -7,14 +7,23 @@ use tmo_hal::{Clock, Hand, MarkerSample, MarkerTracker, PinFrame, TactileSensor}
 fn config(seed: u64, closure: f64, start: ObjectStart, faults: FaultRates) -> SimConfig {
     SimConfig {
         seed,
-        rig: RigSetup::Hand(HandSetup { object: "crisps_can".into(), initial_closure: closure, start, ..Default::default() }),
+        rig: RigSetup::Hand(HandSetup {
+            object: "crisps_can".into(),
+            initial_closure: closure,
+            start,
+            ..Default::default()
+        }),
         faults,
         ..Default::default()
     }
 }
 
 fn contact_closure() -> f64 {
-    SimRig::new(config(0, 0.0, ObjectStart::OnTable, FaultRates::none())).unwrap().probe().contact_closure().unwrap()
+    SimRig::new(config(0, 0.0, ObjectStart::OnTable, FaultRates::none()))
+        .unwrap()
+        .probe()
+        .contact_closure()
+        .unwrap()
 }
 
 /// Mean pin velocity vector and mean pin speed between two frames, px per frame.
@@ -68,15 +77,24 @@ fn slip_onset_gives_colinear_pin_motion_well_above_noise() {
             let t = w[1].time_s;
             if t > 0.2 && t < onset - 0.3 {
                 static_norms.push(norm);
-            } else if t >= onset && t < onset + 0.1 && best.is_none_or(|(b, _)| norm > b[0].hypot(b[1])) {
+            } else if t >= onset
+                && t < onset + 0.1
+                && best.is_none_or(|(b, _)| norm > b[0].hypot(b[1]))
+            {
                 best = Some((v, speed));
             }
         }
         let noise = static_norms.iter().cloned().fold(0.0, f64::max);
         let (v, speed) = best.expect("frames after onset");
         let norm = v[0].hypot(v[1]);
-        assert!(norm > 5.0 * noise, "sensor {sensor}: onset mean velocity {norm} vs static max {noise}");
-        assert!(norm / speed > 0.7, "sensor {sensor}: not co-linear: |mean| {norm}, mean speed {speed}");
+        assert!(
+            norm > 5.0 * noise,
+            "sensor {sensor}: onset mean velocity {norm} vs static max {noise}"
+        );
+        assert!(
+            norm / speed > 0.7,
+            "sensor {sensor}: not co-linear: |mean| {norm}, mean speed {speed}"
+        );
     }
 }
 
@@ -104,16 +122,27 @@ fn closing_on_an_object_moves_pins_radially() {
             if speed > 0.3 {
                 moving += 1;
                 let ratio = v[0].hypot(v[1]) / speed;
-                assert!(ratio < 0.3, "sensor {sensor} at {}: |mean| / speed = {ratio}", w[1].time_s);
+                assert!(
+                    ratio < 0.3,
+                    "sensor {sensor} at {}: |mean| / speed = {ratio}",
+                    w[1].time_s
+                );
             }
         }
     }
-    assert!(moving >= 3, "closing should move the pins ({moving} moving frames)");
+    assert!(
+        moving >= 3,
+        "closing should move the pins ({moving} moving frames)"
+    );
 }
 
 #[test]
 fn same_seed_same_frames_different_seed_different_frames() {
-    let faults = FaultRates { pin_misdetect: 0.01, dropped_frame: 0.02, stale_frame: 0.02 };
+    let faults = FaultRates {
+        pin_misdetect: 0.01,
+        dropped_frame: 0.02,
+        stale_frame: 0.02,
+    };
     let a = release(21, faults.clone());
     let b = release(21, faults.clone());
     let c = release(22, faults);
@@ -126,14 +155,24 @@ fn same_seed_same_frames_different_seed_different_frames() {
 
 #[test]
 fn faults_appear_at_their_configured_rates() {
-    let faults = FaultRates { pin_misdetect: 0.0, dropped_frame: 0.05, stale_frame: 0.05 };
+    let faults = FaultRates {
+        pin_misdetect: 0.0,
+        dropped_frame: 0.05,
+        stale_frame: 0.05,
+    };
     let (frames, _, _) = release(3, faults);
     let thumb: Vec<&PinFrame> = frames.iter().filter(|f| f.sensor == 0).collect();
     let gaps = thumb.windows(2).filter(|w| w[1].seq > w[0].seq + 1).count();
     let stale = thumb.windows(2).filter(|w| w[1].pins == w[0].pins).count();
     let n = thumb.len() as f64;
-    assert!((gaps as f64 / n - 0.05).abs() < 0.025, "dropped {gaps} of {n}");
-    assert!((stale as f64 / n - 0.05).abs() < 0.025, "stale {stale} of {n}");
+    assert!(
+        (gaps as f64 / n - 0.05).abs() < 0.025,
+        "dropped {gaps} of {n}"
+    );
+    assert!(
+        (stale as f64 / n - 0.05).abs() < 0.025,
+        "stale {stale} of {n}"
+    );
     // 60 fps with its own clock
     let span = thumb.last().unwrap().time_s - thumb[0].time_s;
     let rate = (thumb.last().unwrap().seq - thumb[0].seq) as f64 / span;

@@ -23,8 +23,20 @@ pub struct Servos {
 }
 
 impl Servos {
-    pub fn new(start: HandPositions, torque_limit: f64, latency_s: f64, max_speed_per_s: f64) -> Self {
-        Self { position: start, target: start, torque_limit, pending: VecDeque::new(), latency_s, max_speed_per_s }
+    pub fn new(
+        start: HandPositions,
+        torque_limit: f64,
+        latency_s: f64,
+        max_speed_per_s: f64,
+    ) -> Self {
+        Self {
+            position: start,
+            target: start,
+            torque_limit,
+            pending: VecDeque::new(),
+            latency_s,
+            max_speed_per_s,
+        }
     }
 
     pub fn command(&mut self, now_s: f64, command: ServoCommand) {
@@ -54,7 +66,10 @@ impl Servos {
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum ArmMotion {
     Hold,
-    Linear { target_mm: [f64; 3], speed_mm_s: f64 },
+    Linear {
+        target_mm: [f64; 3],
+        speed_mm_s: f64,
+    },
     Velocity([f64; 3]),
 }
 
@@ -87,7 +102,10 @@ impl ArmState {
         let desired = match self.motion {
             ArmMotion::Hold => [0.0; 3],
             ArmMotion::Velocity(v) => v,
-            ArmMotion::Linear { target_mm, speed_mm_s } => {
+            ArmMotion::Linear {
+                target_mm,
+                speed_mm_s,
+            } => {
                 let d = [0, 1, 2].map(|i| target_mm[i] - self.position_mm[i]);
                 let dist = norm(d);
                 if dist < 1e-3 && norm(self.velocity_mm_s) < self.max_acceleration * step_s {
@@ -105,7 +123,11 @@ impl ArmState {
         let dv = [0, 1, 2].map(|i| desired[i] - self.velocity_mm_s[i]);
         let dv_norm = norm(dv);
         let max_dv = self.max_acceleration * step_s;
-        let scale = if dv_norm > max_dv { max_dv / dv_norm } else { 1.0 };
+        let scale = if dv_norm > max_dv {
+            max_dv / dv_norm
+        } else {
+            1.0
+        };
         for (i, dv) in dv.iter().enumerate() {
             let v0 = self.velocity_mm_s[i];
             let v1 = v0 + dv * scale;
@@ -140,7 +162,10 @@ mod tests {
     #[test]
     fn linear_move_ends_on_target() {
         let mut a = ArmState::new([0.0; 3], 1000.0);
-        a.motion = ArmMotion::Linear { target_mm: [0.0, 0.0, 10.0], speed_mm_s: 20.0 };
+        a.motion = ArmMotion::Linear {
+            target_mm: [0.0, 0.0, 10.0],
+            speed_mm_s: 20.0,
+        };
         for _ in 0..2000 {
             a.step(0.001);
         }

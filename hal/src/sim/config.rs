@@ -132,6 +132,8 @@ pub struct PhysicsParams {
     pub stick_slip_time_s: f64,
     /// Fall below the held height that counts as a drop, mm.
     pub drop_limit_mm: f64,
+    /// Height of the floor a dropped object lands on, mm.
+    pub floor_mm: f64,
 }
 
 impl Default for PhysicsParams {
@@ -147,6 +149,7 @@ impl Default for PhysicsParams {
             stick_slip_amplitude: 0.15,
             stick_slip_time_s: 0.01,
             drop_limit_mm: 80.0,
+            floor_mm: 0.0,
         }
     }
 }
@@ -164,7 +167,11 @@ pub struct ServoParams {
 
 impl Default for ServoParams {
     fn default() -> Self {
-        Self { latency_s: 0.008, max_speed_per_s: 2.0, initial_torque_limit: 1.0 }
+        Self {
+            latency_s: 0.008,
+            max_speed_per_s: 2.0,
+            initial_torque_limit: 1.0,
+        }
     }
 }
 
@@ -259,13 +266,21 @@ pub struct FaultRates {
 
 impl Default for FaultRates {
     fn default() -> Self {
-        Self { pin_misdetect: 0.0005, dropped_frame: 0.002, stale_frame: 0.002 }
+        Self {
+            pin_misdetect: 0.0005,
+            dropped_frame: 0.002,
+            stale_frame: 0.002,
+        }
     }
 }
 
 impl FaultRates {
     pub fn none() -> Self {
-        Self { pin_misdetect: 0.0, dropped_frame: 0.0, stale_frame: 0.0 }
+        Self {
+            pin_misdetect: 0.0,
+            dropped_frame: 0.0,
+            stale_frame: 0.0,
+        }
     }
 }
 
@@ -278,6 +293,9 @@ pub struct MarkerParams {
 
 impl Default for MarkerParams {
     fn default() -> Self {
-        Self { rate_hz: 60.0, noise_mm: 0.3 }
+        Self {
+            rate_hz: 60.0,
+            noise_mm: 0.3,
+        }
     }
 }

@@ -16,8 +16,8 @@ use std::cell::RefCell;
 use std::rc::Rc;
 
 pub use config::{
-    ArmParams, FaultRates, HandSetup, MarkerParams, ObjectStart, PhysicsParams, RailSetup, RigSetup, ServoParams,
-    SimConfig, TactipParams,
+    ArmParams, FaultRates, HandSetup, MarkerParams, ObjectStart, PhysicsParams, RailSetup,
+    RigSetup, ServoParams, SimConfig, TactipParams,
 };
 pub use objects::{ObjectLibrary, ObjectSpec};
 pub use world::{TruthEvents, TruthState};
@@ -36,7 +36,11 @@ pub enum SimError {
     #[error("unknown object `{name}`; the library has: {known}")]
     UnknownObject { name: String, known: String },
     #[error("{what} = {value} is outside {limits}")]
-    OutOfLimits { what: &'static str, value: f64, limits: String },
+    OutOfLimits {
+        what: &'static str,
+        value: f64,
+        limits: String,
+    },
 }
 
 impl Error for SimError {
@@ -62,29 +66,46 @@ impl SimRig {
     }
 
     pub fn with_library(config: SimConfig, library: &ObjectLibrary) -> Result<Self, SimError> {
-        Ok(Self { world: Rc::new(RefCell::new(World::new(config, library)?)) })
+        Ok(Self {
+            world: Rc::new(RefCell::new(World::new(config, library)?)),
+        })
     }
 
     pub fn clock(&self) -> SimClock {
-        SimClock { world: self.world.clone() }
+        SimClock {
+            world: self.world.clone(),
+        }
     }
     pub fn hand(&self) -> SimHand {
-        SimHand { world: self.world.clone() }
+        SimHand {
+            world: self.world.clone(),
+        }
     }
     pub fn arm(&self) -> SimArm {
-        SimArm { world: self.world.clone() }
+        SimArm {
+            world: self.world.clone(),
+        }
     }
     pub fn marker_tracker(&self) -> SimMarkerTracker {
-        SimMarkerTracker { world: self.world.clone() }
+        SimMarkerTracker {
+            world: self.world.clone(),
+        }
     }
     /// One handle per fingertip sensor: three on the hand, one on the rail rig.
     pub fn tactile_sensors(&self) -> Vec<SimTactileSensor> {
         let n = self.world.borrow().sensor_count();
-        (0..n).map(|index| SimTactileSensor { world: self.world.clone(), index }).collect()
+        (0..n)
+            .map(|index| SimTactileSensor {
+                world: self.world.clone(),
+                index,
+            })
+            .collect()
     }
     /// Ground truth for diagnostics; never a detector input.
     pub fn probe(&self) -> SimProbe {
-        SimProbe { world: self.world.clone() }
+        SimProbe {
+            world: self.world.clone(),
+        }
     }
     pub fn config(&self) -> SimConfig {
         self.world.borrow().config().clone()
@@ -138,7 +159,11 @@ impl Hand for SimHand {
     fn set_targets(&mut self, targets: HandPositions) -> Result<(), SimError> {
         for &t in &targets {
             if !(0.0..=1.0).contains(&t) {
-                return Err(SimError::OutOfLimits { what: "hand target", value: t, limits: "0.0..=1.0".into() });
+                return Err(SimError::OutOfLimits {
+                    what: "hand target",
+                    value: t,
+                    limits: "0.0..=1.0".into(),
+                });
             }
         }
         let mut w = self.world.borrow_mut();
@@ -148,7 +173,11 @@ impl Hand for SimHand {
     }
     fn set_torque_limit(&mut self, fraction: f64) -> Result<(), SimError> {
         if !(0.0..=1.0).contains(&fraction) {
-            return Err(SimError::OutOfLimits { what: "torque limit", value: fraction, limits: "0.0..=1.0".into() });
+            return Err(SimError::OutOfLimits {
+                what: "torque limit",
+                value: fraction,
+                limits: "0.0..=1.0".into(),
+            });
         }
         let mut w = self.world.borrow_mut();
         let now = w.now_s();
@@ -168,7 +197,11 @@ impl SimArm {
     fn check_speed(&self, speed: f64) -> Result<(), SimError> {
         let max = self.world.borrow().config().arm.max_speed_mm_s;
         if !(speed.is_finite() && speed >= 0.0 && speed <= max) {
-            return Err(SimError::OutOfLimits { what: "arm speed (mm/s)", value: speed, limits: format!("0..={max}") });
+            return Err(SimError::OutOfLimits {
+                what: "arm speed (mm/s)",
+                value: speed,
+                limits: format!("0..={max}"),
+            });
         }
         Ok(())
     }
@@ -185,13 +218,19 @@ impl Arm for SimArm {
             RigSetup::Hand(h) => h.grasp_deg.to_radians(),
             RigSetup::Rail(_) => 0.0,
         };
-        Ok(Pose { position_mm: w.arm.position_mm, rotation_rad: [0.0, 0.0, grasp] })
+        Ok(Pose {
+            position_mm: w.arm.position_mm,
+            rotation_rad: [0.0, 0.0, grasp],
+        })
     }
     fn move_linear(&mut self, offset_mm: [f64; 3], speed_mm_s: f64) -> Result<(), SimError> {
         self.check_speed(speed_mm_s)?;
         let mut w = self.world.borrow_mut();
         let p = w.arm.position_mm;
-        w.arm.motion = ArmMotion::Linear { target_mm: [0, 1, 2].map(|i| p[i] + offset_mm[i]), speed_mm_s };
+        w.arm.motion = ArmMotion::Linear {
+            target_mm: [0, 1, 2].map(|i| p[i] + offset_mm[i]),
+            speed_mm_s,
+        };
         Ok(())
     }
     fn move_velocity(&mut self, velocity_mm_s: [f64; 3]) -> Result<(), SimError> {

@@ -63,14 +63,19 @@ impl ObjectLibrary {
                 return Err(bad("stiffness_n_per_mm must be positive"));
             }
         }
-        Ok(Self { objects: file.object })
+        Ok(Self {
+            objects: file.object,
+        })
     }
 
     pub fn get(&self, name: &str) -> Result<&ObjectSpec, SimError> {
-        self.objects.iter().find(|o| o.name == name).ok_or_else(|| SimError::UnknownObject {
-            name: name.to_string(),
-            known: self.names().join(", "),
-        })
+        self.objects
+            .iter()
+            .find(|o| o.name == name)
+            .ok_or_else(|| SimError::UnknownObject {
+                name: name.to_string(),
+                known: self.names().join(", "),
+            })
     }
 
     pub fn names(&self) -> Vec<&str> {
@@ -90,8 +95,17 @@ mod tests {
     fn built_in_library_has_the_papers_objects() {
         let lib = ObjectLibrary::built_in();
         for name in [
-            "crisps_can", "windex_bottle", "bleach_bottle", "mustard_bottle", "banana",
-            "soup_can", "softball", "jello_box", "coffee_can", "foam_brick", "toy_cat",
+            "crisps_can",
+            "windex_bottle",
+            "bleach_bottle",
+            "mustard_bottle",
+            "banana",
+            "soup_can",
+            "softball",
+            "jello_box",
+            "coffee_can",
+            "foam_brick",
+            "toy_cat",
             "rail_object",
         ] {
             lib.get(name).unwrap();
@@ -101,8 +115,14 @@ mod tests {
 
     #[test]
     fn unknown_object_lists_the_known_ones() {
-        let err = ObjectLibrary::built_in().get("teapot").unwrap_err().to_string();
-        assert!(err.contains("teapot") && err.contains("crisps_can"), "{err}");
+        let err = ObjectLibrary::built_in()
+            .get("teapot")
+            .unwrap_err()
+            .to_string();
+        assert!(
+            err.contains("teapot") && err.contains("crisps_can"),
+            "{err}"
+        );
     }
 
     #[test]
@@ -117,7 +137,12 @@ mu_static = 0.5
 mu_kinetic = 0.7
 stiffness_n_per_mm = 1.0
 "#;
-        let err = ObjectLibrary::parse(text, "lib.toml").unwrap_err().to_string();
-        assert!(err.contains("lib.toml") && err.contains("mu_kinetic"), "{err}");
+        let err = ObjectLibrary::parse(text, "lib.toml")
+            .unwrap_err()
+            .to_string();
+        assert!(
+            err.contains("lib.toml") && err.contains("mu_kinetic"),
+            "{err}"
+        );
     }
 }

@@ -33,7 +33,9 @@ pub fn dome_layout(pins: usize, centre_px: [f64; 2], dome_radius_px: f64) -> Vec
     out
 }
 
-/// Fixed properties of one manufactured sensor in one grasp.
+/// Fixed properties of one manufactured sensor in one grasp, with each pin's response to
+/// indentation and shear worked out once: the contact centre does not move during a trial,
+/// and precomputing the profiles removed all `exp` calls from frame generation.
 #[derive(Debug, Clone, PartialEq)]
 pub struct SensorOptics {
     pub rest_px: Vec<[f64; 2]>,
@@ -41,41 +43,72 @@ pub struct SensorOptics {
     pub contact_centre_px: [f64; 2],
     /// Unit vector in the image along which "object moves down relative to the finger".
     pub slip_direction: [f64; 2],
-    /// Peak radial displacement per mm of indentation (this unit's), px/mm.
-    pub radial_gain_px_per_mm: f64,
-    pub contact_radius_px: f64,
+    /// Displacement of each pin per mm of indentation, px/mm.
+    radial_px_per_mm: Vec<[f64; 2]>,
+    /// Each pin's share of the contact region's shear, 0..1.
+    shear_weight: Vec<f64>,
+}
+
+impl SensorOptics {
+    /// Pin `j` at rest `P_j`, distance `r` from the contact centre `c`, moves by
+    /// `G_r * indentation * g(r/rho) * (P_j - c)/r + shear * exp(-r^2 / (2 (1.3 rho)^2)) * u`
+    /// with `g(x) = x * exp((1 - x^2)/2)` (peak 1 at `r = rho`, zero at the centre).
+    pub fn new(
+        rest_px: Vec<[f64; 2]>,
+        contact_centre_px: [f64; 2],
+        slip_direction: [f64; 2],
+        radial_gain_px_per_mm: f64,
+        contact_radius_px: f64,
+    ) -> Self {
+        let rho = contact_radius_px;
+        let shear_rho2 = 2.0 * (1.3 * rho) * (1.3 * rho);
+        let [cx, cy] = contact_centre_px;
+        let mut radial_px_per_mm = Vec::with_capacity(rest_px.len());
+        let mut shear_weight = Vec::with_capacity(rest_px.len());
+        for &[px, py] in &rest_px {
+            let (dx, dy) = (px - cx, py - cy);
+            let r2 = dx * dx + dy * dy;
+            let r = r2.sqrt();
+            if r > 1e-9 {
+                let xr = r / rho;
+                let g = radial_gain_px_per_mm * xr * (0.5 * (1.0 - xr * xr)).exp();
+                radial_px_per_mm.push([g * dx / r, g * dy / r]);
+            } else {
+                radial_px_per_mm.push([0.0, 0.0]);
+            }
+            shear_weight.push((-r2 / shear_rho2).exp());
+        }
+        Self {
+            rest_px,
+            contact_centre_px,
+            slip_direction,
+            radial_px_per_mm,
+            shear_weight,
+        }
+    }
 }
 
 /// Noise-free pin positions for a skin indented by `indentation_mm` and sheared by
-/// `shear_px` along the slip direction.
-///
-/// Pin `j` at rest `P_j`, distance `r` from the contact centre `c`:
-/// `P_j + G_r * indentation * g(r/rho) * (P_j - c)/r + shear * exp(-r^2 / (2 (1.3 rho)^2)) * u`
-/// with `g(x) = x * exp((1 - x^2)/2)` (peak 1 at `r = rho`, zero at the centre).
-pub fn pin_positions(optics: &SensorOptics, indentation_mm: f64, shear_px: f64, out: &mut Vec<[f64; 2]>) {
+/// `shear_px` along the slip direction (see [`SensorOptics::new`] for the equation).
+pub fn pin_positions(
+    optics: &SensorOptics,
+    indentation_mm: f64,
+    shear_px: f64,
+    out: &mut Vec<[f64; 2]>,
+) {
     out.clear();
-    let rho = optics.contact_radius_px;
-    let shear_rho2 = 2.0 * (1.3 * rho) * (1.3 * rho);
-    let radial = optics.radial_gain_px_per_mm * indentation_mm;
-    let [cx, cy] = optics.contact_centre_px;
     let [ux, uy] = optics.slip_direction;
-    for &[px, py] in &optics.rest_px {
-        let (dx, dy) = (px - cx, py - cy);
-        let r2 = dx * dx + dy * dy;
-        let r = r2.sqrt();
-        let (mut x, mut y) = (px, py);
-        if r > 1e-9 && radial != 0.0 {
-            let xr = r / rho;
-            let g = xr * (0.5 * (1.0 - xr * xr)).exp();
-            x += radial * g * dx / r;
-            y += radial * g * dy / r;
-        }
-        if shear_px != 0.0 {
-            let w = (-r2 / shear_rho2).exp();
-            x += shear_px * w * ux;
-            y += shear_px * w * uy;
-        }
-        out.push([x, y]);
+    let (sx, sy) = (shear_px * ux, shear_px * uy);
+    for ((&[px, py], &[rx, ry]), &w) in optics
+        .rest_px
+        .iter()
+        .zip(&optics.radial_px_per_mm)
+        .zip(&optics.shear_weight)
+    {
+        out.push([
+            px + indentation_mm * rx + w * sx,
+            py + indentation_mm * ry + w * sy,
+        ]);
     }
 }
 
@@ -86,7 +119,13 @@ pub fn relax_towards(state: f64, target: f64, step_s: f64, time_constant_s: f64)
 
 /// Shear the skin is driven towards: elastic shear from the tangential load plus drag by an
 /// object sliding over it, which saturates with sliding speed.
-pub fn shear_target_px(tangential_n: f64, sliding_down_mm_s: f64, shear_gain: f64, drag_px: f64, drag_speed: f64) -> f64 {
+pub fn shear_target_px(
+    tangential_n: f64,
+    sliding_down_mm_s: f64,
+    shear_gain: f64,
+    drag_px: f64,
+    drag_speed: f64,
+) -> f64 {
     shear_gain * tangential_n + drag_px * (sliding_down_mm_s / drag_speed).tanh()
 }
 
@@ -95,13 +134,13 @@ mod tests {
     use super::*;
 
     fn optics() -> SensorOptics {
-        SensorOptics {
-            rest_px: dome_layout(30, [170.0, 140.0], 120.0),
-            contact_centre_px: [170.0, 140.0],
-            slip_direction: [0.0, 1.0],
-            radial_gain_px_per_mm: 5.0,
-            contact_radius_px: 40.0,
-        }
+        SensorOptics::new(
+            dome_layout(30, [170.0, 140.0], 120.0),
+            [170.0, 140.0],
+            [0.0, 1.0],
+            5.0,
+            40.0,
+        )
     }
 
     #[test]
@@ -138,6 +177,13 @@ mod tests {
         }
         // the centre pin does not move
         assert_eq!(out[0], o.rest_px[0]);
+        // pins at the contact radius move the most: 5 px per mm
+        let most = out
+            .iter()
+            .zip(&o.rest_px)
+            .map(|(p, r)| (p[0] - r[0]).hypot(p[1] - r[1]))
+            .fold(0.0, f64::max);
+        assert!(most > 4.0 && most <= 5.0 + 1e-9, "{most}");
     }
 
     #[test]
@@ -146,7 +192,10 @@ mod tests {
         let mut out = Vec::new();
         pin_positions(&o, 0.0, 2.0, &mut out);
         assert!((out[0][1] - o.rest_px[0][1] - 2.0).abs() < 1e-12);
-        assert!(out.iter().zip(&o.rest_px).all(|(p, r)| p[0] == r[0] && p[1] >= r[1]));
+        assert!(out
+            .iter()
+            .zip(&o.rest_px)
+            .all(|(p, r)| p[0] == r[0] && p[1] >= r[1]));
     }
 
     #[test]

@@ -1,0 +1,9 @@
+//! `tmo`: tactile slip-detection experiments on the Tactile Model O hand.
+//!
+//! The binary (`main.rs`) is the CLI and glue; the work lives here and in `tmo-hal`.
+
+pub mod scenario;
+pub mod sim_presets;
+pub mod trace;
+
+pub use tmo_hal as hal;

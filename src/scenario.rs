@@ -1,0 +1,199 @@
+//! Short scripted scenarios over the HAL traits, for looking at a rig's behaviour
+//! (`tmo sim trace`). They run on any backend: they only command devices and wait on the
+//! clock. The protocol runner is what experiments use; these are for inspection.
+
+use tmo_hal::{Arm, Clock, ErrorKind, Hand, MarkerSample, MarkerTracker, PinFrame, TactileSensor};
+
+/// Control period of the scripts, s (1 kHz, like the runner's loop).
+const TICK_S: f64 = 0.001;
+
+#[derive(Debug, thiserror::Error)]
+pub enum ScenarioError {
+    #[error("{device} failed ({kind}): {message}")]
+    Device {
+        device: &'static str,
+        kind: ErrorKind,
+        message: String,
+    },
+    #[error("no contact: deformation stayed at {deformation_px:.3} px up to full closure")]
+    NoContact { deformation_px: f64 },
+}
+
+fn device<E: tmo_hal::Error>(device: &'static str) -> impl Fn(E) -> ScenarioError {
+    move |e| ScenarioError::Device {
+        device,
+        kind: e.kind(),
+        message: e.to_string(),
+    }
+}
+
+/// What a scenario does.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Script {
+    /// Nothing: hold the starting grasp (drop with an open hand, hold with a closed one).
+    Wait,
+    /// Release all fingers at `speed_per_s` (fraction of range per s) from the start grasp.
+    Release { speed_per_s: f64 },
+    /// Retract the arm (slip rail) by `distance_mm` at `speed_mm_s`.
+    Retract { speed_mm_s: f64, distance_mm: f64 },
+    /// Close until the mean pin deformation reaches `deformation_px`, then raise the arm.
+    Lift {
+        deformation_px: f64,
+        close_speed_per_s: f64,
+        lift_speed_mm_s: f64,
+    },
+}
+
+/// The devices a scenario drives.
+pub struct Devices<C, H, A, M, S> {
+    pub clock: C,
+    pub hand: H,
+    pub arm: A,
+    pub markers: M,
+    pub sensors: Vec<S>,
+}
+
+/// Everything the devices delivered during a scenario.
+#[derive(Debug, Default, Clone, PartialEq)]
+pub struct Recording {
+    pub frames: Vec<PinFrame>,
+    pub markers: Vec<MarkerSample>,
+}
+
+/// Mean distance of the pins from where they were at `reference` (the paper's `d(t)`), px.
+pub fn deformation_px(reference: &PinFrame, frame: &PinFrame) -> f64 {
+    let n = reference.pins.len().min(frame.pins.len());
+    if n == 0 {
+        return 0.0;
+    }
+    let sum: f64 = reference
+        .pins
+        .iter()
+        .zip(&frame.pins)
+        .map(|(a, b)| ((b[0] - a[0]) as f64).hypot((b[1] - a[1]) as f64))
+        .sum();
+    sum / n as f64
+}
+
+impl<C, H, A, M, S> Devices<C, H, A, M, S>
+where
+    C: Clock,
+    H: Hand,
+    A: Arm,
+    M: MarkerTracker,
+    S: TactileSensor,
+{
+    fn poll(&mut self, rec: &mut Recording) -> Result<(), ScenarioError> {
+        for s in self.sensors.iter_mut() {
+            while let Some(f) = s.next_frame().map_err(device("tactile sensor"))? {
+                rec.frames.push(f);
+            }
+        }
+        while let Some(m) = self
+            .markers
+            .next_sample()
+            .map_err(device("marker tracker"))?
+        {
+            rec.markers.push(m);
+        }
+        Ok(())
+    }
+
+    /// Runs `script` for `duration_s`, calling `observe` after every tick (for ground truth
+    /// on the simulator).
+    pub fn run(
+        &mut self,
+        script: Script,
+        duration_s: f64,
+        mut observe: impl FnMut(f64),
+    ) -> Result<Recording, ScenarioError> {
+        let mut rec = Recording::default();
+        let start = self.hand.present_positions().map_err(device("hand"))?;
+        let phase_start = self.clock.now_s();
+        let mut lifting = false;
+        let mut reference: Vec<Option<PinFrame>> = vec![None; self.sensors.len()];
+        if let Script::Retract {
+            speed_mm_s,
+            distance_mm,
+        } = script
+        {
+            self.arm
+                .move_linear([-distance_mm, 0.0, 0.0], speed_mm_s)
+                .map_err(device("arm"))?;
+        }
+        while self.clock.now_s() < duration_s {
+            let now = self.clock.now_s();
+            match script {
+                Script::Release { speed_per_s } => {
+                    let q = |i: usize| (start[i] - speed_per_s * (now - phase_start)).max(0.0);
+                    self.hand
+                        .set_targets([q(0), q(1), q(2), start[3]])
+                        .map_err(device("hand"))?;
+                }
+                Script::Lift {
+                    deformation_px: goal,
+                    close_speed_per_s,
+                    lift_speed_mm_s,
+                } if !lifting => {
+                    // d(t) of the most deformed sensor against its first (contact-free) frame.
+                    let n = rec.frames.len();
+                    let mut deepest: f64 = 0.0;
+                    for f in &rec.frames[n.saturating_sub(8)..] {
+                        let r = &mut reference[f.sensor as usize];
+                        match r {
+                            None => *r = Some(f.clone()),
+                            Some(r0) => deepest = deepest.max(deformation_px(r0, f)),
+                        }
+                    }
+                    if deepest >= goal {
+                        let held = self.hand.present_positions().map_err(device("hand"))?;
+                        self.hand.set_targets(held).map_err(device("hand"))?;
+                        self.arm
+                            .move_velocity([0.0, 0.0, lift_speed_mm_s])
+                            .map_err(device("arm"))?;
+                        lifting = true;
+                    } else {
+                        let q = |i: usize| {
+                            (start[i] + close_speed_per_s * (now - phase_start)).min(1.0)
+                        };
+                        if q(0) >= 1.0 {
+                            return Err(ScenarioError::NoContact {
+                                deformation_px: deepest,
+                            });
+                        }
+                        self.hand
+                            .set_targets([q(0), q(1), q(2), start[3]])
+                            .map_err(device("hand"))?;
+                    }
+                }
+                _ => {}
+            }
+            self.clock.sleep(TICK_S);
+            self.poll(&mut rec)?;
+            observe(self.clock.now_s());
+        }
+        self.arm.stop().map_err(device("arm"))?;
+        Ok(rec)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn frame(pins: Vec<[f32; 2]>) -> PinFrame {
+        PinFrame {
+            sensor: 0,
+            seq: 0,
+            time_s: 0.0,
+            pins,
+        }
+    }
+
+    #[test]
+    fn deformation_is_mean_pin_distance() {
+        let a = frame(vec![[0.0, 0.0], [10.0, 10.0]]);
+        let b = frame(vec![[3.0, 4.0], [10.0, 10.0]]);
+        assert!((deformation_px(&a, &b) - 2.5).abs() < 1e-12);
+    }
+}

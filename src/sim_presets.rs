@@ -1,0 +1,113 @@
+//! Ready-made simulated scenarios for `tmo sim trace`: a rig set-up plus a script.
+
+use tmo_hal::sim::{
+    HandSetup, ObjectLibrary, ObjectStart, RailSetup, RigSetup, SimConfig, SimError,
+};
+
+use crate::scenario::Script;
+
+/// The scenarios `tmo sim trace` knows.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum Preset {
+    /// Open hand, object in the air: it falls.
+    Drop,
+    /// Firm pinch grasp held still.
+    Hold,
+    /// Pinch grasp released at 0.5 % of maximum finger speed (collect-mode hand release).
+    Release,
+    /// Slip rail: the arm retracts and the object slides down the rail.
+    Rail,
+    /// Object on a table: close to 0.5 px deformation, then raise the arm at 17 mm/s.
+    Lift,
+    /// Light grasp while rice is poured into the object.
+    Pour,
+}
+
+/// Choices the user makes on top of a preset.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PresetOptions {
+    pub object: Option<String>,
+    pub grasp_deg: f64,
+    /// Arm retraction speed on the rail, mm/s.
+    pub retract_speed_mm_s: f64,
+    /// Rice poured per second, g/s.
+    pub pour_rate_g_per_s: f64,
+}
+
+impl Default for PresetOptions {
+    fn default() -> Self {
+        Self {
+            object: None,
+            grasp_deg: 0.0,
+            retract_speed_mm_s: 2.0,
+            pour_rate_g_per_s: 40.0,
+        }
+    }
+}
+
+/// Finger position (0..1) where the fingers first touch `object`.
+pub fn contact_closure(base: &SimConfig, object: &str) -> Result<f64, SimError> {
+    let spec = ObjectLibrary::built_in().get(object)?.clone();
+    Ok(1.0 - spec.width_mm / (2.0 * base.physics.finger_travel_mm))
+}
+
+/// Builds the rig for `preset` on top of `base` (whose physics, sensor, fault and marker
+/// parameters are kept) and the script to run on it.
+pub fn build(
+    preset: Preset,
+    options: &PresetOptions,
+    base: SimConfig,
+) -> Result<(SimConfig, Script), SimError> {
+    let mut cfg = base;
+    let object = options.object.clone().unwrap_or_else(|| match preset {
+        Preset::Rail => "rail_object".into(),
+        _ => "crisps_can".into(),
+    });
+    if preset == Preset::Rail {
+        cfg.rig = RigSetup::Rail(RailSetup {
+            object,
+            ..Default::default()
+        });
+        let script = Script::Retract {
+            speed_mm_s: options.retract_speed_mm_s,
+            distance_mm: 10.0,
+        };
+        return Ok((cfg, script));
+    }
+    let contact = contact_closure(&cfg, &object)?;
+    let (closure, start, script) = match preset {
+        Preset::Drop => (0.0, ObjectStart::InHand, Script::Wait),
+        Preset::Hold => (contact + 0.05, ObjectStart::InHand, Script::Wait),
+        Preset::Release => (
+            contact + 0.04,
+            ObjectStart::InHand,
+            Script::Release { speed_per_s: 0.01 },
+        ),
+        Preset::Lift => (
+            (contact - 0.03).max(0.0),
+            ObjectStart::OnTable,
+            Script::Lift {
+                deformation_px: 0.5,
+                close_speed_per_s: 0.02,
+                lift_speed_mm_s: 17.0,
+            },
+        ),
+        Preset::Pour => (contact + 0.02, ObjectStart::InHand, Script::Wait),
+        Preset::Rail => unreachable!("handled above"),
+    };
+    let pour = if preset == Preset::Pour {
+        options.pour_rate_g_per_s
+    } else {
+        0.0
+    };
+    cfg.rig = RigSetup::Hand(HandSetup {
+        object,
+        grasp_deg: options.grasp_deg,
+        initial_closure: closure.min(1.0),
+        start,
+        pour_rate_g_per_s: pour,
+        pour_start_s: 0.5,
+        ..Default::default()
+    });
+    Ok((cfg, script))
+}

@@ -1,0 +1,176 @@
+//! Runs the real `tmo` binary on the simulator in a fresh directory per test.
+
+use std::path::Path;
+use std::process::{Command, Output};
+
+fn tmo(dir: &Path, args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_tmo"))
+        .current_dir(dir)
+        .args(args)
+        .output()
+        .expect("tmo runs")
+}
+
+fn read_csv(path: &Path) -> (Vec<String>, Vec<Vec<String>>) {
+    let mut r = csv::Reader::from_path(path).unwrap();
+    let head = r.headers().unwrap().iter().map(String::from).collect();
+    let rows = r
+        .records()
+        .map(|x| x.unwrap().iter().map(String::from).collect())
+        .collect();
+    (head, rows)
+}
+
+#[test]
+fn trace_of_a_release_shows_the_slip_in_truth_markers_and_pins() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = tmo(
+        dir.path(),
+        &[
+            "sim",
+            "trace",
+            "--scenario",
+            "release",
+            "--seed",
+            "4",
+            "--duration",
+            "3",
+            "--out",
+            "t",
+        ],
+    );
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        stdout.contains("wrote") && stdout.contains("truth.csv"),
+        "{stdout}"
+    );
+
+    let (head, truth) = read_csv(&dir.path().join("t/truth.csv"));
+    let col = |name: &str| head.iter().position(|h| h == name).unwrap();
+    assert_eq!(truth.len(), 3000);
+    let sliding = truth
+        .iter()
+        .position(|r| r[col("sliding")] == "1")
+        .expect("the object slips");
+    assert!(sliding > 100, "slipped at tick {sliding}");
+
+    let (_, markers) = read_csv(&dir.path().join("t/markers.csv"));
+    assert!((markers.len() as i64 - 180).abs() <= 1);
+    let first: f64 = markers[0][1].parse().unwrap();
+    let last: f64 = markers.last().unwrap()[1].parse().unwrap();
+    assert!(
+        first - last > 50.0,
+        "marker did not see the fall: {first} -> {last}"
+    );
+
+    let (head, pins) = read_csv(&dir.path().join("t/pins.csv"));
+    assert_eq!(head.len(), 3 + 60);
+    assert!(pins.len() > 3 * 170);
+    assert!(dir.path().join("t/sim.toml").exists());
+}
+
+#[test]
+fn same_seed_same_trace() {
+    let dir = tempfile::tempdir().unwrap();
+    for out in ["a", "b"] {
+        let o = tmo(
+            dir.path(),
+            &[
+                "sim",
+                "trace",
+                "--scenario",
+                "rail",
+                "--seed",
+                "9",
+                "--duration",
+                "2",
+                "--out",
+                out,
+            ],
+        );
+        assert!(o.status.success());
+    }
+    let a = std::fs::read(dir.path().join("a/pins.csv")).unwrap();
+    let b = std::fs::read(dir.path().join("b/pins.csv")).unwrap();
+    assert_eq!(a, b);
+}
+
+#[test]
+fn every_scenario_runs() {
+    let dir = tempfile::tempdir().unwrap();
+    for s in ["drop", "hold", "release", "rail", "lift", "pour"] {
+        let o = tmo(
+            dir.path(),
+            &[
+                "sim",
+                "trace",
+                "--scenario",
+                s,
+                "--duration",
+                "1",
+                "--out",
+                s,
+            ],
+        );
+        assert!(
+            o.status.success(),
+            "{s}: {}",
+            String::from_utf8_lossy(&o.stderr)
+        );
+    }
+}
+
+#[test]
+fn unknown_object_is_an_error_naming_the_choices() {
+    let dir = tempfile::tempdir().unwrap();
+    let o = tmo(
+        dir.path(),
+        &["sim", "trace", "--scenario", "hold", "--object", "teapot"],
+    );
+    assert_eq!(o.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains("teapot") && err.contains("soup_can"), "{err}");
+}
+
+#[test]
+fn bad_config_names_the_file_line_and_field() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(
+        dir.path().join("sim.toml"),
+        "seed = 1\n[tactip]\nnoise_pixels = 0.1\n",
+    )
+    .unwrap();
+    let o = tmo(
+        dir.path(),
+        &["sim", "trace", "--scenario", "hold", "--config", "sim.toml"],
+    );
+    assert_eq!(o.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        err.contains("sim.toml") && err.contains("line 3") && err.contains("noise_pixels"),
+        "{err}"
+    );
+
+    std::fs::write(
+        dir.path().join("neg.toml"),
+        "[physics]\nskin_stiffness_n_per_mm = -1.0\n",
+    )
+    .unwrap();
+    let o = tmo(
+        dir.path(),
+        &["sim", "trace", "--scenario", "hold", "--config", "neg.toml"],
+    );
+    assert_eq!(o.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        err.contains("neg.toml")
+            && err.contains("skin_stiffness_n_per_mm")
+            && err.contains("positive"),
+        "{err}"
+    );
+}
