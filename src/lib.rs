@@ -4,6 +4,7 @@
 
 pub mod scenario;
 pub mod sim_presets;
+pub mod slip;
 pub mod trace;
 
 pub use tmo_hal as hal;

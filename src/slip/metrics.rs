@@ -1,0 +1,108 @@
+//! Scores of a binary slip classifier (paper, "Classifier Evaluation"): F1 of each class and
+//! their mean (macro F1), with precision, recall and the confusion counts.
+//!
+//! Where a ratio has a zero denominator (no predictions or no examples of a class) it is 0,
+//! as scikit-learn's `zero_division=0`.
+
+use super::Class;
+
+/// Confusion counts with `slip` as the positive class.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
+pub struct Confusion {
+    pub true_slip: u64,
+    pub false_slip: u64,
+    pub true_static: u64,
+    pub false_static: u64,
+}
+
+/// Precision, recall and F1 of one class.
+#[derive(Debug, Clone, Copy, PartialEq, Default, serde::Serialize, serde::Deserialize)]
+pub struct ClassScores {
+    pub precision: f64,
+    pub recall: f64,
+    pub f1: f64,
+    pub support: u64,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Default, serde::Serialize, serde::Deserialize)]
+pub struct Scores {
+    pub confusion: Confusion,
+    pub slip: ClassScores,
+    pub static_: ClassScores,
+    pub macro_f1: f64,
+}
+
+fn ratio(num: u64, den: u64) -> f64 {
+    if den == 0 {
+        0.0
+    } else {
+        num as f64 / den as f64
+    }
+}
+
+fn class_scores(tp: u64, fp: u64, fn_: u64) -> ClassScores {
+    let precision = ratio(tp, tp + fp);
+    let recall = ratio(tp, tp + fn_);
+    let f1 = if precision + recall == 0.0 { 0.0 } else { 2.0 * precision * recall / (precision + recall) };
+    ClassScores { precision, recall, f1, support: tp + fn_ }
+}
+
+impl Confusion {
+    pub fn add(&mut self, truth: Class, predicted: Class) {
+        match (truth, predicted) {
+            (Class::Slip, Class::Slip) => self.true_slip += 1,
+            (Class::Static, Class::Slip) => self.false_slip += 1,
+            (Class::Static, Class::Static) => self.true_static += 1,
+            (Class::Slip, Class::Static) => self.false_static += 1,
+        }
+    }
+
+    pub fn from_pairs(truth: &[Class], predicted: &[Class]) -> Self {
+        assert_eq!(truth.len(), predicted.len(), "one prediction per label");
+        let mut c = Self::default();
+        for (&t, &p) in truth.iter().zip(predicted) {
+            c.add(t, p);
+        }
+        c
+    }
+
+    pub fn scores(&self) -> Scores {
+        let slip = class_scores(self.true_slip, self.false_slip, self.false_static);
+        let static_ = class_scores(self.true_static, self.false_static, self.false_slip);
+        Scores { confusion: *self, slip, static_, macro_f1: 0.5 * (slip.f1 + static_.f1) }
+    }
+}
+
+/// Macro F1 of predictions against labels.
+pub fn macro_f1(truth: &[Class], predicted: &[Class]) -> f64 {
+    Confusion::from_pairs(truth, predicted).scores().macro_f1
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use Class::{Slip as P, Static as N};
+
+    #[test]
+    fn hand_computed_scores() {
+        // truth:     P P P N N N N N
+        // predicted: P P N P N N N N
+        let truth = [P, P, P, N, N, N, N, N];
+        let pred = [P, P, N, P, N, N, N, N];
+        let s = Confusion::from_pairs(&truth, &pred).scores();
+        assert_eq!(s.confusion, Confusion { true_slip: 2, false_slip: 1, true_static: 4, false_static: 1 });
+        assert!((s.slip.precision - 2.0 / 3.0).abs() < 1e-12);
+        assert!((s.slip.recall - 2.0 / 3.0).abs() < 1e-12);
+        assert!((s.static_.f1 - 0.8).abs() < 1e-12);
+        assert!((s.macro_f1 - (2.0 / 3.0 + 0.8) / 2.0).abs() < 1e-12);
+        assert_eq!(s.slip.support, 3);
+    }
+
+    #[test]
+    fn predicting_only_static_scores_zero_for_slip() {
+        let s = Confusion::from_pairs(&[P, N, N], &[N, N, N]).scores();
+        assert_eq!(s.slip.f1, 0.0);
+        assert!((s.static_.f1 - 0.8).abs() < 1e-12);
+        assert!((s.macro_f1 - 0.4).abs() < 1e-12);
+    }
+}

@@ -1,0 +1,15 @@
+//! Slip detection: features from pin frames, labels from the marker track, classifiers and
+//! their scores (SPEC.md, "Slip detection method"). Usable without any hardware.
+
+pub mod features;
+pub mod labels;
+pub mod metrics;
+pub mod threshold;
+
+/// The two classes of a frame.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Class {
+    Static,
+    Slip,
+}

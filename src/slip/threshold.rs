@@ -1,0 +1,82 @@
+//! The threshold classifier (paper, "Threshold Classifier"): slip when the norm of the mean
+//! pin velocity `v` reaches `T`. `T` is the best (by macro F1 on the training data) of ten
+//! values evenly spaced between the mean `v` of the static frames and that of the slip frames.
+
+use super::features::mean_velocity_norm;
+use super::metrics::macro_f1;
+use super::Class;
+
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct ThresholdModel {
+    /// px per frame
+    pub threshold: f32,
+}
+
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum ThresholdError {
+    #[error("training data needs frames of both classes (static {static_frames}, slip {slip_frames})")]
+    OneClass { static_frames: usize, slip_frames: usize },
+}
+
+impl ThresholdModel {
+    /// Fits on feature rows (each `2N` values) and their labels.
+    pub fn fit(rows: &[&[f32]], labels: &[Class]) -> Result<Self, ThresholdError> {
+        let v: Vec<f32> = rows.iter().map(|r| mean_velocity_norm(r)).collect();
+        let mean_of = |class: Class| {
+            let (sum, n) = v.iter().zip(labels).filter(|(_, l)| **l == class).fold((0.0f64, 0usize), |(s, n), (x, _)| (s + f64::from(*x), n + 1));
+            (sum / n.max(1) as f64, n)
+        };
+        let (static_mean, static_frames) = mean_of(Class::Static);
+        let (slip_mean, slip_frames) = mean_of(Class::Slip);
+        if static_frames == 0 || slip_frames == 0 {
+            return Err(ThresholdError::OneClass { static_frames, slip_frames });
+        }
+        let mut best = (f64::NEG_INFINITY, 0.0f32);
+        for k in 0..10 {
+            let t = (static_mean + (slip_mean - static_mean) * k as f64 / 9.0) as f32;
+            let predicted: Vec<Class> = v.iter().map(|&x| if x >= t { Class::Slip } else { Class::Static }).collect();
+            let f1 = macro_f1(labels, &predicted);
+            if f1 > best.0 {
+                best = (f1, t);
+            }
+        }
+        Ok(Self { threshold: best.1 })
+    }
+
+    pub fn predict(&self, features: &[f32]) -> Class {
+        if mean_velocity_norm(features) >= self.threshold {
+            Class::Slip
+        } else {
+            Class::Static
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// One-pin feature rows with speed `r` (angle 0 after centring).
+    fn row(r: f32) -> Vec<f32> {
+        vec![r, 0.0]
+    }
+
+    #[test]
+    fn picks_a_threshold_between_the_class_means_that_separates_them() {
+        let speeds = [0.1, 0.2, 0.1, 0.15, 1.0, 1.2];
+        let labels = [Class::Static, Class::Static, Class::Static, Class::Static, Class::Slip, Class::Slip];
+        let rows: Vec<Vec<f32>> = speeds.iter().map(|&s| row(s)).collect();
+        let refs: Vec<&[f32]> = rows.iter().map(|r| r.as_slice()).collect();
+        let m = ThresholdModel::fit(&refs, &labels).unwrap();
+        assert!(m.threshold > 0.2 && m.threshold <= 1.0, "{}", m.threshold);
+        assert_eq!(m.predict(&row(0.9)), Class::Slip);
+        assert_eq!(m.predict(&row(0.18)), Class::Static);
+    }
+
+    #[test]
+    fn one_class_is_an_error() {
+        let rows = [row(0.1)];
+        let refs: Vec<&[f32]> = rows.iter().map(|r| r.as_slice()).collect();
+        assert!(ThresholdModel::fit(&refs, &[Class::Static]).is_err());
+    }
+}
