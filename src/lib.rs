@@ -2,9 +2,11 @@
 //!
 //! The binary (`main.rs`) is the CLI and glue; the work lives here and in `tmo-hal`.
 
+pub mod collect;
 pub mod scenario;
 pub mod sim_presets;
 pub mod slip;
 pub mod trace;
+pub mod trial;
 
 pub use tmo_hal as hal;

@@ -5,6 +5,7 @@ use std::process::ExitCode;
 
 use anyhow::{Context, Result};
 use clap::{Parser, Subcommand};
+use tmo::collect::{self, CollectRig, CollectSpec};
 use tmo::scenario::Devices;
 use tmo::sim_presets::{self, Preset, PresetOptions};
 use tmo::trace;
@@ -34,6 +35,33 @@ enum SimCommand {
     Trace(TraceArgs),
     /// Lists the object library.
     Objects,
+    /// Records collect-mode trials (no reaction to slip) as training data.
+    Collect(CollectArgs),
+}
+
+#[derive(clap::Args)]
+struct CollectArgs {
+    /// Which rig: whole-hand release or the single-finger slip rail.
+    #[arg(long, value_enum, default_value = "hand")]
+    rig: CollectRig,
+    /// Number of trials.
+    #[arg(long, default_value_t = 20)]
+    trials: u64,
+    /// Objects, used in turn (default: the paper's five training objects, or the rail object).
+    #[arg(long, value_delimiter = ',')]
+    objects: Vec<String>,
+    /// Grasp angles in degrees, each used for a full round of objects.
+    #[arg(long, value_delimiter = ',', default_value = "0,180")]
+    grasps: Vec<f64>,
+    /// Batch seed; trial i uses seed * 1000003 + i.
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Simulator parameters (TOML); the rig is set by --rig.
+    #[arg(long)]
+    config: Option<PathBuf>,
+    /// Output directory; trials already there are kept and not run again.
+    #[arg(long, default_value = "trials/collect")]
+    out: PathBuf,
 }
 
 #[derive(clap::Args)]
@@ -101,6 +129,7 @@ fn run(cli: Cli) -> Result<()> {
             Ok(())
         }
         Command::Sim(SimCommand::Trace(args)) => sim_trace(args),
+        Command::Sim(SimCommand::Collect(args)) => sim_collect(args),
     }
 }
 
@@ -193,6 +222,81 @@ fn sim_trace(args: TraceArgs) -> Result<()> {
         files.pins.display(),
         files.markers.display(),
         files.config.display()
+    );
+    Ok(())
+}
+
+fn unix_now() -> u64 {
+    std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map_or(0, |d| d.as_secs())
+}
+
+fn sim_collect(args: CollectArgs) -> Result<()> {
+    anyhow::ensure!(args.trials > 0, "--trials must be at least 1");
+    anyhow::ensure!(!args.grasps.is_empty(), "--grasps needs at least one angle");
+    let objects = if !args.objects.is_empty() {
+        args.objects.clone()
+    } else {
+        match args.rig {
+            CollectRig::Hand => [
+                "crisps_can",
+                "windex_bottle",
+                "bleach_bottle",
+                "mustard_bottle",
+                "banana",
+            ]
+            .map(String::from)
+            .to_vec(),
+            CollectRig::Rail => vec!["rail_object".to_string()],
+        }
+    };
+    let library = ObjectLibrary::built_in();
+    for o in &objects {
+        library.get(o).with_context(|| "--objects")?;
+    }
+    let base = match &args.config {
+        Some(p) => load_sim_config(p)?,
+        None => SimConfig::default(),
+    };
+    std::fs::create_dir_all(&args.out)
+        .with_context(|| format!("cannot create {}", args.out.display()))?;
+    let bar = indicatif::ProgressBar::new(args.trials);
+    bar.set_style(
+        indicatif::ProgressStyle::with_template(
+            "{prefix} [{bar:30}] {pos}/{len} trials, {elapsed} (eta {eta})",
+        )
+        .expect("valid template")
+        .progress_chars("=> "),
+    );
+    bar.set_prefix("collect");
+    let (mut ran, mut kept) = (0, 0);
+    for i in 0..args.trials {
+        let trial_id = format!("trial-{i:04}");
+        let path = args.out.join(format!("{trial_id}.mcap"));
+        if path.exists() {
+            kept += 1;
+            bar.inc(1);
+            continue;
+        }
+        let n = objects.len() as u64;
+        let spec = CollectSpec {
+            rig: args.rig,
+            object: objects[(i % n) as usize].clone(),
+            grasp_deg: args.grasps[((i / n) % args.grasps.len() as u64) as usize],
+            seed: collect::trial_seed(args.seed, i),
+            base: base.clone(),
+        };
+        let trial = collect::collect_trial(&spec, &trial_id, unix_now())
+            .with_context(|| format!("trial {trial_id}"))?;
+        tmo::trial::write_trial(&path, &trial)?;
+        ran += 1;
+        bar.inc(1);
+    }
+    bar.finish_and_clear();
+    println!(
+        "collected {ran} trials ({kept} already there) in {}",
+        args.out.display()
     );
     Ok(())
 }

@@ -32,8 +32,9 @@ fn device<E: tmo_hal::Error>(device: &'static str) -> impl Fn(E) -> ScenarioErro
 pub enum Script {
     /// Nothing: hold the starting grasp (drop with an open hand, hold with a closed one).
     Wait,
-    /// Release all fingers at `speed_per_s` (fraction of range per s) from the start grasp.
-    Release { speed_per_s: f64 },
+    /// Hold the start grasp for `hold_s`, then release all fingers at `speed_per_s`
+    /// (fraction of range per s).
+    Release { speed_per_s: f64, hold_s: f64 },
     /// Retract the arm (slip rail) by `distance_mm` at `speed_mm_s`.
     Retract { speed_mm_s: f64, distance_mm: f64 },
     /// Close until the mean pin deformation reaches `deformation_px`, then raise the arm.
@@ -124,8 +125,12 @@ where
         while self.clock.now_s() < duration_s {
             let now = self.clock.now_s();
             match script {
-                Script::Release { speed_per_s } => {
-                    let q = |i: usize| (start[i] - speed_per_s * (now - phase_start)).max(0.0);
+                Script::Release {
+                    speed_per_s,
+                    hold_s,
+                } if now >= phase_start + hold_s => {
+                    let q =
+                        |i: usize| (start[i] - speed_per_s * (now - phase_start - hold_s)).max(0.0);
                     self.hand
                         .set_targets([q(0), q(1), q(2), start[3]])
                         .map_err(device("hand"))?;

@@ -51,6 +51,30 @@ pub fn contact_closure(base: &SimConfig, object: &str) -> Result<f64, SimError> 
     Ok(1.0 - spec.width_mm / (2.0 * base.physics.finger_travel_mm))
 }
 
+/// Finger position (0..1) of a symmetric pinch grasp that holds `object` (plus
+/// `extra_mass_g`) with `safety` times the normal force the most loaded contact needs.
+///
+/// The thumb carries `(1 + b) / 2` of the weight (`b` the grasp's load bias) and holds while
+/// that is at most `mu_s N_thumb`; with equal finger travel `a` the object shifts by `a / 3`,
+/// so `N_thumb = k 4a / 3` (`k` the contact stiffness, finger, skin and object in series).
+pub fn holding_closure(
+    base: &SimConfig,
+    object: &str,
+    extra_mass_g: f64,
+    safety: f64,
+) -> Result<f64, SimError> {
+    let spec = ObjectLibrary::built_in().get(object)?.clone();
+    let p = &base.physics;
+    let weight = (spec.mass_g + extra_mass_g) / 1000.0 * p.gravity_m_s2;
+    let thumb_force = safety * weight * (1.0 + p.thumb_load_bias.abs()) / (2.0 * spec.mu_static);
+    let k = 1.0
+        / (1.0 / p.finger_stiffness_n_per_mm
+            + 1.0 / p.skin_stiffness_n_per_mm
+            + 1.0 / spec.stiffness_n_per_mm);
+    let travel = 3.0 * thumb_force / (4.0 * k);
+    Ok((contact_closure(base, object)? + travel / p.finger_travel_mm).min(1.0))
+}
+
 /// Builds the rig for `preset` on top of `base` (whose physics, sensor, fault and marker
 /// parameters are kept) and the script to run on it.
 pub fn build(
@@ -77,11 +101,18 @@ pub fn build(
     let contact = contact_closure(&cfg, &object)?;
     let (closure, start, script) = match preset {
         Preset::Drop => (0.0, ObjectStart::InHand, Script::Wait),
-        Preset::Hold => (contact + 0.05, ObjectStart::InHand, Script::Wait),
-        Preset::Release => (
-            contact + 0.04,
+        Preset::Hold => (
+            holding_closure(&cfg, &object, 0.0, 2.0)?,
             ObjectStart::InHand,
-            Script::Release { speed_per_s: 0.01 },
+            Script::Wait,
+        ),
+        Preset::Release => (
+            holding_closure(&cfg, &object, 0.0, 1.3)?,
+            ObjectStart::InHand,
+            Script::Release {
+                speed_per_s: 0.01,
+                hold_s: 0.5,
+            },
         ),
         Preset::Lift => (
             (contact - 0.03).max(0.0),
@@ -92,7 +123,11 @@ pub fn build(
                 lift_speed_mm_s: 17.0,
             },
         ),
-        Preset::Pour => (contact + 0.02, ObjectStart::InHand, Script::Wait),
+        Preset::Pour => (
+            holding_closure(&cfg, &object, 0.0, 1.2)?,
+            ObjectStart::InHand,
+            Script::Wait,
+        ),
         Preset::Rail => unreachable!("handled above"),
     };
     let pour = if preset == Preset::Pour {

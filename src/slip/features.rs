@@ -29,7 +29,10 @@ pub struct FeatureSpec {
 
 impl FeatureSpec {
     pub fn new(pins: usize) -> Self {
-        Self { pins, max_pin_step_px: 20.0 }
+        Self {
+            pins,
+            max_pin_step_px: 20.0,
+        }
     }
 
     pub fn len(&self) -> usize {
@@ -44,21 +47,40 @@ impl FeatureSpec {
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum FeatureError {
     #[error("sensor {sensor} frame {seq}: expected {expected} pins, got {got}")]
-    PinCount { sensor: u8, seq: u64, expected: usize, got: usize },
+    PinCount {
+        sensor: u8,
+        seq: u64,
+        expected: usize,
+        got: usize,
+    },
     #[error("sensor {sensor} frame {seq} does not follow frame {previous}")]
     OutOfOrder { sensor: u8, seq: u64, previous: u64 },
 }
 
 /// Features of `current` given the sensor's `previous` frame, written into `out` (cleared
 /// first, `2N` values).
-pub fn frame_features(spec: &FeatureSpec, previous: &PinFrame, current: &PinFrame, out: &mut Vec<f32>) -> Result<(), FeatureError> {
+pub fn frame_features(
+    spec: &FeatureSpec,
+    previous: &PinFrame,
+    current: &PinFrame,
+    out: &mut Vec<f32>,
+) -> Result<(), FeatureError> {
     for f in [previous, current] {
         if f.pins.len() != spec.pins {
-            return Err(FeatureError::PinCount { sensor: f.sensor, seq: f.seq, expected: spec.pins, got: f.pins.len() });
+            return Err(FeatureError::PinCount {
+                sensor: f.sensor,
+                seq: f.seq,
+                expected: spec.pins,
+                got: f.pins.len(),
+            });
         }
     }
     if current.seq <= previous.seq {
-        return Err(FeatureError::OutOfOrder { sensor: current.sensor, seq: current.seq, previous: previous.seq });
+        return Err(FeatureError::OutOfOrder {
+            sensor: current.sensor,
+            seq: current.seq,
+            previous: previous.seq,
+        });
     }
     let gap = (current.seq - previous.seq) as f32;
     out.clear();
@@ -126,7 +148,12 @@ mod tests {
     use std::f32::consts::PI;
 
     fn frame(seq: u64, pins: Vec<[f32; 2]>) -> PinFrame {
-        PinFrame { sensor: 0, seq, time_s: seq as f64 / 60.0, pins }
+        PinFrame {
+            sensor: 0,
+            seq,
+            time_s: seq as f64 / 60.0,
+            pins,
+        }
     }
 
     fn close(a: f32, b: f32) -> bool {
@@ -159,7 +186,10 @@ mod tests {
         let mut f = Vec::new();
         frame_features(&FeatureSpec::new(2), &a, &b, &mut f).unwrap();
         let expected = 0.1f32.atan2(1.0);
-        assert!(close(f[2].abs(), expected) && close(f[3].abs(), expected), "{f:?}");
+        assert!(
+            close(f[2].abs(), expected) && close(f[3].abs(), expected),
+            "{f:?}"
+        );
         assert!(f[2] * f[3] < 0.0);
         assert!(close(wrap_angle(3.0 * PI / 2.0), -PI / 2.0));
         assert!(close(wrap_angle(-PI), PI));
@@ -180,8 +210,20 @@ mod tests {
         };
         let spec = FeatureSpec::new(5);
         let (mut f1, mut f2) = (Vec::new(), Vec::new());
-        frame_features(&spec, &frame(1, rest.clone()), &frame(2, moved(0.3)), &mut f1).unwrap();
-        frame_features(&spec, &frame(1, rest.clone()), &frame(2, moved(2.9)), &mut f2).unwrap();
+        frame_features(
+            &spec,
+            &frame(1, rest.clone()),
+            &frame(2, moved(0.3)),
+            &mut f1,
+        )
+        .unwrap();
+        frame_features(
+            &spec,
+            &frame(1, rest.clone()),
+            &frame(2, moved(2.9)),
+            &mut f2,
+        )
+        .unwrap();
         for (a, b) in f1.iter().zip(&f2) {
             assert!((a - b).abs() < 1e-4, "{f1:?} vs {f2:?}");
         }
@@ -211,9 +253,21 @@ mod tests {
     fn wrong_pin_count_and_order_are_errors() {
         let mut f = Vec::new();
         let spec = FeatureSpec::new(2);
-        let e = frame_features(&spec, &frame(1, vec![[0.0; 2]; 2]), &frame(2, vec![[0.0; 2]; 3]), &mut f).unwrap_err();
+        let e = frame_features(
+            &spec,
+            &frame(1, vec![[0.0; 2]; 2]),
+            &frame(2, vec![[0.0; 2]; 3]),
+            &mut f,
+        )
+        .unwrap_err();
         assert!(matches!(e, FeatureError::PinCount { got: 3, .. }));
-        let e = frame_features(&spec, &frame(2, vec![[0.0; 2]; 2]), &frame(2, vec![[0.0; 2]; 2]), &mut f).unwrap_err();
+        let e = frame_features(
+            &spec,
+            &frame(2, vec![[0.0; 2]; 2]),
+            &frame(2, vec![[0.0; 2]; 2]),
+            &mut f,
+        )
+        .unwrap_err();
         assert!(matches!(e, FeatureError::OutOfOrder { .. }));
     }
 

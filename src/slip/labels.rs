@@ -25,13 +25,24 @@ pub struct OnsetSpec {
 
 impl Default for OnsetSpec {
     fn default() -> Self {
-        Self { drop_threshold_mm: 1.0, hold_window_s: 0.5, confirm_samples: 5, relative_to_hand: true }
+        Self {
+            drop_threshold_mm: 1.0,
+            hold_window_s: 0.5,
+            confirm_samples: 5,
+            relative_to_hand: true,
+        }
     }
 }
 
 /// Time of the marker sample where slip starts, if the object fell.
 pub fn slip_onset(track: &[MarkerSample], spec: &OnsetSpec) -> Option<f64> {
-    let height = |m: &MarkerSample| if spec.relative_to_hand { m.object_mm - m.hand_mm } else { m.object_mm };
+    let height = |m: &MarkerSample| {
+        if spec.relative_to_hand {
+            m.object_mm - m.hand_mm
+        } else {
+            m.object_mm
+        }
+    };
     let h: Vec<f64> = track.iter().map(height).collect();
     let mut window: Vec<f64> = Vec::new();
     let mut start = 0;
@@ -61,7 +72,11 @@ pub fn slip_onset(track: &[MarkerSample], spec: &OnsetSpec) -> Option<f64> {
 
 /// Labels for frames arriving at `frame_times_s` (one sensor, in order): `Some(class)` for
 /// frames used, `None` for frames after the `n_slip` slip frames.
-pub fn label_frames(frame_times_s: &[f64], onset_s: Option<f64>, n_slip: usize) -> Vec<Option<Class>> {
+pub fn label_frames(
+    frame_times_s: &[f64],
+    onset_s: Option<f64>,
+    n_slip: usize,
+) -> Vec<Option<Class>> {
     let mut slip_seen = 0;
     frame_times_s
         .iter()
@@ -85,8 +100,18 @@ mod tests {
             .map(|i| {
                 let t = i as f64 / 60.0;
                 let noise = 0.25 * ((i * 7919) % 13) as f64 / 13.0 - 0.125;
-                let fall = fall_s.map_or(0.0, |f| if t > f { 0.5 * 9810.0 * (t - f).powi(2) } else { 0.0 });
-                MarkerSample { time_s: t, object_mm: 300.0 - fall + noise, hand_mm: 360.0 }
+                let fall = fall_s.map_or(0.0, |f| {
+                    if t > f {
+                        0.5 * 9810.0 * (t - f).powi(2)
+                    } else {
+                        0.0
+                    }
+                });
+                MarkerSample {
+                    time_s: t,
+                    object_mm: 300.0 - fall + noise,
+                    hand_mm: 360.0,
+                }
             })
             .collect()
     }
@@ -116,11 +141,18 @@ mod tests {
         let t: Vec<MarkerSample> = (0..120)
             .map(|i| {
                 let z = 17.0 * i as f64 / 60.0;
-                MarkerSample { time_s: i as f64 / 60.0, object_mm: 300.0 + z, hand_mm: 360.0 + z }
+                MarkerSample {
+                    time_s: i as f64 / 60.0,
+                    object_mm: 300.0 + z,
+                    hand_mm: 360.0 + z,
+                }
             })
             .collect();
         assert_eq!(slip_onset(&t, &OnsetSpec::default()), None);
-        let absolute = OnsetSpec { relative_to_hand: false, ..Default::default() };
+        let absolute = OnsetSpec {
+            relative_to_hand: false,
+            ..Default::default()
+        };
         assert_eq!(slip_onset(&t, &absolute), None);
     }
 
@@ -129,7 +161,19 @@ mod tests {
         let times = [0.1, 0.2, 0.3, 0.4, 0.5, 0.6];
         let labels = label_frames(&times, Some(0.25), 2);
         use Class::*;
-        assert_eq!(labels, vec![Some(Static), Some(Static), Some(Slip), Some(Slip), None, None]);
-        assert!(label_frames(&times, None, 2).iter().all(|l| *l == Some(Static)));
+        assert_eq!(
+            labels,
+            vec![
+                Some(Static),
+                Some(Static),
+                Some(Slip),
+                Some(Slip),
+                None,
+                None
+            ]
+        );
+        assert!(label_frames(&times, None, 2)
+            .iter()
+            .all(|l| *l == Some(Static)));
     }
 }

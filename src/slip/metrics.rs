@@ -43,8 +43,17 @@ fn ratio(num: u64, den: u64) -> f64 {
 fn class_scores(tp: u64, fp: u64, fn_: u64) -> ClassScores {
     let precision = ratio(tp, tp + fp);
     let recall = ratio(tp, tp + fn_);
-    let f1 = if precision + recall == 0.0 { 0.0 } else { 2.0 * precision * recall / (precision + recall) };
-    ClassScores { precision, recall, f1, support: tp + fn_ }
+    let f1 = if precision + recall == 0.0 {
+        0.0
+    } else {
+        2.0 * precision * recall / (precision + recall)
+    };
+    ClassScores {
+        precision,
+        recall,
+        f1,
+        support: tp + fn_,
+    }
 }
 
 impl Confusion {
@@ -69,7 +78,12 @@ impl Confusion {
     pub fn scores(&self) -> Scores {
         let slip = class_scores(self.true_slip, self.false_slip, self.false_static);
         let static_ = class_scores(self.true_static, self.false_static, self.false_slip);
-        Scores { confusion: *self, slip, static_, macro_f1: 0.5 * (slip.f1 + static_.f1) }
+        Scores {
+            confusion: *self,
+            slip,
+            static_,
+            macro_f1: 0.5 * (slip.f1 + static_.f1),
+        }
     }
 }
 
@@ -90,7 +104,15 @@ mod tests {
         let truth = [P, P, P, N, N, N, N, N];
         let pred = [P, P, N, P, N, N, N, N];
         let s = Confusion::from_pairs(&truth, &pred).scores();
-        assert_eq!(s.confusion, Confusion { true_slip: 2, false_slip: 1, true_static: 4, false_static: 1 });
+        assert_eq!(
+            s.confusion,
+            Confusion {
+                true_slip: 2,
+                false_slip: 1,
+                true_static: 4,
+                false_static: 1
+            }
+        );
         assert!((s.slip.precision - 2.0 / 3.0).abs() < 1e-12);
         assert!((s.slip.recall - 2.0 / 3.0).abs() < 1e-12);
         assert!((s.static_.f1 - 0.8).abs() < 1e-12);

@@ -14,8 +14,13 @@ pub struct ThresholdModel {
 
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum ThresholdError {
-    #[error("training data needs frames of both classes (static {static_frames}, slip {slip_frames})")]
-    OneClass { static_frames: usize, slip_frames: usize },
+    #[error(
+        "training data needs frames of both classes (static {static_frames}, slip {slip_frames})"
+    )]
+    OneClass {
+        static_frames: usize,
+        slip_frames: usize,
+    },
 }
 
 impl ThresholdModel {
@@ -23,18 +28,30 @@ impl ThresholdModel {
     pub fn fit(rows: &[&[f32]], labels: &[Class]) -> Result<Self, ThresholdError> {
         let v: Vec<f32> = rows.iter().map(|r| mean_velocity_norm(r)).collect();
         let mean_of = |class: Class| {
-            let (sum, n) = v.iter().zip(labels).filter(|(_, l)| **l == class).fold((0.0f64, 0usize), |(s, n), (x, _)| (s + f64::from(*x), n + 1));
+            let (sum, n) = v
+                .iter()
+                .zip(labels)
+                .filter(|(_, l)| **l == class)
+                .fold((0.0f64, 0usize), |(s, n), (x, _)| {
+                    (s + f64::from(*x), n + 1)
+                });
             (sum / n.max(1) as f64, n)
         };
         let (static_mean, static_frames) = mean_of(Class::Static);
         let (slip_mean, slip_frames) = mean_of(Class::Slip);
         if static_frames == 0 || slip_frames == 0 {
-            return Err(ThresholdError::OneClass { static_frames, slip_frames });
+            return Err(ThresholdError::OneClass {
+                static_frames,
+                slip_frames,
+            });
         }
         let mut best = (f64::NEG_INFINITY, 0.0f32);
         for k in 0..10 {
             let t = (static_mean + (slip_mean - static_mean) * k as f64 / 9.0) as f32;
-            let predicted: Vec<Class> = v.iter().map(|&x| if x >= t { Class::Slip } else { Class::Static }).collect();
+            let predicted: Vec<Class> = v
+                .iter()
+                .map(|&x| if x >= t { Class::Slip } else { Class::Static })
+                .collect();
             let f1 = macro_f1(labels, &predicted);
             if f1 > best.0 {
                 best = (f1, t);
@@ -64,7 +81,14 @@ mod tests {
     #[test]
     fn picks_a_threshold_between_the_class_means_that_separates_them() {
         let speeds = [0.1, 0.2, 0.1, 0.15, 1.0, 1.2];
-        let labels = [Class::Static, Class::Static, Class::Static, Class::Static, Class::Slip, Class::Slip];
+        let labels = [
+            Class::Static,
+            Class::Static,
+            Class::Static,
+            Class::Static,
+            Class::Slip,
+            Class::Slip,
+        ];
         let rows: Vec<Vec<f32>> = speeds.iter().map(|&s| row(s)).collect();
         let refs: Vec<&[f32]> = rows.iter().map(|r| r.as_slice()).collect();
         let m = ThresholdModel::fit(&refs, &labels).unwrap();

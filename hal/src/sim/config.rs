@@ -130,6 +130,8 @@ pub struct PhysicsParams {
     pub stick_slip_amplitude: f64,
     /// Correlation time of that fluctuation, s.
     pub stick_slip_time_s: f64,
+    /// Amplitude of the skin's stick-slip shear oscillation while sliding fast, px.
+    pub stick_slip_shear_px: f64,
     /// Fall below the held height that counts as a drop, mm.
     pub drop_limit_mm: f64,
     /// Height of the floor a dropped object lands on, mm.
@@ -148,6 +150,7 @@ impl Default for PhysicsParams {
             thumb_load_bias: 0.3,
             stick_slip_amplitude: 0.15,
             stick_slip_time_s: 0.01,
+            stick_slip_shear_px: 1.0,
             drop_limit_mm: 80.0,
             floor_mm: 0.0,
         }

@@ -509,23 +509,32 @@ impl World {
     fn update_skins(&mut self, dt: f64, sliding_down_mm_s: f64) {
         let t = &self.cfg.tactip;
         let amp = self.cfg.physics.stick_slip_amplitude;
+        let stick_slip_px = self.cfg.physics.stick_slip_shear_px;
         for (i, s) in self.sensors.iter_mut().enumerate() {
-            let touching = self.normal_n[i] > 0.0;
-            let target = if touching {
-                let speed = if self.stuck {
-                    0.0
-                } else {
-                    sliding_down_mm_s * (1.0 + amp * self.jitter[i])
-                };
+            let target = if self.normal_n[i] <= 0.0 {
+                0.0
+            } else if self.stuck {
+                shear_target_px(
+                    self.tangential_n[i],
+                    0.0,
+                    s.shear_gain,
+                    s.drag_px,
+                    t.slip_drag_speed_mm_s,
+                )
+            } else {
+                let speed = sliding_down_mm_s * (1.0 + amp * self.jitter[i]);
+                // Stick-slip: the contact region catches and lets go while sliding, an
+                // oscillation of the shear along the slip direction that grows with speed.
+                let catch_release = stick_slip_px
+                    * self.jitter[i]
+                    * (speed.abs() / t.slip_drag_speed_mm_s).min(1.0);
                 shear_target_px(
                     self.tangential_n[i],
                     speed,
                     s.shear_gain,
                     s.drag_px,
                     t.slip_drag_speed_mm_s,
-                )
-            } else {
-                0.0
+                ) + catch_release
             };
             s.shear_px = relax_towards(s.shear_px, target, dt, t.skin_time_s);
         }

@@ -1,0 +1,156 @@
+//! Collect-mode trials on the simulator: the training data of the paper's experiments, with
+//! no reaction to slip. Hand release: a pinch grasp a little past contact is released at
+//! 0.5 % of maximum finger speed until the object falls. Slip rail: the arm retracts at a
+//! random speed in 0.1..5 mm/s. (The protocol runner will record the same trials from
+//! protocol files; this is the direct path until then.)
+
+use std::collections::BTreeMap;
+
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use tmo_hal::sim::{SimConfig, SimRig};
+
+use crate::scenario::{Devices, ScenarioError, Script};
+use crate::sim_presets::{self, Preset, PresetOptions};
+use crate::trial::{Trial, TrialMeta, TRIAL_FORMAT_VERSION};
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum CollectRig {
+    Hand,
+    Rail,
+}
+
+/// One collect-mode trial to run.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CollectSpec {
+    pub rig: CollectRig,
+    pub object: String,
+    pub grasp_deg: f64,
+    pub seed: u64,
+    pub base: SimConfig,
+}
+
+#[derive(Debug, thiserror::Error)]
+pub enum CollectError {
+    #[error(transparent)]
+    Sim(#[from] tmo_hal::sim::SimError),
+    #[error(transparent)]
+    Scenario(#[from] ScenarioError),
+}
+
+/// Seed of trial `index` of a batch seeded with `batch_seed` (documented so a single trial
+/// can be re-run alone).
+pub fn trial_seed(batch_seed: u64, index: u64) -> u64 {
+    batch_seed.wrapping_mul(1_000_003).wrapping_add(index)
+}
+
+/// Runs one trial on the simulator.
+pub fn collect_trial(
+    spec: &CollectSpec,
+    trial_id: &str,
+    started_unix_s: u64,
+) -> Result<Trial, CollectError> {
+    let mut rng = ChaCha8Rng::seed_from_u64(spec.seed);
+    rng.set_stream(99);
+    let mut base = spec.base.clone();
+    base.seed = spec.seed;
+    let mut parameters = BTreeMap::new();
+    let (config, script, duration) = match spec.rig {
+        CollectRig::Hand => {
+            let options = PresetOptions {
+                object: Some(spec.object.clone()),
+                grasp_deg: spec.grasp_deg,
+                ..Default::default()
+            };
+            let (mut config, _) = sim_presets::build(Preset::Release, &options, base.clone())?;
+            // "Closed until stable": a grasp that holds with a safety factor that varies
+            // from trial to trial, as a human-set grasp would.
+            let safety: f64 = rng.gen_range(1.2..1.8);
+            let closure = sim_presets::holding_closure(&base, &spec.object, 0.0, safety)?;
+            if let tmo_hal::sim::RigSetup::Hand(h) = &mut config.rig {
+                h.initial_closure = closure;
+            }
+            let margin = closure - sim_presets::contact_closure(&base, &spec.object)?;
+            parameters.insert("grip_safety".into(), format!("{safety:.4}"));
+            let speed = 0.01;
+            let hold_s: f64 = rng.gen_range(0.5..2.0);
+            parameters.insert("hold_s".into(), format!("{hold_s:.3}"));
+            parameters.insert("start_margin".into(), format!("{margin:.4}"));
+            parameters.insert("release_speed_per_s".into(), speed.to_string());
+            (
+                config,
+                Script::Release {
+                    speed_per_s: speed,
+                    hold_s,
+                },
+                hold_s + margin / speed + 1.5,
+            )
+        }
+        CollectRig::Rail => {
+            let speed: f64 = rng.gen_range(0.1..5.0);
+            let options = PresetOptions {
+                object: Some(spec.object.clone()),
+                retract_speed_mm_s: speed,
+                ..Default::default()
+            };
+            let (config, script) = sim_presets::build(Preset::Rail, &options, base)?;
+            parameters.insert("retract_speed_mm_s".into(), format!("{speed:.4}"));
+            // Slip comes after about 1.2 mm of retraction; stop 1.5 s later.
+            (config, script, 3.0 / speed + 1.5)
+        }
+    };
+    let rig = SimRig::new(config.clone())?;
+    let mut devices = Devices {
+        clock: rig.clock(),
+        hand: rig.hand(),
+        arm: rig.arm(),
+        markers: rig.marker_tracker(),
+        sensors: rig.tactile_sensors(),
+    };
+    let recording = devices.run(script, duration, |_| {})?;
+    // Ground truth goes along for diagnostics (how late the marker onset is); labels never
+    // use it.
+    let events = rig.probe().events();
+    let times = |v: &[f64]| {
+        v.iter()
+            .map(|t| format!("{t:.4}"))
+            .collect::<Vec<_>>()
+            .join(",")
+    };
+    parameters.insert(
+        "sim_truth_slip_onsets_s".into(),
+        times(&events.slip_onsets_s),
+    );
+    parameters.insert(
+        "sim_truth_drop_s".into(),
+        events.drop_s.map_or(String::new(), |t| format!("{t:.4}")),
+    );
+    let (tmo_version, git_revision) = TrialMeta::code_version();
+    parameters.insert("duration_s".into(), format!("{duration:.3}"));
+    let meta = TrialMeta {
+        format_version: TRIAL_FORMAT_VERSION,
+        trial_id: trial_id.to_string(),
+        kind: match spec.rig {
+            CollectRig::Hand => "hand_release_collect".into(),
+            CollectRig::Rail => "rail_catch_collect".into(),
+        },
+        backend: "sim".into(),
+        seed: spec.seed,
+        object: spec.object.clone(),
+        grasp_deg: spec.grasp_deg,
+        sensors: rig.tactile_sensors().len() as u8,
+        pins: config.tactip.pins,
+        tmo_version,
+        git_revision,
+        protocol: None,
+        protocol_sha256: None,
+        model_sha256: None,
+        started_unix_s,
+        parameters,
+    };
+    Ok(Trial {
+        meta,
+        frames: recording.frames,
+        markers: recording.markers,
+    })
+}

@@ -1,0 +1,220 @@
+//! Labelled feature rows from recorded trials, and the splits the method needs: by trial
+//! (never by frame), seeded down-sampling of the static class (never the slip class, never
+//! a test set), and the `local` / `global` scopes.
+
+use rand::seq::SliceRandom;
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+
+use super::features::{frame_features, FeatureSpec};
+use super::labels::{label_frames, slip_onset, OnsetSpec};
+use super::Class;
+use crate::trial::Trial;
+
+/// How frames are labelled.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct LabelSpec {
+    pub n_slip: usize,
+    pub onset: OnsetSpec,
+}
+
+/// Feature rows with their labels and where each came from.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Dataset {
+    pub dim: usize,
+    /// Row-major, `dim` values per row.
+    pub x: Vec<f32>,
+    pub y: Vec<Class>,
+    /// Index into `trial_ids`.
+    pub trial: Vec<u32>,
+    pub sensor: Vec<u8>,
+    pub seq: Vec<u64>,
+    pub time_s: Vec<f64>,
+    pub trial_ids: Vec<String>,
+    /// Frames that gave no features (first frame of a sensor, wrong pin count, ...).
+    pub skipped_frames: usize,
+    /// Trials in which no slip onset was found in the marker track.
+    pub trials_without_onset: Vec<String>,
+}
+
+#[derive(
+    Debug, Clone, Copy, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize, clap::ValueEnum,
+)]
+#[serde(rename_all = "snake_case")]
+pub enum Scope {
+    /// One classifier per sensor, trained on that sensor's frames.
+    Local,
+    /// One classifier trained on every sensor's frames.
+    Global,
+}
+
+impl Dataset {
+    pub fn len(&self) -> usize {
+        self.y.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.y.is_empty()
+    }
+
+    pub fn row(&self, i: usize) -> &[f32] {
+        &self.x[i * self.dim..(i + 1) * self.dim]
+    }
+
+    pub fn count(&self, class: Class) -> usize {
+        self.y.iter().filter(|c| **c == class).count()
+    }
+
+    /// Labelled rows of `trials` (frames after the `n_slip` slip frames are left out).
+    pub fn from_trials(trials: &[Trial], features: &FeatureSpec, labels: &LabelSpec) -> Self {
+        let mut ds = Dataset {
+            dim: features.len(),
+            ..Default::default()
+        };
+        let mut row = Vec::with_capacity(features.len());
+        for (ti, trial) in trials.iter().enumerate() {
+            ds.trial_ids.push(trial.meta.trial_id.clone());
+            let onset = slip_onset(&trial.markers, &labels.onset);
+            if onset.is_none() {
+                ds.trials_without_onset.push(trial.meta.trial_id.clone());
+            }
+            for sensor in 0..trial.meta.sensors {
+                let frames: Vec<_> = trial.frames.iter().filter(|f| f.sensor == sensor).collect();
+                let times: Vec<f64> = frames.iter().map(|f| f.time_s).collect();
+                let classes = label_frames(&times, onset, labels.n_slip);
+                ds.skipped_frames += usize::from(!frames.is_empty());
+                for k in 1..frames.len() {
+                    let Some(class) = classes[k] else { continue };
+                    if frame_features(features, frames[k - 1], frames[k], &mut row).is_err() {
+                        ds.skipped_frames += 1;
+                        continue;
+                    }
+                    ds.x.extend_from_slice(&row);
+                    ds.y.push(class);
+                    ds.trial.push(ti as u32);
+                    ds.sensor.push(sensor);
+                    ds.seq.push(frames[k].seq);
+                    ds.time_s.push(frames[k].time_s);
+                }
+            }
+        }
+        ds
+    }
+
+    /// The rows whose index `keep` returns true for.
+    pub fn filter(&self, mut keep: impl FnMut(usize) -> bool) -> Dataset {
+        let mut out = Dataset {
+            dim: self.dim,
+            trial_ids: self.trial_ids.clone(),
+            ..Default::default()
+        };
+        for i in 0..self.len() {
+            if keep(i) {
+                out.x.extend_from_slice(self.row(i));
+                out.y.push(self.y[i]);
+                out.trial.push(self.trial[i]);
+                out.sensor.push(self.sensor[i]);
+                out.seq.push(self.seq[i]);
+                out.time_s.push(self.time_s[i]);
+            }
+        }
+        out
+    }
+
+    pub fn sensor_only(&self, sensor: u8) -> Dataset {
+        self.filter(|i| self.sensor[i] == sensor)
+    }
+
+    /// Sensors present, in order.
+    pub fn sensors(&self) -> Vec<u8> {
+        let mut s: Vec<u8> = self.sensor.clone();
+        s.sort_unstable();
+        s.dedup();
+        s
+    }
+
+    /// Keeps every slip row and a random `round(d * N0)` of the `N0` static rows.
+    pub fn downsample_static(&self, d: f64, seed: u64) -> Dataset {
+        let statics: Vec<usize> = (0..self.len())
+            .filter(|&i| self.y[i] == Class::Static)
+            .collect();
+        let keep_n =
+            ((d.clamp(0.0, 1.0) * statics.len() as f64).round() as usize).min(statics.len());
+        let mut rng = ChaCha8Rng::seed_from_u64(seed);
+        let mut chosen = vec![false; self.len()];
+        for &i in statics.choose_multiple(&mut rng, keep_n) {
+            chosen[i] = true;
+        }
+        self.filter(|i| self.y[i] == Class::Slip || chosen[i])
+    }
+}
+
+/// Splits trial indices `0..n` into (train, test) by a seeded shuffle; `test_fraction` of
+/// the trials (rounded, at least one of each when n >= 2) go to test.
+pub fn split_trials(n: usize, test_fraction: f64, seed: u64) -> (Vec<u32>, Vec<u32>) {
+    let mut idx: Vec<u32> = (0..n as u32).collect();
+    idx.shuffle(&mut ChaCha8Rng::seed_from_u64(seed));
+    let mut n_test = (test_fraction * n as f64).round() as usize;
+    if n >= 2 {
+        n_test = n_test.clamp(1, n - 1);
+    }
+    let test = idx[..n_test].to_vec();
+    let mut train = idx[n_test..].to_vec();
+    train.sort_unstable();
+    let mut test = test;
+    test.sort_unstable();
+    (train, test)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn toy() -> Dataset {
+        let mut ds = Dataset {
+            dim: 1,
+            ..Default::default()
+        };
+        for i in 0..100 {
+            ds.x.push(i as f32);
+            ds.y.push(if i % 10 == 0 {
+                Class::Slip
+            } else {
+                Class::Static
+            });
+            ds.trial.push((i / 25) as u32);
+            ds.sensor.push((i % 3) as u8);
+            ds.seq.push(i as u64);
+            ds.time_s.push(i as f64);
+        }
+        ds
+    }
+
+    #[test]
+    fn downsampling_keeps_every_slip_row_and_a_fraction_of_static() {
+        let ds = toy();
+        let d = ds.downsample_static(0.4, 1);
+        assert_eq!(d.count(Class::Slip), 10);
+        assert_eq!(d.count(Class::Static), 36); // 0.4 * 90
+        assert_eq!(ds.downsample_static(0.4, 1), d, "seeded");
+        assert_ne!(ds.downsample_static(0.4, 2).x, d.x);
+        assert_eq!(ds.downsample_static(1.0, 5).len(), 100);
+    }
+
+    #[test]
+    fn trials_split_whole_and_disjoint() {
+        let (train, test) = split_trials(10, 0.5, 3);
+        assert_eq!((train.len(), test.len()), (5, 5));
+        assert!(train.iter().all(|t| !test.contains(t)));
+        assert_eq!(split_trials(10, 0.5, 3), (train, test));
+        assert_eq!(split_trials(2, 0.0, 1).1.len(), 1);
+    }
+
+    #[test]
+    fn local_scope_keeps_one_sensor() {
+        let ds = toy();
+        let s1 = ds.sensor_only(1);
+        assert!(s1.sensor.iter().all(|s| *s == 1));
+        assert_eq!(ds.sensors(), vec![0, 1, 2]);
+    }
+}

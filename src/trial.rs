@@ -1,0 +1,356 @@
+//! Trial logs: one MCAP file per trial (the robotics log format), JSON messages on one
+//! channel per sensor (`/tactile/<id>`) and one for the marker tracker (`/marker`), and a
+//! metadata record `tmo.trial` with the trial's provenance.
+//!
+//! A log is written to a temporary name and renamed into place when complete, so a crash
+//! never leaves a half-written trial under a trial's name.
+
+use std::collections::BTreeMap;
+use std::fs;
+use std::io::BufWriter;
+use std::path::{Path, PathBuf};
+
+use serde::{Deserialize, Serialize};
+use tmo_hal::{MarkerSample, PinFrame};
+
+/// Version of the log layout; readers refuse newer ones.
+pub const TRIAL_FORMAT_VERSION: u32 = 1;
+
+const PIN_FRAME_SCHEMA: &str = r#"{"title":"tmo.PinFrame","type":"object","properties":{"sensor":{"type":"integer"},"seq":{"type":"integer"},"time_s":{"type":"number"},"pins":{"type":"array","items":{"type":"array","items":{"type":"number"},"minItems":2,"maxItems":2}}},"required":["sensor","seq","time_s","pins"]}"#;
+const MARKER_SCHEMA: &str = r#"{"title":"tmo.MarkerSample","type":"object","properties":{"time_s":{"type":"number"},"object_mm":{"type":"number"},"hand_mm":{"type":"number"}},"required":["time_s","object_mm","hand_mm"]}"#;
+
+/// Where a trial came from: enough to reproduce it.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct TrialMeta {
+    pub format_version: u32,
+    pub trial_id: String,
+    /// What was run, e.g. `hand_release_collect`.
+    pub kind: String,
+    pub backend: String,
+    pub seed: u64,
+    pub object: String,
+    pub grasp_deg: f64,
+    pub sensors: u8,
+    pub pins: usize,
+    pub tmo_version: String,
+    pub git_revision: String,
+    /// The protocol file and its SHA-256, when a protocol ran it.
+    pub protocol: Option<String>,
+    pub protocol_sha256: Option<String>,
+    /// SHA-256 of the model that ran online, if any.
+    pub model_sha256: Option<String>,
+    /// Wall-clock start, seconds since the Unix epoch.
+    pub started_unix_s: u64,
+    /// Free-form parameters of the run (e.g. the release speed), as text.
+    pub parameters: BTreeMap<String, String>,
+}
+
+impl TrialMeta {
+    pub fn code_version() -> (String, String) {
+        (
+            env!("CARGO_PKG_VERSION").to_string(),
+            env!("TMO_GIT_REVISION").to_string(),
+        )
+    }
+}
+
+/// A recorded trial.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Trial {
+    pub meta: TrialMeta,
+    pub frames: Vec<PinFrame>,
+    pub markers: Vec<MarkerSample>,
+}
+
+#[derive(Debug, thiserror::Error)]
+pub enum TrialError {
+    #[error("{path}: {source}")]
+    Io {
+        path: PathBuf,
+        source: std::io::Error,
+    },
+    #[error("{path}: not a readable MCAP trial log: {message}")]
+    Mcap { path: PathBuf, message: String },
+    #[error("{path}: no `tmo.trial` metadata record; not a tmo trial log")]
+    NoMetadata { path: PathBuf },
+    #[error("{path}: message {index} on {topic}: {message}")]
+    BadMessage {
+        path: PathBuf,
+        topic: String,
+        index: usize,
+        message: String,
+    },
+    #[error("{path}: trial format version {found} is newer than this tmo understands ({supported}); upgrade tmo")]
+    NewerFormat {
+        path: PathBuf,
+        found: u32,
+        supported: u32,
+    },
+}
+
+fn mcap_err(path: &Path) -> impl Fn(mcap::McapError) -> TrialError + '_ {
+    move |e| TrialError::Mcap {
+        path: path.into(),
+        message: e.to_string(),
+    }
+}
+
+fn nanos(t: f64) -> u64 {
+    (t.max(0.0) * 1e9).round() as u64
+}
+
+/// Writes `trial` to `path` atomically (temporary file, then rename).
+pub fn write_trial(path: &Path, trial: &Trial) -> Result<(), TrialError> {
+    let io = |source| TrialError::Io {
+        path: path.into(),
+        source,
+    };
+    if let Some(dir) = path.parent() {
+        fs::create_dir_all(dir).map_err(io)?;
+    }
+    let tmp = path.with_extension("mcap.partial");
+    {
+        let file = fs::File::create(&tmp).map_err(io)?;
+        let mut w = mcap::Writer::new(BufWriter::new(file)).map_err(mcap_err(path))?;
+        let frame_schema = w
+            .add_schema("tmo.PinFrame", "jsonschema", PIN_FRAME_SCHEMA.as_bytes())
+            .map_err(mcap_err(path))?;
+        let marker_schema = w
+            .add_schema("tmo.MarkerSample", "jsonschema", MARKER_SCHEMA.as_bytes())
+            .map_err(mcap_err(path))?;
+        let none = BTreeMap::new();
+        let marker_channel = w
+            .add_channel(marker_schema, "/marker", "json", &none)
+            .map_err(mcap_err(path))?;
+        let mut sensor_channels = BTreeMap::new();
+        for s in 0..trial.meta.sensors {
+            let id = w
+                .add_channel(frame_schema, &format!("/tactile/{s}"), "json", &none)
+                .map_err(mcap_err(path))?;
+            sensor_channels.insert(s, id);
+        }
+        let mut sequence = 0u32;
+        for f in &trial.frames {
+            let channel_id = *sensor_channels
+                .get(&f.sensor)
+                .ok_or_else(|| TrialError::Mcap {
+                    path: path.into(),
+                    message: format!(
+                        "frame from sensor {} but the trial has {} sensors",
+                        f.sensor, trial.meta.sensors
+                    ),
+                })?;
+            let data = serde_json::to_vec(f).expect("frames serialise");
+            let header = mcap::records::MessageHeader {
+                channel_id,
+                sequence,
+                log_time: nanos(f.time_s),
+                publish_time: nanos(f.time_s),
+            };
+            w.write_to_known_channel(&header, &data)
+                .map_err(mcap_err(path))?;
+            sequence += 1;
+        }
+        for m in &trial.markers {
+            let data = serde_json::to_vec(m).expect("samples serialise");
+            let header = mcap::records::MessageHeader {
+                channel_id: marker_channel,
+                sequence,
+                log_time: nanos(m.time_s),
+                publish_time: nanos(m.time_s),
+            };
+            w.write_to_known_channel(&header, &data)
+                .map_err(mcap_err(path))?;
+            sequence += 1;
+        }
+        let meta = serde_json::to_string(&trial.meta).expect("metadata serialises");
+        w.write_metadata(&mcap::records::Metadata {
+            name: "tmo.trial".into(),
+            metadata: BTreeMap::from([("json".to_string(), meta)]),
+        })
+        .map_err(mcap_err(path))?;
+        w.finish().map_err(mcap_err(path))?;
+        let file = w
+            .into_inner()
+            .into_inner()
+            .map_err(|e| io(e.into_error()))?;
+        file.sync_all().map_err(io)?;
+    }
+    fs::rename(&tmp, path).map_err(io)
+}
+
+/// Reads a trial log; frames and samples come back in arrival order.
+pub fn read_trial(path: &Path) -> Result<Trial, TrialError> {
+    let buf = fs::read(path).map_err(|source| TrialError::Io {
+        path: path.into(),
+        source,
+    })?;
+    let summary = mcap::read::Summary::read(&buf)
+        .map_err(mcap_err(path))?
+        .ok_or_else(|| TrialError::Mcap {
+            path: path.into(),
+            message: "no summary section (the file is truncated or was not closed)".into(),
+        })?;
+    let mut meta: Option<TrialMeta> = None;
+    for index in &summary.metadata_indexes {
+        if index.name != "tmo.trial" {
+            continue;
+        }
+        let record = mcap::read::metadata(&buf, index).map_err(mcap_err(path))?;
+        let json = record
+            .metadata
+            .get("json")
+            .ok_or_else(|| TrialError::NoMetadata { path: path.into() })?;
+        meta = Some(
+            serde_json::from_str(json).map_err(|e| TrialError::BadMessage {
+                path: path.into(),
+                topic: "tmo.trial metadata".into(),
+                index: 0,
+                message: e.to_string(),
+            })?,
+        );
+    }
+    let meta = meta.ok_or_else(|| TrialError::NoMetadata { path: path.into() })?;
+    if meta.format_version > TRIAL_FORMAT_VERSION {
+        return Err(TrialError::NewerFormat {
+            path: path.into(),
+            found: meta.format_version,
+            supported: TRIAL_FORMAT_VERSION,
+        });
+    }
+    let mut frames = Vec::new();
+    let mut markers = Vec::new();
+    for (index, message) in mcap::MessageStream::new(&buf)
+        .map_err(mcap_err(path))?
+        .enumerate()
+    {
+        let message = message.map_err(mcap_err(path))?;
+        let topic = message.channel.topic.as_str();
+        let bad = |e: serde_json::Error| TrialError::BadMessage {
+            path: path.into(),
+            topic: topic.to_string(),
+            index,
+            message: e.to_string(),
+        };
+        if topic == "/marker" {
+            markers.push(serde_json::from_slice::<MarkerSample>(&message.data).map_err(bad)?);
+        } else if topic.starts_with("/tactile/") {
+            frames.push(serde_json::from_slice::<PinFrame>(&message.data).map_err(bad)?);
+        }
+    }
+    frames.sort_by(|a, b| a.time_s.total_cmp(&b.time_s).then(a.sensor.cmp(&b.sensor)));
+    markers.sort_by(|a, b| a.time_s.total_cmp(&b.time_s));
+    Ok(Trial {
+        meta,
+        frames,
+        markers,
+    })
+}
+
+/// The `.mcap` files among `paths`, with directories expanded (sorted by name).
+pub fn expand_trial_paths(paths: &[PathBuf]) -> Result<Vec<PathBuf>, TrialError> {
+    let mut out = Vec::new();
+    for p in paths {
+        if p.is_dir() {
+            let mut found: Vec<PathBuf> = fs::read_dir(p)
+                .map_err(|source| TrialError::Io {
+                    path: p.clone(),
+                    source,
+                })?
+                .filter_map(|e| e.ok().map(|e| e.path()))
+                .filter(|q| q.extension().is_some_and(|x| x == "mcap"))
+                .collect();
+            found.sort();
+            out.extend(found);
+        } else {
+            out.push(p.clone());
+        }
+    }
+    Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    pub(crate) fn sample_trial() -> Trial {
+        let (tmo_version, git_revision) = TrialMeta::code_version();
+        Trial {
+            meta: TrialMeta {
+                format_version: TRIAL_FORMAT_VERSION,
+                trial_id: "t1".into(),
+                kind: "test".into(),
+                backend: "sim".into(),
+                seed: 3,
+                object: "crisps_can".into(),
+                grasp_deg: 0.0,
+                sensors: 2,
+                pins: 2,
+                tmo_version,
+                git_revision,
+                protocol: None,
+                protocol_sha256: None,
+                model_sha256: None,
+                started_unix_s: 0,
+                parameters: BTreeMap::from([("release_speed".into(), "0.01".into())]),
+            },
+            frames: vec![
+                PinFrame {
+                    sensor: 0,
+                    seq: 1,
+                    time_s: 0.01,
+                    pins: vec![[1.0, 2.0], [3.0, 4.0]],
+                },
+                PinFrame {
+                    sensor: 1,
+                    seq: 1,
+                    time_s: 0.012,
+                    pins: vec![[5.0, 6.0], [7.0, 8.5]],
+                },
+                PinFrame {
+                    sensor: 0,
+                    seq: 2,
+                    time_s: 0.027,
+                    pins: vec![[1.5, 2.0], [3.0, 4.0]],
+                },
+            ],
+            markers: vec![MarkerSample {
+                time_s: 0.005,
+                object_mm: 300.1,
+                hand_mm: 360.0,
+            }],
+        }
+    }
+
+    #[test]
+    fn round_trip() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("t.mcap");
+        let trial = sample_trial();
+        write_trial(&path, &trial).unwrap();
+        assert!(!dir.path().join("t.mcap.partial").exists());
+        assert_eq!(read_trial(&path).unwrap(), trial);
+    }
+
+    #[test]
+    fn truncated_log_is_a_clear_error() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("t.mcap");
+        write_trial(&path, &sample_trial()).unwrap();
+        let bytes = fs::read(&path).unwrap();
+        fs::write(&path, &bytes[..bytes.len() / 2]).unwrap();
+        let err = read_trial(&path).unwrap_err().to_string();
+        assert!(err.contains("t.mcap"), "{err}");
+    }
+
+    #[test]
+    fn newer_format_is_refused() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("t.mcap");
+        let mut trial = sample_trial();
+        trial.meta.format_version = TRIAL_FORMAT_VERSION + 1;
+        write_trial(&path, &trial).unwrap();
+        let err = read_trial(&path).unwrap_err();
+        assert!(matches!(err, TrialError::NewerFormat { .. }), "{err}");
+    }
+}

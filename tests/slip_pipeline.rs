@@ -1,0 +1,92 @@
+//! Simulator -> trial logs -> marker labels -> features -> classifier, in process.
+
+use tmo::collect::{collect_trial, trial_seed, CollectRig, CollectSpec};
+use tmo::slip::dataset::{split_trials, Dataset, LabelSpec};
+use tmo::slip::features::FeatureSpec;
+use tmo::slip::labels::{slip_onset, OnsetSpec};
+use tmo::slip::metrics::Confusion;
+use tmo::slip::threshold::ThresholdModel;
+use tmo::slip::Class;
+use tmo::trial::Trial;
+use tmo_hal::sim::SimConfig;
+
+fn collect(n: u64) -> Vec<Trial> {
+    let objects = [
+        "crisps_can",
+        "windex_bottle",
+        "bleach_bottle",
+        "mustard_bottle",
+        "banana",
+    ];
+    (0..n)
+        .map(|i| {
+            let spec = CollectSpec {
+                rig: CollectRig::Hand,
+                object: objects[(i % 5) as usize].into(),
+                grasp_deg: if i % 2 == 0 { 0.0 } else { 180.0 },
+                seed: trial_seed(5, i),
+                base: SimConfig::default(),
+            };
+            collect_trial(&spec, &format!("t{i}"), 0).unwrap()
+        })
+        .collect()
+}
+
+#[test]
+fn marker_onset_follows_the_true_onset_closely() {
+    for trial in collect(10) {
+        let truth: f64 = trial.meta.parameters["sim_truth_slip_onsets_s"]
+            .split(',')
+            .next()
+            .unwrap()
+            .parse()
+            .unwrap();
+        let onset =
+            slip_onset(&trial.markers, &OnsetSpec::default()).expect("marker sees the slip");
+        let lag = onset - truth;
+        eprintln!(
+            "{} {}: true onset {truth:.3} s, marker onset {onset:.3} s, lag {:.0} ms",
+            trial.meta.trial_id,
+            trial.meta.object,
+            lag * 1e3
+        );
+        assert!(
+            (0.0..0.15).contains(&lag),
+            "{}: lag {lag}",
+            trial.meta.trial_id
+        );
+    }
+}
+
+#[test]
+fn threshold_classifier_learns_something_but_not_everything() {
+    let trials = collect(20);
+    let ds = Dataset::from_trials(
+        &trials,
+        &FeatureSpec::new(30),
+        &LabelSpec {
+            n_slip: 13,
+            onset: OnsetSpec::default(),
+        },
+    );
+    assert!(ds.trials_without_onset.is_empty());
+    let (train, _) = split_trials(trials.len(), 0.5, 1);
+    let train_ds = ds.filter(|i| train.contains(&ds.trial[i]));
+    let test_ds = ds.filter(|i| !train.contains(&ds.trial[i]));
+    let rows: Vec<&[f32]> = (0..train_ds.len()).map(|i| train_ds.row(i)).collect();
+    let model = ThresholdModel::fit(&rows, &train_ds.y).unwrap();
+    let predicted: Vec<Class> = (0..test_ds.len())
+        .map(|i| model.predict(test_ds.row(i)))
+        .collect();
+    let scores = Confusion::from_pairs(&test_ds.y, &predicted).scores();
+    eprintln!(
+        "threshold T = {:.3} px/frame: macro F1 {:.3} (slip P {:.3} R {:.3}; {} static, {} slip test frames)",
+        model.threshold,
+        scores.macro_f1,
+        scores.slip.precision,
+        scores.slip.recall,
+        test_ds.count(Class::Static),
+        test_ds.count(Class::Slip)
+    );
+    assert!(scores.macro_f1 > 0.55, "{scores:?}");
+}
