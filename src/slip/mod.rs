@@ -5,6 +5,7 @@ pub mod dataset;
 pub mod features;
 pub mod labels;
 pub mod metrics;
+pub mod svm;
 pub mod threshold;
 
 /// The two classes of a frame.

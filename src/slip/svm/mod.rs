@@ -1,0 +1,247 @@
+//! Support vector machines: C-SVC with a linear or Gaussian (RBF) kernel, trained by our own
+//! SMO solver ([`smo`]).
+//!
+//! Why our own: measured on this project's machine on a 60-dimensional, imbalanced task with
+//! the same C and gamma, scikit-learn's SVC (libsvm) fitted 20,000 rows in about 16 s,
+//! linfa-svm took about 146 s and 3 GB, and smartcore's SVC about 21 s for only 2,000 rows.
+//! The method needs hundreds of fits per sweep, so the solver follows libsvm's algorithm
+//! (second-order working sets, LRU kernel cache, shrinking) and adds parallel kernel rows.
+//!
+//! Decision values follow scikit-learn's sign: positive means slip.
+
+pub mod cache;
+pub mod kernel;
+pub mod smo;
+
+pub use kernel::Kernel;
+
+use super::Class;
+use kernel::dot;
+
+/// Hyperparameters as given; [`SvmParams::check`] turns them into [`ValidSvmParams`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SvmParams {
+    pub kernel: Kernel,
+    pub c: f64,
+    /// Stopping tolerance on the KKT violation (libsvm's and scikit-learn's 1e-3).
+    pub tolerance: f64,
+    pub shrinking: bool,
+    pub cache_mb: usize,
+    pub max_iterations: Option<usize>,
+}
+
+impl SvmParams {
+    pub fn rbf(c: f64, gamma: f64) -> Self {
+        Self { kernel: Kernel::Rbf { gamma }, ..Self::linear(c) }
+    }
+
+    pub fn linear(c: f64) -> Self {
+        Self { kernel: Kernel::Linear, c, tolerance: 1e-3, shrinking: true, cache_mb: 200, max_iterations: None }
+    }
+
+    pub fn check(self) -> Result<ValidSvmParams, SvmError> {
+        if !(self.c.is_finite() && self.c > 0.0) {
+            return Err(SvmError::InvalidParameter { name: "C", value: self.c, expected: "a positive number" });
+        }
+        if let Kernel::Rbf { gamma } = self.kernel {
+            if !(gamma.is_finite() && gamma > 0.0) {
+                return Err(SvmError::InvalidParameter { name: "gamma", value: gamma, expected: "a positive number" });
+            }
+        }
+        if !(self.tolerance.is_finite() && self.tolerance > 0.0) {
+            return Err(SvmError::InvalidParameter { name: "tolerance", value: self.tolerance, expected: "a positive number" });
+        }
+        Ok(ValidSvmParams(self))
+    }
+}
+
+/// Hyperparameters that passed [`SvmParams::check`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ValidSvmParams(SvmParams);
+
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum SvmError {
+    #[error("invalid {name} = {value}: expected {expected}")]
+    InvalidParameter { name: &'static str, value: f64, expected: &'static str },
+    #[error("training data needs rows of both classes (static {static_rows}, slip {slip_rows})")]
+    OneClass { static_rows: usize, slip_rows: usize },
+    #[error("training rows have {got} values, expected a multiple of {dim}")]
+    Shape { got: usize, dim: usize },
+}
+
+/// A trained SVM.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct SvmModel {
+    pub kernel: Kernel,
+    pub dim: usize,
+    /// Support vectors, row-major.
+    pub support_vectors: Vec<f32>,
+    /// `alpha_i y_i` of each support vector.
+    pub dual_coef: Vec<f64>,
+    pub rho: f64,
+    /// For the linear kernel: the primal weights `sum alpha_i y_i x_i`, so prediction is one
+    /// dot product.
+    pub weights: Option<Vec<f64>>,
+    pub iterations: usize,
+    #[serde(skip)]
+    norms: Vec<f32>,
+}
+
+impl ValidSvmParams {
+    pub fn params(&self) -> &SvmParams {
+        &self.0
+    }
+
+    /// Fits on `x` (row-major, `dim` wide) and labels `y`.
+    pub fn fit(&self, dim: usize, x: &[f32], y: &[Class]) -> Result<SvmModel, SvmError> {
+        let p = &self.0;
+        if dim == 0 || x.len() != dim * y.len() {
+            return Err(SvmError::Shape { got: x.len(), dim });
+        }
+        let slip_rows = y.iter().filter(|c| **c == Class::Slip).count();
+        if slip_rows == 0 || slip_rows == y.len() {
+            return Err(SvmError::OneClass { static_rows: y.len() - slip_rows, slip_rows });
+        }
+        let signs: Vec<i8> = y.iter().map(|c| if *c == Class::Slip { 1 } else { -1 }).collect();
+        let n = y.len();
+        let options = smo::SolverOptions {
+            c: p.c,
+            tolerance: p.tolerance,
+            shrinking: p.shrinking,
+            cache_bytes: p.cache_mb << 20,
+            max_iterations: p.max_iterations.unwrap_or_else(|| (100 * n).max(10_000_000)),
+        };
+        let solution = smo::solve(dim, x.to_vec(), signs.clone(), p.kernel, &options);
+        let mut support_vectors = Vec::new();
+        let mut dual_coef = Vec::new();
+        for i in 0..n {
+            if solution.alpha[i] > 0.0 {
+                support_vectors.extend_from_slice(&x[i * dim..(i + 1) * dim]);
+                dual_coef.push(solution.alpha[i] * f64::from(signs[i]));
+            }
+        }
+        let weights = (p.kernel == Kernel::Linear).then(|| {
+            let mut w = vec![0.0f64; dim];
+            for (sv, coef) in support_vectors.chunks_exact(dim).zip(&dual_coef) {
+                for (wk, xk) in w.iter_mut().zip(sv) {
+                    *wk += coef * f64::from(*xk);
+                }
+            }
+            w
+        });
+        let mut model = SvmModel {
+            kernel: p.kernel,
+            dim,
+            support_vectors,
+            dual_coef,
+            rho: solution.rho,
+            weights,
+            iterations: solution.iterations,
+            norms: Vec::new(),
+        };
+        model.prepare();
+        Ok(model)
+    }
+}
+
+impl SvmModel {
+    /// Precomputes what prediction needs; call after deserialising.
+    pub fn prepare(&mut self) {
+        self.norms = self.support_vectors.chunks_exact(self.dim).map(|r| dot(r, r)).collect();
+    }
+
+    pub fn support_vector_count(&self) -> usize {
+        self.dual_coef.len()
+    }
+
+    /// `sum_i coef_i K(sv_i, x) - rho`; positive means slip.
+    pub fn decision(&self, x: &[f32]) -> f64 {
+        if let Some(w) = &self.weights {
+            return w.iter().zip(x).map(|(a, b)| a * f64::from(*b)).sum::<f64>() - self.rho;
+        }
+        let nx = dot(x, x);
+        let mut sum = 0.0;
+        for ((sv, coef), norm) in self.support_vectors.chunks_exact(self.dim).zip(&self.dual_coef).zip(&self.norms) {
+            sum += coef * self.kernel.from_dot(dot(sv, x), *norm, nx);
+        }
+        sum - self.rho
+    }
+
+    pub fn predict(&self, x: &[f32]) -> Class {
+        if self.decision(x) > 0.0 {
+            Class::Slip
+        } else {
+            Class::Static
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Two noisy blobs: slip around (+1, +1), static around (-1, -1), plus a ring case.
+    fn blobs(n: usize) -> (Vec<f32>, Vec<Class>) {
+        let mut state = 99u64;
+        let mut rand = || {
+            state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            ((state >> 11) as f64 / (1u64 << 53) as f64) as f32 - 0.5
+        };
+        let (mut x, mut y) = (Vec::new(), Vec::new());
+        for i in 0..n {
+            let slip = i % 3 == 0;
+            let c = if slip { 1.0 } else { -1.0 };
+            x.push(c + 1.5 * rand());
+            x.push(c + 1.5 * rand());
+            y.push(if slip { Class::Slip } else { Class::Static });
+        }
+        (x, y)
+    }
+
+    #[test]
+    fn separates_blobs_with_either_kernel() {
+        let (x, y) = blobs(300);
+        for params in [SvmParams::linear(1.0), SvmParams::rbf(1.0, 0.5)] {
+            let m = params.check().unwrap().fit(2, &x, &y).unwrap();
+            let correct = (0..300).filter(|&i| m.predict(&x[2 * i..2 * i + 2]) == y[i]).count();
+            assert!(correct >= 280, "{params:?}: {correct}/300");
+            assert!(m.support_vector_count() < 300);
+        }
+    }
+
+    #[test]
+    fn dual_solution_satisfies_its_constraints() {
+        let (x, y) = blobs(200);
+        let c = 0.7;
+        let m = SvmParams::rbf(c, 0.8).check().unwrap().fit(2, &x, &y).unwrap();
+        // sum alpha_i y_i = 0 and 0 < alpha <= C
+        let sum: f64 = m.dual_coef.iter().sum();
+        assert!(sum.abs() < 1e-9, "{sum}");
+        assert!(m.dual_coef.iter().all(|a| a.abs() <= c + 1e-12));
+    }
+
+    #[test]
+    fn shrinking_and_cache_size_do_not_change_the_answer() {
+        let (x, y) = blobs(400);
+        let mut base = SvmParams::rbf(2.0, 0.5);
+        base.tolerance = 1e-5;
+        let a = base.check().unwrap().fit(2, &x, &y).unwrap();
+        let mut other = base;
+        other.shrinking = false;
+        other.cache_mb = 0; // the minimum: two rows
+        let b = other.check().unwrap().fit(2, &x, &y).unwrap();
+        for i in 0..400 {
+            let (da, db) = (a.decision(&x[2 * i..2 * i + 2]), b.decision(&x[2 * i..2 * i + 2]));
+            assert!((da - db).abs() < 1e-3, "row {i}: {da} vs {db}");
+        }
+    }
+
+    #[test]
+    fn invalid_hyperparameters_are_rejected_before_fitting() {
+        assert!(SvmParams::rbf(0.0, 1.0).check().is_err());
+        assert!(SvmParams::rbf(1.0, -1.0).check().is_err());
+        assert!(SvmParams::linear(f64::NAN).check().is_err());
+        let e = SvmParams::linear(1.0).check().unwrap().fit(1, &[0.0, 1.0], &[Class::Static, Class::Static]).unwrap_err();
+        assert!(matches!(e, SvmError::OneClass { .. }));
+    }
+}
