@@ -4,7 +4,9 @@
 pub mod dataset;
 pub mod features;
 pub mod labels;
+pub mod logreg;
 pub mod metrics;
+pub mod scaler;
 pub mod svm;
 pub mod threshold;
 

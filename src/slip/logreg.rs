@@ -1,0 +1,241 @@
+//! L2-regularised logistic regression with an unpenalised intercept, scikit-learn's
+//! `LogisticRegression(C=...)` objective:
+//!
+//!   min_{w,b}  1/2 |w|^2 + C sum_i log(1 + exp(-y_i (w.x_i + b))),   y_i in {-1, +1}
+//!
+//! solved by Newton's method with a backtracking line search. With 60 features the
+//! Hessian is 61 x 61, so each step is one pass over the data plus a tiny Cholesky solve,
+//! and it converges in a handful of steps to the exact optimum, which is what matching
+//! scikit-learn's predictions needs. smartcore's LogisticRegression (the suggestion)
+//! has not yet been measured against this; until it is, the tested in-project solver is the
+//! one used.
+
+use super::Class;
+
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LogRegParams {
+    pub c: f64,
+    pub max_iterations: usize,
+    /// Stop when the largest gradient component is below this.
+    pub tolerance: f64,
+}
+
+impl LogRegParams {
+    pub fn new(c: f64) -> Self {
+        Self { c, max_iterations: 100, tolerance: 1e-8 }
+    }
+
+    pub fn check(self) -> Result<ValidLogRegParams, LogRegError> {
+        if !(self.c.is_finite() && self.c > 0.0) {
+            return Err(LogRegError::InvalidC(self.c));
+        }
+        Ok(ValidLogRegParams(self))
+    }
+}
+
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ValidLogRegParams(LogRegParams);
+
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum LogRegError {
+    #[error("invalid C = {0}: expected a positive number")]
+    InvalidC(f64),
+    #[error("training data needs rows of both classes")]
+    OneClass,
+    #[error("the Newton system is singular")]
+    Singular,
+}
+
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct LogRegModel {
+    pub weights: Vec<f64>,
+    pub intercept: f64,
+    pub iterations: usize,
+}
+
+fn log1p_exp(z: f64) -> f64 {
+    if z > 0.0 {
+        z + (-z).exp().ln_1p()
+    } else {
+        z.exp().ln_1p()
+    }
+}
+
+fn sigmoid(z: f64) -> f64 {
+    if z >= 0.0 {
+        1.0 / (1.0 + (-z).exp())
+    } else {
+        let e = z.exp();
+        e / (1.0 + e)
+    }
+}
+
+/// Solves `a x = b` in place for a symmetric positive definite `a` (`m x m`, row-major).
+fn cholesky_solve(a: &mut [f64], b: &mut [f64], m: usize) -> Result<(), LogRegError> {
+    for j in 0..m {
+        let mut d = a[j * m + j];
+        for k in 0..j {
+            d -= a[j * m + k] * a[j * m + k];
+        }
+        if d <= 0.0 || !d.is_finite() {
+            return Err(LogRegError::Singular);
+        }
+        let d = d.sqrt();
+        a[j * m + j] = d;
+        for i in j + 1..m {
+            let mut s = a[i * m + j];
+            for k in 0..j {
+                s -= a[i * m + k] * a[j * m + k];
+            }
+            a[i * m + j] = s / d;
+        }
+    }
+    for i in 0..m {
+        let mut s = b[i];
+        for k in 0..i {
+            s -= a[i * m + k] * b[k];
+        }
+        b[i] = s / a[i * m + i];
+    }
+    for i in (0..m).rev() {
+        let mut s = b[i];
+        for k in i + 1..m {
+            s -= a[k * m + i] * b[k];
+        }
+        b[i] = s / a[i * m + i];
+    }
+    Ok(())
+}
+
+impl ValidLogRegParams {
+    pub fn fit(&self, dim: usize, x: &[f32], y: &[Class]) -> Result<LogRegModel, LogRegError> {
+        let p = self.0;
+        let n = y.len();
+        let slip = y.iter().filter(|c| **c == Class::Slip).count();
+        if slip == 0 || slip == n {
+            return Err(LogRegError::OneClass);
+        }
+        let signs: Vec<f64> = y.iter().map(|c| if *c == Class::Slip { 1.0 } else { -1.0 }).collect();
+        let m = dim + 1; // weights then intercept
+        let mut theta = vec![0.0f64; m];
+        let objective = |theta: &[f64]| -> f64 {
+            let reg: f64 = theta[..dim].iter().map(|w| w * w).sum::<f64>() * 0.5;
+            let mut loss = 0.0;
+            for (row, s) in x.chunks_exact(dim).zip(&signs) {
+                let z = theta[dim] + row.iter().zip(&theta[..dim]).map(|(a, w)| f64::from(*a) * w).sum::<f64>();
+                loss += log1p_exp(-s * z);
+            }
+            reg + p.c * loss
+        };
+        let mut value = objective(&theta);
+        let mut iterations = 0;
+        let mut grad = vec![0.0f64; m];
+        let mut hess = vec![0.0f64; m * m];
+        let mut xi = vec![0.0f64; m];
+        while iterations < p.max_iterations {
+            grad.iter_mut().for_each(|g| *g = 0.0);
+            hess.iter_mut().for_each(|h| *h = 0.0);
+            for (row, s) in x.chunks_exact(dim).zip(&signs) {
+                for (a, v) in xi.iter_mut().zip(row) {
+                    *a = f64::from(*v);
+                }
+                xi[dim] = 1.0;
+                let z: f64 = xi.iter().zip(&theta).map(|(a, w)| a * w).sum();
+                // d/dz log(1 + exp(-s z)) = -s sigma(-s z);  second derivative sigma(z)(1 - sigma(z))
+                let g = -s * sigmoid(-s * z) * p.c;
+                let sz = sigmoid(z);
+                let h = sz * (1.0 - sz) * p.c;
+                for a in 0..m {
+                    grad[a] += g * xi[a];
+                    let hx = h * xi[a];
+                    for b in 0..=a {
+                        hess[a * m + b] += hx * xi[b];
+                    }
+                }
+            }
+            for a in 0..dim {
+                grad[a] += theta[a];
+                hess[a * m + a] += 1.0;
+            }
+            for a in 0..m {
+                for b in 0..a {
+                    hess[b * m + a] = hess[a * m + b];
+                }
+            }
+            let gmax = grad.iter().fold(0.0f64, |acc, g| acc.max(g.abs()));
+            if gmax < p.tolerance * (1.0 + p.c * n as f64).sqrt() {
+                break;
+            }
+            let mut step = grad.clone();
+            cholesky_solve(&mut hess, &mut step, m)?;
+            let decrease: f64 = step.iter().zip(&grad).map(|(s, g)| s * g).sum();
+            let mut t = 1.0;
+            loop {
+                let trial: Vec<f64> = theta.iter().zip(&step).map(|(w, s)| w - t * s).collect();
+                let v = objective(&trial);
+                if v <= value - 1e-4 * t * decrease || t < 1e-10 {
+                    theta = trial;
+                    value = v;
+                    break;
+                }
+                t *= 0.5;
+            }
+            iterations += 1;
+        }
+        Ok(LogRegModel { intercept: theta[dim], weights: theta[..dim].to_vec(), iterations })
+    }
+}
+
+impl LogRegModel {
+    /// `w.x + b`; positive means slip.
+    pub fn decision(&self, x: &[f32]) -> f64 {
+        self.intercept + self.weights.iter().zip(x).map(|(w, v)| w * f64::from(*v)).sum::<f64>()
+    }
+
+    pub fn predict(&self, x: &[f32]) -> Class {
+        if self.decision(x) > 0.0 {
+            Class::Slip
+        } else {
+            Class::Static
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn one_feature_optimum_has_zero_gradient() {
+        // y = slip for x > 0.3, with overlap
+        let x: Vec<f32> = (0..40).map(|i| i as f32 / 40.0).collect();
+        let y: Vec<Class> = (0..40).map(|i| if (i * 7) % 40 > 12 && i > 8 { Class::Slip } else { Class::Static }).collect();
+        let c = 2.0;
+        let m = LogRegParams::new(c).check().unwrap().fit(1, &x, &y).unwrap();
+        // gradient of the objective at the optimum
+        let (mut gw, mut gb) = (m.weights[0], 0.0);
+        for (xi, yi) in x.iter().zip(&y) {
+            let s = if *yi == Class::Slip { 1.0 } else { -1.0 };
+            let z = m.decision(&[*xi]);
+            let g = -s * sigmoid(-s * z) * c;
+            gw += g * f64::from(*xi);
+            gb += g;
+        }
+        assert!(gw.abs() < 1e-6 && gb.abs() < 1e-6, "{gw} {gb}");
+        assert!(m.weights[0] > 0.0);
+    }
+
+    #[test]
+    fn cholesky_solves_a_small_system() {
+        let mut a = vec![4.0, 2.0, 2.0, 3.0];
+        let mut b = vec![2.0, 1.0];
+        cholesky_solve(&mut a, &mut b, 2).unwrap();
+        // [4 2; 2 3] x = [2 1] -> x = [0.5, 0]
+        assert!((b[0] - 0.5).abs() < 1e-12 && b[1].abs() < 1e-12);
+    }
+
+    #[test]
+    fn invalid_c_is_rejected() {
+        assert!(LogRegParams::new(-1.0).check().is_err());
+    }
+}
