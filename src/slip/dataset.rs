@@ -149,6 +149,34 @@ impl Dataset {
     }
 }
 
+impl Dataset {
+    /// Writes rows as CSV: trial_id, sensor, seq, time_s, label, then `dr_i` and `dtheta_i`.
+    pub fn write_csv(&self, path: &std::path::Path) -> Result<(), csv::Error> {
+        let mut w = csv::Writer::from_path(path)?;
+        let pins = self.dim / 2;
+        let mut head: Vec<String> = ["trial_id", "sensor", "seq", "time_s", "label"].iter().map(|s| s.to_string()).collect();
+        head.extend((0..pins).map(|i| format!("dr_{i}")));
+        head.extend((0..pins).map(|i| format!("dtheta_{i}")));
+        w.write_record(&head)?;
+        let mut rec: Vec<String> = Vec::with_capacity(head.len());
+        for i in 0..self.len() {
+            rec.clear();
+            rec.push(self.trial_ids[self.trial[i] as usize].clone());
+            rec.push(self.sensor[i].to_string());
+            rec.push(self.seq[i].to_string());
+            rec.push(format!("{:.6}", self.time_s[i]));
+            rec.push(match self.y[i] {
+                Class::Slip => "slip".into(),
+                Class::Static => "static".into(),
+            });
+            rec.extend(self.row(i).iter().map(|v| format!("{v:.6}")));
+            w.write_record(&rec)?;
+        }
+        w.flush()?;
+        Ok(())
+    }
+}
+
 /// Splits trial indices `0..n` into (train, test) by a seeded shuffle; `test_fraction` of
 /// the trials (rounded, at least one of each when n >= 2) go to test.
 pub fn split_trials(n: usize, test_fraction: f64, seed: u64) -> (Vec<u32>, Vec<u32>) {

@@ -6,6 +6,7 @@ pub mod features;
 pub mod labels;
 pub mod logreg;
 pub mod metrics;
+pub mod model;
 pub mod scaler;
 pub mod svm;
 pub mod threshold;

@@ -223,7 +223,9 @@ pub struct TactipParams {
     pub shear_gain_px_per_n: f64,
     /// Largest extra shear by an object sliding over the skin, px.
     pub slip_drag_px: f64,
-    /// Sliding speed at which that drag saturates, mm/s.
+    /// Sliding distance over which that drag builds up, mm.
+    pub slip_drag_length_mm: f64,
+    /// Sliding speed at which stick-slip reaches its full amplitude, mm/s.
     pub slip_drag_speed_mm_s: f64,
     /// Viscoelastic time constant of the skin, s.
     pub skin_time_s: f64,
@@ -247,6 +249,7 @@ impl Default for TactipParams {
             contact_radius_px: 40.0,
             shear_gain_px_per_n: 0.5,
             slip_drag_px: 4.0,
+            slip_drag_length_mm: 1.0,
             slip_drag_speed_mm_s: 5.0,
             skin_time_s: 0.02,
             contact_offset_px: 8.0,

@@ -118,15 +118,10 @@ pub fn relax_towards(state: f64, target: f64, step_s: f64, time_constant_s: f64)
 }
 
 /// Shear the skin is driven towards: elastic shear from the tangential load plus drag by an
-/// object sliding over it, which saturates with sliding speed.
-pub fn shear_target_px(
-    tangential_n: f64,
-    sliding_down_mm_s: f64,
-    shear_gain: f64,
-    drag_px: f64,
-    drag_speed: f64,
-) -> f64 {
-    shear_gain * tangential_n + drag_px * (sliding_down_mm_s / drag_speed).tanh()
+/// object sliding over it, which builds up over the first `drag_length` mm of sliding and
+/// then stays (the skin is stretched as far as the sliding contact takes it).
+pub fn shear_target_px(tangential_n: f64, slid_mm: f64, shear_gain: f64, drag_px: f64, drag_length_mm: f64) -> f64 {
+    shear_gain * tangential_n + drag_px * (slid_mm / drag_length_mm).tanh()
 }
 
 #[cfg(test)]
@@ -202,6 +197,7 @@ mod tests {
     fn skin_relaxes_exponentially() {
         let s = relax_towards(0.0, 1.0, 0.02, 0.02);
         assert!((s - (1.0 - (-1f64).exp())).abs() < 1e-12);
-        assert!(shear_target_px(0.0, 1e6, 0.5, 3.0, 15.0) <= 3.0);
+        assert!(shear_target_px(0.0, 1e6, 0.5, 3.0, 1.0) <= 3.0);
+        assert!((shear_target_px(2.0, 0.0, 0.5, 3.0, 1.0) - 1.0).abs() < 1e-12);
     }
 }

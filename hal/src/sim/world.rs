@@ -112,6 +112,8 @@ pub(crate) struct World {
     local_slip: [bool; 3],
     capacity_n: f64,
     jitter: [f64; MAX_CONTACTS],
+    /// How far the object has slid down over the fingers since the grasp last stuck, mm.
+    slid_mm: f64,
     rng: ChaCha8Rng,
     sensors: Vec<SensorUnit>,
     markers: MarkerUnit,
@@ -243,6 +245,7 @@ impl World {
             local_slip: [false; 3],
             capacity_n: 0.0,
             jitter: [0.0; MAX_CONTACTS],
+            slid_mm: 0.0,
             rng,
             sensors,
             markers,
@@ -477,6 +480,7 @@ impl World {
             }
             let v_rel_new = self.vz_mm_s - hand_v;
             sliding_down = -v_rel_new;
+            self.slid_mm += -0.5 * (v_rel + v_rel_new) * dt;
             let crossed = v_rel_new.abs() < 1e-9 || v_rel_new.signum() != v_rel.signum();
             if self.in_grasp
                 && crossed
@@ -485,6 +489,7 @@ impl World {
             {
                 self.stuck = true;
                 self.vz_mm_s = hand_v;
+                self.slid_mm = 0.0;
                 self.events.catches_s.push(now);
             }
         }
@@ -514,27 +519,14 @@ impl World {
             let target = if self.normal_n[i] <= 0.0 {
                 0.0
             } else if self.stuck {
-                shear_target_px(
-                    self.tangential_n[i],
-                    0.0,
-                    s.shear_gain,
-                    s.drag_px,
-                    t.slip_drag_speed_mm_s,
-                )
+                shear_target_px(self.tangential_n[i], 0.0, s.shear_gain, s.drag_px, t.slip_drag_length_mm)
             } else {
                 let speed = sliding_down_mm_s * (1.0 + amp * self.jitter[i]);
                 // Stick-slip: the contact region catches and lets go while sliding, an
                 // oscillation of the shear along the slip direction that grows with speed.
-                let catch_release = stick_slip_px
-                    * self.jitter[i]
-                    * (speed.abs() / t.slip_drag_speed_mm_s).min(1.0);
-                shear_target_px(
-                    self.tangential_n[i],
-                    speed,
-                    s.shear_gain,
-                    s.drag_px,
-                    t.slip_drag_speed_mm_s,
-                ) + catch_release
+                let catch_release = stick_slip_px * self.jitter[i] * (speed.abs() / t.slip_drag_speed_mm_s).min(1.0);
+                shear_target_px(self.tangential_n[i], self.slid_mm, s.shear_gain, s.drag_px, t.slip_drag_length_mm)
+                    + catch_release
             };
             s.shear_px = relax_towards(s.shear_px, target, dt, t.skin_time_s);
         }
@@ -669,6 +661,10 @@ fn validate(cfg: &SimConfig) -> Result<(), SimError> {
         (
             "tactip.slip_drag_speed_mm_s",
             cfg.tactip.slip_drag_speed_mm_s,
+        ),
+        (
+            "tactip.slip_drag_length_mm",
+            cfg.tactip.slip_drag_length_mm,
         ),
         ("marker.rate_hz", cfg.marker.rate_hz),
         ("servo.max_speed_per_s", cfg.servo.max_speed_per_s),

@@ -1,0 +1,285 @@
+//! Trained slip models and their files: versioned, self-describing JSON with everything
+//! needed to use and to trust the model (feature and label specs, scaler, classifier and
+//! its parameters, scope and sensors, training trials with hashes, training scores).
+
+use std::path::Path;
+
+use serde::{Deserialize, Serialize};
+
+use super::dataset::{Dataset, LabelSpec, Scope};
+use super::features::FeatureSpec;
+use super::logreg::{LogRegModel, LogRegParams};
+use super::metrics::{Confusion, Scores};
+use super::scaler::Scaler;
+use super::svm::{SvmModel, SvmParams};
+use super::threshold::ThresholdModel;
+use super::Class;
+
+pub const MODEL_FORMAT: &str = "tmo-slip-model";
+pub const MODEL_FORMAT_VERSION: u32 = 1;
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize, clap::ValueEnum)]
+#[serde(rename_all = "kebab-case")]
+pub enum ClassifierKind {
+    SvmRbf,
+    SvmLinear,
+    Logreg,
+    Threshold,
+}
+
+impl ClassifierKind {
+    pub fn name(&self) -> &'static str {
+        match self {
+            ClassifierKind::SvmRbf => "svm-rbf",
+            ClassifierKind::SvmLinear => "svm-linear",
+            ClassifierKind::Logreg => "logreg",
+            ClassifierKind::Threshold => "threshold",
+        }
+    }
+}
+
+/// Hyperparameters of one fit; which ones apply depends on the classifier.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Hyperparameters {
+    pub c: f64,
+    pub gamma: f64,
+}
+
+impl Default for Hyperparameters {
+    /// The paper's best single-finger SVM.
+    fn default() -> Self {
+        Self { c: 3.989, gamma: 1.104 }
+    }
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "type", rename_all = "snake_case")]
+pub enum Classifier {
+    Threshold(ThresholdModel),
+    Svm(SvmModel),
+    LogReg(LogRegModel),
+}
+
+/// One classifier with its scaler: for one sensor (local) or all (global).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct SensorModel {
+    /// `None` for a global model.
+    pub sensor: Option<u8>,
+    /// Absent for the threshold classifier, which works on raw pin speeds.
+    pub scaler: Option<Scaler>,
+    pub classifier: Classifier,
+    pub training_rows: usize,
+    pub training_scores: Scores,
+}
+
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum TrainError {
+    #[error("no training rows{for_sensor}")]
+    Empty { for_sensor: String },
+    #[error("{0}")]
+    Threshold(#[from] super::threshold::ThresholdError),
+    #[error("{0}")]
+    Svm(#[from] super::svm::SvmError),
+    #[error("{0}")]
+    LogReg(#[from] super::logreg::LogRegError),
+}
+
+impl SensorModel {
+    /// Fits `kind` on `data` (already down-sampled as wanted).
+    pub fn fit(data: &Dataset, sensor: Option<u8>, kind: ClassifierKind, hyper: Hyperparameters) -> Result<Self, TrainError> {
+        if data.is_empty() {
+            return Err(TrainError::Empty { for_sensor: sensor.map_or(String::new(), |s| format!(" for sensor {s}")) });
+        }
+        let (scaler, classifier) = match kind {
+            ClassifierKind::Threshold => {
+                let rows: Vec<&[f32]> = (0..data.len()).map(|i| data.row(i)).collect();
+                (None, Classifier::Threshold(ThresholdModel::fit(&rows, &data.y)?))
+            }
+            _ => {
+                let scaler = Scaler::fit(data.dim, &data.x);
+                let x = scaler.transform(&data.x);
+                let classifier = match kind {
+                    ClassifierKind::SvmRbf => {
+                        Classifier::Svm(SvmParams::rbf(hyper.c, hyper.gamma).check()?.fit(data.dim, &x, &data.y)?)
+                    }
+                    ClassifierKind::SvmLinear => Classifier::Svm(SvmParams::linear(hyper.c).check()?.fit(data.dim, &x, &data.y)?),
+                    ClassifierKind::Logreg => Classifier::LogReg(LogRegParams::new(hyper.c).check()?.fit(data.dim, &x, &data.y)?),
+                    ClassifierKind::Threshold => unreachable!("handled above"),
+                };
+                (Some(scaler), classifier)
+            }
+        };
+        let mut model = Self { sensor, scaler, classifier, training_rows: data.len(), training_scores: Scores::default() };
+        model.training_scores = model.score(data);
+        Ok(model)
+    }
+
+    /// Decision value of one raw feature row: positive means slip (for the threshold
+    /// classifier, `v - T`).
+    pub fn decision(&self, features: &[f32], scratch: &mut Vec<f32>) -> f64 {
+        let x: &[f32] = match &self.scaler {
+            Some(s) => {
+                scratch.resize(features.len(), 0.0);
+                s.transform_into(features, scratch);
+                scratch
+            }
+            None => features,
+        };
+        match &self.classifier {
+            Classifier::Threshold(t) => f64::from(super::features::mean_velocity_norm(x) - t.threshold),
+            Classifier::Svm(m) => m.decision(x),
+            Classifier::LogReg(m) => m.decision(x),
+        }
+    }
+
+    pub fn predict(&self, features: &[f32], scratch: &mut Vec<f32>) -> Class {
+        let d = self.decision(features, scratch);
+        let slip = match self.classifier {
+            Classifier::Threshold(_) => d >= 0.0,
+            _ => d > 0.0,
+        };
+        if slip {
+            Class::Slip
+        } else {
+            Class::Static
+        }
+    }
+
+    pub fn score(&self, data: &Dataset) -> Scores {
+        let mut scratch = Vec::new();
+        let predicted: Vec<Class> = (0..data.len()).map(|i| self.predict(data.row(i), &mut scratch)).collect();
+        Confusion::from_pairs(&data.y, &predicted).scores()
+    }
+
+    /// Call after deserialising.
+    pub fn prepare(&mut self) {
+        if let Classifier::Svm(m) = &mut self.classifier {
+            m.prepare();
+        }
+    }
+}
+
+/// A training trial, by id and content hash.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct TrialRef {
+    pub trial_id: String,
+    pub path: String,
+    pub sha256: String,
+}
+
+/// The contents of a model file.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ModelFile {
+    pub format: String,
+    pub version: u32,
+    pub classifier: ClassifierKind,
+    pub hyperparameters: Hyperparameters,
+    pub features: FeatureSpec,
+    pub labels: LabelSpec,
+    pub downsample: f64,
+    pub seed: u64,
+    pub scope: Scope,
+    pub sensors: Vec<u8>,
+    pub models: Vec<SensorModel>,
+    pub training_trials: Vec<TrialRef>,
+    pub tmo_version: String,
+    pub git_revision: String,
+}
+
+#[derive(Debug, thiserror::Error)]
+pub enum ModelFileError {
+    #[error("{path}: {source}")]
+    Io { path: String, source: std::io::Error },
+    #[error("{path}: not a tmo model file: {message}")]
+    Parse { path: String, message: String },
+    #[error("{path}: model format `{found}`, expected `{MODEL_FORMAT}`")]
+    WrongFormat { path: String, found: String },
+    #[error("{path}: model version {found} is newer than this tmo understands ({MODEL_FORMAT_VERSION}); upgrade tmo")]
+    NewerVersion { path: String, found: u32 },
+    #[error("{path}: no classifier for sensor {sensor}")]
+    NoSensor { path: String, sensor: u8 },
+}
+
+impl ModelFile {
+    pub fn save(&self, path: &Path) -> Result<(), ModelFileError> {
+        let io = |source| ModelFileError::Io { path: path.display().to_string(), source };
+        let text = serde_json::to_string_pretty(self).expect("models serialise");
+        let tmp = path.with_extension("json.partial");
+        std::fs::write(&tmp, text).map_err(io)?;
+        std::fs::rename(&tmp, path).map_err(io)
+    }
+
+    pub fn load(path: &Path) -> Result<Self, ModelFileError> {
+        let p = path.display().to_string();
+        let text = std::fs::read_to_string(path).map_err(|source| ModelFileError::Io { path: p.clone(), source })?;
+        // Check the header first, so a newer file says so instead of failing to parse.
+        #[derive(Deserialize)]
+        struct Header {
+            format: String,
+            version: u32,
+        }
+        let header: Header =
+            serde_json::from_str(&text).map_err(|e| ModelFileError::Parse { path: p.clone(), message: e.to_string() })?;
+        if header.format != MODEL_FORMAT {
+            return Err(ModelFileError::WrongFormat { path: p, found: header.format });
+        }
+        if header.version > MODEL_FORMAT_VERSION {
+            return Err(ModelFileError::NewerVersion { path: p, found: header.version });
+        }
+        let mut model: ModelFile =
+            serde_json::from_str(&text).map_err(|e| ModelFileError::Parse { path: p.clone(), message: e.to_string() })?;
+        model.models.iter_mut().for_each(SensorModel::prepare);
+        Ok(model)
+    }
+
+    /// The classifier that handles `sensor`'s frames.
+    pub fn for_sensor(&self, sensor: u8) -> Option<&SensorModel> {
+        match self.scope {
+            Scope::Global => self.models.first(),
+            Scope::Local => self.models.iter().find(|m| m.sensor == Some(sensor)),
+        }
+    }
+
+    /// Scores on `data` (every row, never down-sampled), overall and per sensor.
+    pub fn evaluate(&self, data: &Dataset) -> Result<(Scores, Vec<(u8, Scores)>), ModelFileError> {
+        let mut scratch = Vec::new();
+        let mut overall = Confusion::default();
+        let mut per_sensor: Vec<(u8, Confusion)> = Vec::new();
+        for i in 0..data.len() {
+            let sensor = data.sensor[i];
+            let m = self.for_sensor(sensor).ok_or(ModelFileError::NoSensor { path: "model".into(), sensor })?;
+            let p = m.predict(data.row(i), &mut scratch);
+            overall.add(data.y[i], p);
+            match per_sensor.iter_mut().find(|(s, _)| *s == sensor) {
+                Some((_, c)) => c.add(data.y[i], p),
+                None => {
+                    let mut c = Confusion::default();
+                    c.add(data.y[i], p);
+                    per_sensor.push((sensor, c));
+                }
+            }
+        }
+        per_sensor.sort_by_key(|(s, _)| *s);
+        Ok((overall.scores(), per_sensor.into_iter().map(|(s, c)| (s, c.scores())).collect()))
+    }
+}
+
+/// Trains the models of one file: one per sensor (local) or one for all (global), each on
+/// `data` with its static rows down-sampled to `downsample` (seeded).
+pub fn train_models(
+    data: &Dataset,
+    kind: ClassifierKind,
+    hyper: Hyperparameters,
+    scope: Scope,
+    downsample: f64,
+    seed: u64,
+) -> Result<Vec<SensorModel>, TrainError> {
+    match scope {
+        Scope::Global => Ok(vec![SensorModel::fit(&data.downsample_static(downsample, seed), None, kind, hyper)?]),
+        Scope::Local => data
+            .sensors()
+            .into_iter()
+            .map(|s| SensorModel::fit(&data.sensor_only(s).downsample_static(downsample, seed), Some(s), kind, hyper))
+            .collect(),
+    }
+}
