@@ -63,28 +63,41 @@ pub fn collect_trial(
                 ..Default::default()
             };
             let (mut config, _) = sim_presets::build(Preset::Release, &options, base.clone())?;
-            // "Closed until stable": a grasp that holds with a safety factor that varies
-            // from trial to trial, as a human-set grasp would.
+            // "Closed until stable": close on the object standing on the table to a grasp
+            // that holds it with a safety factor that varies from trial to trial, lift it,
+            // hold it, then release at 0.5 % of the fingers' maximum speed.
             let safety: f64 = rng.gen_range(1.2..1.8);
             let closure = sim_presets::holding_closure(&base, &spec.object, 0.0, safety)?;
+            let contact = sim_presets::contact_closure(&base, &spec.object)?;
             if let tmo_hal::sim::RigSetup::Hand(h) = &mut config.rig {
-                h.initial_closure = closure;
+                h.start = tmo_hal::sim::ObjectStart::OnTable;
+                h.initial_closure = (contact - 0.02).max(0.0);
             }
-            let margin = closure - sim_presets::contact_closure(&base, &spec.object)?;
-            parameters.insert("grip_safety".into(), format!("{safety:.4}"));
-            let speed = 0.01;
             let hold_s: f64 = rng.gen_range(0.5..2.0);
-            parameters.insert("hold_s".into(), format!("{hold_s:.3}"));
-            parameters.insert("start_margin".into(), format!("{margin:.4}"));
-            parameters.insert("release_speed_per_s".into(), speed.to_string());
-            (
-                config,
-                Script::Release {
-                    speed_per_s: speed,
-                    hold_s,
-                },
-                hold_s + margin / speed + 1.5,
-            )
+            let script = Script::GraspLiftRelease {
+                closure,
+                close_speed_per_s: 0.05,
+                lift_mm: 30.0,
+                lift_speed_mm_s: 20.0,
+                hold_s,
+                release_speed_per_s: 0.01,
+            };
+            for (k, v) in [
+                ("grip_safety", safety),
+                ("closure", closure),
+                ("hold_s", hold_s),
+                ("release_speed_per_s", 0.01),
+            ] {
+                parameters.insert(k.into(), format!("{v:.4}"));
+            }
+            let duration = (closure - contact + 0.02) / 0.05
+                + 0.3
+                + 1.5
+                + 0.2
+                + hold_s
+                + (closure - contact) / 0.01
+                + 1.5;
+            (config, script, duration)
         }
         CollectRig::Rail => {
             let speed: f64 = rng.gen_range(0.1..5.0);

@@ -7,14 +7,14 @@ use anyhow::{Context, Result};
 use clap::{Parser, Subcommand};
 use tmo::collect::{self, CollectRig, CollectSpec};
 use tmo::scenario::Devices;
+use tmo::sim_presets::{self, Preset, PresetOptions};
 use tmo::slip::dataset::{Dataset, LabelSpec, Scope};
 use tmo::slip::features::FeatureSpec;
 use tmo::slip::labels::OnsetSpec;
 use tmo::slip::metrics::Scores;
 use tmo::slip::model::{self, ClassifierKind, Hyperparameters, ModelFile, TrialRef};
-use tmo::trial::{load_trials, TrialMeta};
-use tmo::sim_presets::{self, Preset, PresetOptions};
 use tmo::trace;
+use tmo::trial::{load_trials, TrialMeta};
 use tmo_hal::sim::{FaultRates, ObjectLibrary, SimConfig, SimRig};
 
 #[derive(Parser)]
@@ -382,25 +382,66 @@ fn sim_collect(args: CollectArgs) -> Result<()> {
 
 fn label_spec(args: &LabelArgs) -> Result<LabelSpec> {
     anyhow::ensure!(args.n_slip >= 1, "--n-slip must be at least 1");
-    anyhow::ensure!(args.downsample > 0.0 && args.downsample <= 1.0, "--downsample must be in (0, 1], got {}", args.downsample);
-    anyhow::ensure!(args.onset_threshold_mm > 0.0, "--onset-threshold-mm must be positive");
-    Ok(LabelSpec { n_slip: args.n_slip, onset: OnsetSpec { drop_threshold_mm: args.onset_threshold_mm, ..Default::default() } })
+    anyhow::ensure!(
+        args.downsample > 0.0 && args.downsample <= 1.0,
+        "--downsample must be in (0, 1], got {}",
+        args.downsample
+    );
+    anyhow::ensure!(
+        args.onset_threshold_mm > 0.0,
+        "--onset-threshold-mm must be positive"
+    );
+    Ok(LabelSpec {
+        n_slip: args.n_slip,
+        onset: OnsetSpec {
+            drop_threshold_mm: args.onset_threshold_mm,
+            ..Default::default()
+        },
+    })
 }
 
 /// Loads trials and builds their labelled rows; all trials must have the same pin count.
-fn load_dataset(paths: &[PathBuf], labels: &LabelSpec) -> Result<(Dataset, Vec<TrialRef>, FeatureSpec)> {
+fn load_dataset(
+    paths: &[PathBuf],
+    labels: &LabelSpec,
+) -> Result<(Dataset, Vec<TrialRef>, FeatureSpec)> {
     let loaded = load_trials(paths)?;
-    anyhow::ensure!(!loaded.is_empty(), "no trial logs (.mcap) found in {}", paths.iter().map(|p| p.display().to_string()).collect::<Vec<_>>().join(", "));
+    anyhow::ensure!(
+        !loaded.is_empty(),
+        "no trial logs (.mcap) found in {}",
+        paths
+            .iter()
+            .map(|p| p.display().to_string())
+            .collect::<Vec<_>>()
+            .join(", ")
+    );
     let pins = loaded[0].2.meta.pins;
     for (path, _, t) in &loaded {
-        anyhow::ensure!(t.meta.pins == pins, "{}: {} pins per sensor, but {} has {pins}", path.display(), t.meta.pins, loaded[0].0.display());
+        anyhow::ensure!(
+            t.meta.pins == pins,
+            "{}: {} pins per sensor, but {} has {pins}",
+            path.display(),
+            t.meta.pins,
+            loaded[0].0.display()
+        );
     }
     let features = FeatureSpec::new(pins);
-    let refs = loaded.iter().map(|(p, h, t)| TrialRef { trial_id: t.meta.trial_id.clone(), path: p.display().to_string(), sha256: h.clone() }).collect();
+    let refs = loaded
+        .iter()
+        .map(|(p, h, t)| TrialRef {
+            trial_id: t.meta.trial_id.clone(),
+            path: p.display().to_string(),
+            sha256: h.clone(),
+        })
+        .collect();
     let trials: Vec<_> = loaded.into_iter().map(|(_, _, t)| t).collect();
     let ds = Dataset::from_trials(&trials, &features, labels);
     if !ds.trials_without_onset.is_empty() {
-        eprintln!("note: no slip onset in the marker track of {} trial(s): {}", ds.trials_without_onset.len(), ds.trials_without_onset.join(", "));
+        eprintln!(
+            "note: no slip onset in the marker track of {} trial(s): {}",
+            ds.trials_without_onset.len(),
+            ds.trials_without_onset.join(", ")
+        );
     }
     Ok((ds, refs, features))
 }
@@ -409,8 +450,15 @@ fn dataset_export(args: ExportArgs) -> Result<()> {
     let labels = label_spec(&args.labels)?;
     let (ds, _, _) = load_dataset(&args.trials, &labels)?;
     let ds = ds.downsample_static(args.labels.downsample, args.labels.seed);
-    ds.write_csv(&args.out).with_context(|| format!("cannot write {}", args.out.display()))?;
-    println!("wrote {} rows ({} static, {} slip) to {}", ds.len(), ds.count(tmo::slip::Class::Static), ds.count(tmo::slip::Class::Slip), args.out.display());
+    ds.write_csv(&args.out)
+        .with_context(|| format!("cannot write {}", args.out.display()))?;
+    println!(
+        "wrote {} rows ({} static, {} slip) to {}",
+        ds.len(),
+        ds.count(tmo::slip::Class::Static),
+        ds.count(tmo::slip::Class::Slip),
+        args.out.display()
+    );
     Ok(())
 }
 
@@ -426,9 +474,19 @@ fn print_scores(label: &str, s: &Scores) {
 fn train(args: TrainArgs) -> Result<()> {
     let labels = label_spec(&args.labels)?;
     let (ds, refs, features) = load_dataset(&args.trials, &labels)?;
-    let hyper = Hyperparameters { c: args.c, gamma: args.gamma };
+    let hyper = Hyperparameters {
+        c: args.c,
+        gamma: args.gamma,
+    };
     let started = std::time::Instant::now();
-    let models = model::train_models(&ds, args.classifier, hyper, args.scope, args.labels.downsample, args.labels.seed)?;
+    let models = model::train_models(
+        &ds,
+        args.classifier,
+        hyper,
+        args.scope,
+        args.labels.downsample,
+        args.labels.seed,
+    )?;
     let (tmo_version, git_revision) = TrialMeta::code_version();
     let file = ModelFile {
         format: model::MODEL_FORMAT.into(),
@@ -447,9 +505,18 @@ fn train(args: TrainArgs) -> Result<()> {
         git_revision,
     };
     file.save(&args.out)?;
-    println!("trained {} ({:?} scope) on {} trials, {} rows, in {:.2} s", args.classifier.name(), args.scope, file.training_trials.len(), ds.len(), started.elapsed().as_secs_f64());
+    println!(
+        "trained {} ({:?} scope) on {} trials, {} rows, in {:.2} s",
+        args.classifier.name(),
+        args.scope,
+        file.training_trials.len(),
+        ds.len(),
+        started.elapsed().as_secs_f64()
+    );
     for m in &file.models {
-        let label = m.sensor.map_or("global".to_string(), |s| format!("sensor {s}"));
+        let label = m
+            .sensor
+            .map_or("global".to_string(), |s| format!("sensor {s}"));
         print_scores(&label, &m.training_scores);
     }
     println!("wrote {}", args.out.display());
@@ -459,9 +526,20 @@ fn train(args: TrainArgs) -> Result<()> {
 fn evaluate(args: EvaluateArgs) -> Result<()> {
     let model = ModelFile::load(&args.model)?;
     let (ds, _, features) = load_dataset(&args.trials, &model.labels)?;
-    anyhow::ensure!(features == model.features, "{}: the trials have {} pins, the model expects {}", args.model.display(), features.pins, model.features.pins);
+    anyhow::ensure!(
+        features == model.features,
+        "{}: the trials have {} pins, the model expects {}",
+        args.model.display(),
+        features.pins,
+        model.features.pins
+    );
     let (overall, per_sensor) = model.evaluate(&ds)?;
-    println!("{} ({:?} scope) on {} rows", model.classifier.name(), model.scope, ds.len());
+    println!(
+        "{} ({:?} scope) on {} rows",
+        model.classifier.name(),
+        model.scope,
+        ds.len()
+    );
     print_scores("overall", &overall);
     for (s, scores) in &per_sensor {
         print_scores(&format!("sensor {s}"), scores);

@@ -250,14 +250,20 @@ pub fn read_trial(path: &Path) -> Result<Trial, TrialError> {
 /// SHA-256 of a file's bytes, hex.
 pub fn sha256_hex(bytes: &[u8]) -> String {
     use sha2::Digest;
-    sha2::Sha256::digest(bytes).iter().map(|b| format!("{b:02x}")).collect()
+    sha2::Sha256::digest(bytes)
+        .iter()
+        .map(|b| format!("{b:02x}"))
+        .collect()
 }
 
 /// Reads every trial in `paths` (directories expanded); returns each with its file's hash.
 pub fn load_trials(paths: &[PathBuf]) -> Result<Vec<(PathBuf, String, Trial)>, TrialError> {
     let mut out = Vec::new();
     for path in expand_trial_paths(paths)? {
-        let bytes = fs::read(&path).map_err(|source| TrialError::Io { path: path.clone(), source })?;
+        let bytes = fs::read(&path).map_err(|source| TrialError::Io {
+            path: path.clone(),
+            source,
+        })?;
         let hash = sha256_hex(&bytes);
         out.push((path.clone(), hash, read_trial(&path)?));
     }

@@ -154,7 +154,10 @@ impl Dataset {
     pub fn write_csv(&self, path: &std::path::Path) -> Result<(), csv::Error> {
         let mut w = csv::Writer::from_path(path)?;
         let pins = self.dim / 2;
-        let mut head: Vec<String> = ["trial_id", "sensor", "seq", "time_s", "label"].iter().map(|s| s.to_string()).collect();
+        let mut head: Vec<String> = ["trial_id", "sensor", "seq", "time_s", "label"]
+            .iter()
+            .map(|s| s.to_string())
+            .collect();
         head.extend((0..pins).map(|i| format!("dr_{i}")));
         head.extend((0..pins).map(|i| format!("dtheta_{i}")));
         w.write_record(&head)?;

@@ -22,7 +22,11 @@ pub struct LogRegParams {
 
 impl LogRegParams {
     pub fn new(c: f64) -> Self {
-        Self { c, max_iterations: 100, tolerance: 1e-8 }
+        Self {
+            c,
+            max_iterations: 100,
+            tolerance: 1e-8,
+        }
     }
 
     pub fn check(self) -> Result<ValidLogRegParams, LogRegError> {
@@ -115,14 +119,22 @@ impl ValidLogRegParams {
         if slip == 0 || slip == n {
             return Err(LogRegError::OneClass);
         }
-        let signs: Vec<f64> = y.iter().map(|c| if *c == Class::Slip { 1.0 } else { -1.0 }).collect();
+        let signs: Vec<f64> = y
+            .iter()
+            .map(|c| if *c == Class::Slip { 1.0 } else { -1.0 })
+            .collect();
         let m = dim + 1; // weights then intercept
         let mut theta = vec![0.0f64; m];
         let objective = |theta: &[f64]| -> f64 {
             let reg: f64 = theta[..dim].iter().map(|w| w * w).sum::<f64>() * 0.5;
             let mut loss = 0.0;
             for (row, s) in x.chunks_exact(dim).zip(&signs) {
-                let z = theta[dim] + row.iter().zip(&theta[..dim]).map(|(a, w)| f64::from(*a) * w).sum::<f64>();
+                let z = theta[dim]
+                    + row
+                        .iter()
+                        .zip(&theta[..dim])
+                        .map(|(a, w)| f64::from(*a) * w)
+                        .sum::<f64>();
                 loss += log1p_exp(-s * z);
             }
             reg + p.c * loss
@@ -182,14 +194,24 @@ impl ValidLogRegParams {
             }
             iterations += 1;
         }
-        Ok(LogRegModel { intercept: theta[dim], weights: theta[..dim].to_vec(), iterations })
+        Ok(LogRegModel {
+            intercept: theta[dim],
+            weights: theta[..dim].to_vec(),
+            iterations,
+        })
     }
 }
 
 impl LogRegModel {
     /// `w.x + b`; positive means slip.
     pub fn decision(&self, x: &[f32]) -> f64 {
-        self.intercept + self.weights.iter().zip(x).map(|(w, v)| w * f64::from(*v)).sum::<f64>()
+        self.intercept
+            + self
+                .weights
+                .iter()
+                .zip(x)
+                .map(|(w, v)| w * f64::from(*v))
+                .sum::<f64>()
     }
 
     pub fn predict(&self, x: &[f32]) -> Class {
@@ -209,9 +231,21 @@ mod tests {
     fn one_feature_optimum_has_zero_gradient() {
         // y = slip for x > 0.3, with overlap
         let x: Vec<f32> = (0..40).map(|i| i as f32 / 40.0).collect();
-        let y: Vec<Class> = (0..40).map(|i| if (i * 7) % 40 > 12 && i > 8 { Class::Slip } else { Class::Static }).collect();
+        let y: Vec<Class> = (0..40)
+            .map(|i| {
+                if (i * 7) % 40 > 12 && i > 8 {
+                    Class::Slip
+                } else {
+                    Class::Static
+                }
+            })
+            .collect();
         let c = 2.0;
-        let m = LogRegParams::new(c).check().unwrap().fit(1, &x, &y).unwrap();
+        let m = LogRegParams::new(c)
+            .check()
+            .unwrap()
+            .fit(1, &x, &y)
+            .unwrap();
         // gradient of the objective at the optimum
         let (mut gw, mut gb) = (m.weights[0], 0.0);
         for (xi, yi) in x.iter().zip(&y) {

@@ -48,7 +48,10 @@ pub struct Hyperparameters {
 impl Default for Hyperparameters {
     /// The paper's best single-finger SVM.
     fn default() -> Self {
-        Self { c: 3.989, gamma: 1.104 }
+        Self {
+            c: 3.989,
+            gamma: 1.104,
+        }
     }
 }
 
@@ -86,30 +89,56 @@ pub enum TrainError {
 
 impl SensorModel {
     /// Fits `kind` on `data` (already down-sampled as wanted).
-    pub fn fit(data: &Dataset, sensor: Option<u8>, kind: ClassifierKind, hyper: Hyperparameters) -> Result<Self, TrainError> {
+    pub fn fit(
+        data: &Dataset,
+        sensor: Option<u8>,
+        kind: ClassifierKind,
+        hyper: Hyperparameters,
+    ) -> Result<Self, TrainError> {
         if data.is_empty() {
-            return Err(TrainError::Empty { for_sensor: sensor.map_or(String::new(), |s| format!(" for sensor {s}")) });
+            return Err(TrainError::Empty {
+                for_sensor: sensor.map_or(String::new(), |s| format!(" for sensor {s}")),
+            });
         }
         let (scaler, classifier) = match kind {
             ClassifierKind::Threshold => {
                 let rows: Vec<&[f32]> = (0..data.len()).map(|i| data.row(i)).collect();
-                (None, Classifier::Threshold(ThresholdModel::fit(&rows, &data.y)?))
+                (
+                    None,
+                    Classifier::Threshold(ThresholdModel::fit(&rows, &data.y)?),
+                )
             }
             _ => {
                 let scaler = Scaler::fit(data.dim, &data.x);
                 let x = scaler.transform(&data.x);
                 let classifier = match kind {
-                    ClassifierKind::SvmRbf => {
-                        Classifier::Svm(SvmParams::rbf(hyper.c, hyper.gamma).check()?.fit(data.dim, &x, &data.y)?)
-                    }
-                    ClassifierKind::SvmLinear => Classifier::Svm(SvmParams::linear(hyper.c).check()?.fit(data.dim, &x, &data.y)?),
-                    ClassifierKind::Logreg => Classifier::LogReg(LogRegParams::new(hyper.c).check()?.fit(data.dim, &x, &data.y)?),
+                    ClassifierKind::SvmRbf => Classifier::Svm(
+                        SvmParams::rbf(hyper.c, hyper.gamma)
+                            .check()?
+                            .fit(data.dim, &x, &data.y)?,
+                    ),
+                    ClassifierKind::SvmLinear => Classifier::Svm(
+                        SvmParams::linear(hyper.c)
+                            .check()?
+                            .fit(data.dim, &x, &data.y)?,
+                    ),
+                    ClassifierKind::Logreg => Classifier::LogReg(
+                        LogRegParams::new(hyper.c)
+                            .check()?
+                            .fit(data.dim, &x, &data.y)?,
+                    ),
                     ClassifierKind::Threshold => unreachable!("handled above"),
                 };
                 (Some(scaler), classifier)
             }
         };
-        let mut model = Self { sensor, scaler, classifier, training_rows: data.len(), training_scores: Scores::default() };
+        let mut model = Self {
+            sensor,
+            scaler,
+            classifier,
+            training_rows: data.len(),
+            training_scores: Scores::default(),
+        };
         model.training_scores = model.score(data);
         Ok(model)
     }
@@ -126,7 +155,9 @@ impl SensorModel {
             None => features,
         };
         match &self.classifier {
-            Classifier::Threshold(t) => f64::from(super::features::mean_velocity_norm(x) - t.threshold),
+            Classifier::Threshold(t) => {
+                f64::from(super::features::mean_velocity_norm(x) - t.threshold)
+            }
             Classifier::Svm(m) => m.decision(x),
             Classifier::LogReg(m) => m.decision(x),
         }
@@ -147,7 +178,9 @@ impl SensorModel {
 
     pub fn score(&self, data: &Dataset) -> Scores {
         let mut scratch = Vec::new();
-        let predicted: Vec<Class> = (0..data.len()).map(|i| self.predict(data.row(i), &mut scratch)).collect();
+        let predicted: Vec<Class> = (0..data.len())
+            .map(|i| self.predict(data.row(i), &mut scratch))
+            .collect();
         Confusion::from_pairs(&data.y, &predicted).scores()
     }
 
@@ -189,7 +222,10 @@ pub struct ModelFile {
 #[derive(Debug, thiserror::Error)]
 pub enum ModelFileError {
     #[error("{path}: {source}")]
-    Io { path: String, source: std::io::Error },
+    Io {
+        path: String,
+        source: std::io::Error,
+    },
     #[error("{path}: not a tmo model file: {message}")]
     Parse { path: String, message: String },
     #[error("{path}: model format `{found}`, expected `{MODEL_FORMAT}`")]
@@ -202,7 +238,10 @@ pub enum ModelFileError {
 
 impl ModelFile {
     pub fn save(&self, path: &Path) -> Result<(), ModelFileError> {
-        let io = |source| ModelFileError::Io { path: path.display().to_string(), source };
+        let io = |source| ModelFileError::Io {
+            path: path.display().to_string(),
+            source,
+        };
         let text = serde_json::to_string_pretty(self).expect("models serialise");
         let tmp = path.with_extension("json.partial");
         std::fs::write(&tmp, text).map_err(io)?;
@@ -211,23 +250,37 @@ impl ModelFile {
 
     pub fn load(path: &Path) -> Result<Self, ModelFileError> {
         let p = path.display().to_string();
-        let text = std::fs::read_to_string(path).map_err(|source| ModelFileError::Io { path: p.clone(), source })?;
+        let text = std::fs::read_to_string(path).map_err(|source| ModelFileError::Io {
+            path: p.clone(),
+            source,
+        })?;
         // Check the header first, so a newer file says so instead of failing to parse.
         #[derive(Deserialize)]
         struct Header {
             format: String,
             version: u32,
         }
-        let header: Header =
-            serde_json::from_str(&text).map_err(|e| ModelFileError::Parse { path: p.clone(), message: e.to_string() })?;
+        let header: Header = serde_json::from_str(&text).map_err(|e| ModelFileError::Parse {
+            path: p.clone(),
+            message: e.to_string(),
+        })?;
         if header.format != MODEL_FORMAT {
-            return Err(ModelFileError::WrongFormat { path: p, found: header.format });
+            return Err(ModelFileError::WrongFormat {
+                path: p,
+                found: header.format,
+            });
         }
         if header.version > MODEL_FORMAT_VERSION {
-            return Err(ModelFileError::NewerVersion { path: p, found: header.version });
+            return Err(ModelFileError::NewerVersion {
+                path: p,
+                found: header.version,
+            });
         }
         let mut model: ModelFile =
-            serde_json::from_str(&text).map_err(|e| ModelFileError::Parse { path: p.clone(), message: e.to_string() })?;
+            serde_json::from_str(&text).map_err(|e| ModelFileError::Parse {
+                path: p.clone(),
+                message: e.to_string(),
+            })?;
         model.models.iter_mut().for_each(SensorModel::prepare);
         Ok(model)
     }
@@ -247,7 +300,10 @@ impl ModelFile {
         let mut per_sensor: Vec<(u8, Confusion)> = Vec::new();
         for i in 0..data.len() {
             let sensor = data.sensor[i];
-            let m = self.for_sensor(sensor).ok_or(ModelFileError::NoSensor { path: "model".into(), sensor })?;
+            let m = self.for_sensor(sensor).ok_or(ModelFileError::NoSensor {
+                path: "model".into(),
+                sensor,
+            })?;
             let p = m.predict(data.row(i), &mut scratch);
             overall.add(data.y[i], p);
             match per_sensor.iter_mut().find(|(s, _)| *s == sensor) {
@@ -260,7 +316,13 @@ impl ModelFile {
             }
         }
         per_sensor.sort_by_key(|(s, _)| *s);
-        Ok((overall.scores(), per_sensor.into_iter().map(|(s, c)| (s, c.scores())).collect()))
+        Ok((
+            overall.scores(),
+            per_sensor
+                .into_iter()
+                .map(|(s, c)| (s, c.scores()))
+                .collect(),
+        ))
     }
 }
 
@@ -275,11 +337,23 @@ pub fn train_models(
     seed: u64,
 ) -> Result<Vec<SensorModel>, TrainError> {
     match scope {
-        Scope::Global => Ok(vec![SensorModel::fit(&data.downsample_static(downsample, seed), None, kind, hyper)?]),
+        Scope::Global => Ok(vec![SensorModel::fit(
+            &data.downsample_static(downsample, seed),
+            None,
+            kind,
+            hyper,
+        )?]),
         Scope::Local => data
             .sensors()
             .into_iter()
-            .map(|s| SensorModel::fit(&data.sensor_only(s).downsample_static(downsample, seed), Some(s), kind, hyper))
+            .map(|s| {
+                SensorModel::fit(
+                    &data.sensor_only(s).downsample_static(downsample, seed),
+                    Some(s),
+                    kind,
+                    hyper,
+                )
+            })
             .collect(),
     }
 }

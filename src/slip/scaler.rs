@@ -26,7 +26,11 @@ impl Scaler {
                 *s += d * d;
             }
         }
-        let scale = var.iter().map(|v| (v / n).sqrt()).map(|s| if s < 1e-12 { 1.0 } else { s }).collect();
+        let scale = var
+            .iter()
+            .map(|v| (v / n).sqrt())
+            .map(|s| if s < 1e-12 { 1.0 } else { s })
+            .collect();
         Self { mean, scale }
     }
 

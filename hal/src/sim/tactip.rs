@@ -120,7 +120,13 @@ pub fn relax_towards(state: f64, target: f64, step_s: f64, time_constant_s: f64)
 /// Shear the skin is driven towards: elastic shear from the tangential load plus drag by an
 /// object sliding over it, which builds up over the first `drag_length` mm of sliding and
 /// then stays (the skin is stretched as far as the sliding contact takes it).
-pub fn shear_target_px(tangential_n: f64, slid_mm: f64, shear_gain: f64, drag_px: f64, drag_length_mm: f64) -> f64 {
+pub fn shear_target_px(
+    tangential_n: f64,
+    slid_mm: f64,
+    shear_gain: f64,
+    drag_px: f64,
+    drag_length_mm: f64,
+) -> f64 {
     shear_gain * tangential_n + drag_px * (slid_mm / drag_length_mm).tanh()
 }
 

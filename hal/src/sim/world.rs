@@ -519,14 +519,27 @@ impl World {
             let target = if self.normal_n[i] <= 0.0 {
                 0.0
             } else if self.stuck {
-                shear_target_px(self.tangential_n[i], 0.0, s.shear_gain, s.drag_px, t.slip_drag_length_mm)
+                shear_target_px(
+                    self.tangential_n[i],
+                    0.0,
+                    s.shear_gain,
+                    s.drag_px,
+                    t.slip_drag_length_mm,
+                )
             } else {
                 let speed = sliding_down_mm_s * (1.0 + amp * self.jitter[i]);
                 // Stick-slip: the contact region catches and lets go while sliding, an
                 // oscillation of the shear along the slip direction that grows with speed.
-                let catch_release = stick_slip_px * self.jitter[i] * (speed.abs() / t.slip_drag_speed_mm_s).min(1.0);
-                shear_target_px(self.tangential_n[i], self.slid_mm, s.shear_gain, s.drag_px, t.slip_drag_length_mm)
-                    + catch_release
+                let catch_release = stick_slip_px
+                    * self.jitter[i]
+                    * (speed.abs() / t.slip_drag_speed_mm_s).min(1.0);
+                shear_target_px(
+                    self.tangential_n[i],
+                    self.slid_mm,
+                    s.shear_gain,
+                    s.drag_px,
+                    t.slip_drag_length_mm,
+                ) + catch_release
             };
             s.shear_px = relax_towards(s.shear_px, target, dt, t.skin_time_s);
         }
@@ -662,10 +675,7 @@ fn validate(cfg: &SimConfig) -> Result<(), SimError> {
             "tactip.slip_drag_speed_mm_s",
             cfg.tactip.slip_drag_speed_mm_s,
         ),
-        (
-            "tactip.slip_drag_length_mm",
-            cfg.tactip.slip_drag_length_mm,
-        ),
+        ("tactip.slip_drag_length_mm", cfg.tactip.slip_drag_length_mm),
         ("marker.rate_hz", cfg.marker.rate_hz),
         ("servo.max_speed_per_s", cfg.servo.max_speed_per_s),
         ("arm.acceleration_mm_s2", cfg.arm.acceleration_mm_s2),

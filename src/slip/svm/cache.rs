@@ -23,7 +23,15 @@ impl RowCache {
     /// which the solver needs at once).
     pub fn new(n: usize, budget_bytes: usize) -> Self {
         let budget = (budget_bytes / std::mem::size_of::<f32>()).max(2 * n);
-        Self { rows: vec![Vec::new(); n], prev: vec![NONE; n], next: vec![NONE; n], head: NONE, tail: NONE, budget, used: 0 }
+        Self {
+            rows: vec![Vec::new(); n],
+            prev: vec![NONE; n],
+            next: vec![NONE; n],
+            head: NONE,
+            tail: NONE,
+            budget,
+            used: 0,
+        }
     }
 
     fn unlink(&mut self, i: usize) {

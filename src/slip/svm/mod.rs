@@ -32,24 +32,46 @@ pub struct SvmParams {
 
 impl SvmParams {
     pub fn rbf(c: f64, gamma: f64) -> Self {
-        Self { kernel: Kernel::Rbf { gamma }, ..Self::linear(c) }
+        Self {
+            kernel: Kernel::Rbf { gamma },
+            ..Self::linear(c)
+        }
     }
 
     pub fn linear(c: f64) -> Self {
-        Self { kernel: Kernel::Linear, c, tolerance: 1e-3, shrinking: true, cache_mb: 200, max_iterations: None }
+        Self {
+            kernel: Kernel::Linear,
+            c,
+            tolerance: 1e-3,
+            shrinking: true,
+            cache_mb: 200,
+            max_iterations: None,
+        }
     }
 
     pub fn check(self) -> Result<ValidSvmParams, SvmError> {
         if !(self.c.is_finite() && self.c > 0.0) {
-            return Err(SvmError::InvalidParameter { name: "C", value: self.c, expected: "a positive number" });
+            return Err(SvmError::InvalidParameter {
+                name: "C",
+                value: self.c,
+                expected: "a positive number",
+            });
         }
         if let Kernel::Rbf { gamma } = self.kernel {
             if !(gamma.is_finite() && gamma > 0.0) {
-                return Err(SvmError::InvalidParameter { name: "gamma", value: gamma, expected: "a positive number" });
+                return Err(SvmError::InvalidParameter {
+                    name: "gamma",
+                    value: gamma,
+                    expected: "a positive number",
+                });
             }
         }
         if !(self.tolerance.is_finite() && self.tolerance > 0.0) {
-            return Err(SvmError::InvalidParameter { name: "tolerance", value: self.tolerance, expected: "a positive number" });
+            return Err(SvmError::InvalidParameter {
+                name: "tolerance",
+                value: self.tolerance,
+                expected: "a positive number",
+            });
         }
         Ok(ValidSvmParams(self))
     }
@@ -62,9 +84,16 @@ pub struct ValidSvmParams(SvmParams);
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum SvmError {
     #[error("invalid {name} = {value}: expected {expected}")]
-    InvalidParameter { name: &'static str, value: f64, expected: &'static str },
+    InvalidParameter {
+        name: &'static str,
+        value: f64,
+        expected: &'static str,
+    },
     #[error("training data needs rows of both classes (static {static_rows}, slip {slip_rows})")]
-    OneClass { static_rows: usize, slip_rows: usize },
+    OneClass {
+        static_rows: usize,
+        slip_rows: usize,
+    },
     #[error("training rows have {got} values, expected a multiple of {dim}")]
     Shape { got: usize, dim: usize },
 }
@@ -100,16 +129,24 @@ impl ValidSvmParams {
         }
         let slip_rows = y.iter().filter(|c| **c == Class::Slip).count();
         if slip_rows == 0 || slip_rows == y.len() {
-            return Err(SvmError::OneClass { static_rows: y.len() - slip_rows, slip_rows });
+            return Err(SvmError::OneClass {
+                static_rows: y.len() - slip_rows,
+                slip_rows,
+            });
         }
-        let signs: Vec<i8> = y.iter().map(|c| if *c == Class::Slip { 1 } else { -1 }).collect();
+        let signs: Vec<i8> = y
+            .iter()
+            .map(|c| if *c == Class::Slip { 1 } else { -1 })
+            .collect();
         let n = y.len();
         let options = smo::SolverOptions {
             c: p.c,
             tolerance: p.tolerance,
             shrinking: p.shrinking,
             cache_bytes: p.cache_mb << 20,
-            max_iterations: p.max_iterations.unwrap_or_else(|| (100 * n).max(10_000_000)),
+            max_iterations: p
+                .max_iterations
+                .unwrap_or_else(|| (100 * n).max(10_000_000)),
         };
         let solution = smo::solve(dim, x.to_vec(), signs.clone(), p.kernel, &options);
         let mut support_vectors = Vec::new();
@@ -147,7 +184,11 @@ impl ValidSvmParams {
 impl SvmModel {
     /// Precomputes what prediction needs; call after deserialising.
     pub fn prepare(&mut self) {
-        self.norms = self.support_vectors.chunks_exact(self.dim).map(|r| dot(r, r)).collect();
+        self.norms = self
+            .support_vectors
+            .chunks_exact(self.dim)
+            .map(|r| dot(r, r))
+            .collect();
     }
 
     pub fn support_vector_count(&self) -> usize {
@@ -161,7 +202,12 @@ impl SvmModel {
         }
         let nx = dot(x, x);
         let mut sum = 0.0;
-        for ((sv, coef), norm) in self.support_vectors.chunks_exact(self.dim).zip(&self.dual_coef).zip(&self.norms) {
+        for ((sv, coef), norm) in self
+            .support_vectors
+            .chunks_exact(self.dim)
+            .zip(&self.dual_coef)
+            .zip(&self.norms)
+        {
             sum += coef * self.kernel.from_dot(dot(sv, x), *norm, nx);
         }
         sum - self.rho
@@ -184,7 +230,9 @@ mod tests {
     fn blobs(n: usize) -> (Vec<f32>, Vec<Class>) {
         let mut state = 99u64;
         let mut rand = || {
-            state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            state = state
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
             ((state >> 11) as f64 / (1u64 << 53) as f64) as f32 - 0.5
         };
         let (mut x, mut y) = (Vec::new(), Vec::new());
@@ -203,7 +251,9 @@ mod tests {
         let (x, y) = blobs(300);
         for params in [SvmParams::linear(1.0), SvmParams::rbf(1.0, 0.5)] {
             let m = params.check().unwrap().fit(2, &x, &y).unwrap();
-            let correct = (0..300).filter(|&i| m.predict(&x[2 * i..2 * i + 2]) == y[i]).count();
+            let correct = (0..300)
+                .filter(|&i| m.predict(&x[2 * i..2 * i + 2]) == y[i])
+                .count();
             assert!(correct >= 280, "{params:?}: {correct}/300");
             assert!(m.support_vector_count() < 300);
         }
@@ -213,7 +263,11 @@ mod tests {
     fn dual_solution_satisfies_its_constraints() {
         let (x, y) = blobs(200);
         let c = 0.7;
-        let m = SvmParams::rbf(c, 0.8).check().unwrap().fit(2, &x, &y).unwrap();
+        let m = SvmParams::rbf(c, 0.8)
+            .check()
+            .unwrap()
+            .fit(2, &x, &y)
+            .unwrap();
         // sum alpha_i y_i = 0 and 0 < alpha <= C
         let sum: f64 = m.dual_coef.iter().sum();
         assert!(sum.abs() < 1e-9, "{sum}");
@@ -231,7 +285,10 @@ mod tests {
         other.cache_mb = 0; // the minimum: two rows
         let b = other.check().unwrap().fit(2, &x, &y).unwrap();
         for i in 0..400 {
-            let (da, db) = (a.decision(&x[2 * i..2 * i + 2]), b.decision(&x[2 * i..2 * i + 2]));
+            let (da, db) = (
+                a.decision(&x[2 * i..2 * i + 2]),
+                b.decision(&x[2 * i..2 * i + 2]),
+            );
             assert!((da - db).abs() < 1e-3, "row {i}: {da} vs {db}");
         }
     }
@@ -241,7 +298,11 @@ mod tests {
         assert!(SvmParams::rbf(0.0, 1.0).check().is_err());
         assert!(SvmParams::rbf(1.0, -1.0).check().is_err());
         assert!(SvmParams::linear(f64::NAN).check().is_err());
-        let e = SvmParams::linear(1.0).check().unwrap().fit(1, &[0.0, 1.0], &[Class::Static, Class::Static]).unwrap_err();
+        let e = SvmParams::linear(1.0)
+            .check()
+            .unwrap()
+            .fit(1, &[0.0, 1.0], &[Class::Static, Class::Static])
+            .unwrap_err();
         assert!(matches!(e, SvmError::OneClass { .. }));
     }
 }

@@ -9,6 +9,9 @@
 //! - shrinking of bounded variables that are unlikely to move, with the gradient
 //!   reconstructed before the final optimality check;
 //! - kernel rows computed in parallel when a row is long enough to pay for it.
+//!
+//! Index loops mirror libsvm's so the two can be read side by side.
+#![allow(clippy::needless_range_loop)]
 
 use rayon::prelude::*;
 
@@ -74,7 +77,9 @@ impl QMatrix {
         };
         if (len - start) * rows.dim >= PARALLEL_WORK {
             const CHUNK: usize = 512;
-            out.par_chunks_mut(CHUNK).enumerate().for_each(|(c, chunk)| compute(c * CHUNK, chunk));
+            out.par_chunks_mut(CHUNK)
+                .enumerate()
+                .for_each(|(c, chunk)| compute(c * CHUNK, chunk));
         } else {
             compute(0, out);
         }
@@ -158,13 +163,19 @@ impl Solver {
                     continue;
                 }
                 gmax2 = gmax2.max(self.gradient[j]);
-                (gmax + self.gradient[j], qd_i + self.q.diagonal[j] - 2.0 * yi * f64::from(qi[j]))
+                (
+                    gmax + self.gradient[j],
+                    qd_i + self.q.diagonal[j] - 2.0 * yi * f64::from(qi[j]),
+                )
             } else {
                 if self.status[j] == Bound::Upper {
                     continue;
                 }
                 gmax2 = gmax2.max(-self.gradient[j]);
-                (gmax - self.gradient[j], qd_i + self.q.diagonal[j] + 2.0 * yi * f64::from(qi[j]))
+                (
+                    gmax - self.gradient[j],
+                    qd_i + self.q.diagonal[j] + 2.0 * yi * f64::from(qi[j]),
+                )
             };
             if grad_diff > 0.0 {
                 let obj_diff = -(grad_diff * grad_diff) / if quad > 0.0 { quad } else { TAU };
@@ -193,7 +204,10 @@ impl Solver {
         let (mut gmax1, mut gmax2) = (f64::NEG_INFINITY, f64::NEG_INFINITY);
         for i in 0..self.active_size {
             let g = self.gradient[i];
-            let (not_upper, not_lower) = (self.status[i] != Bound::Upper, self.status[i] != Bound::Lower);
+            let (not_upper, not_lower) = (
+                self.status[i] != Bound::Upper,
+                self.status[i] != Bound::Lower,
+            );
             if self.q.y[i] == 1 {
                 if not_upper {
                     gmax1 = gmax1.max(-g);
@@ -239,7 +253,9 @@ impl Solver {
         for j in active..n {
             self.gradient[j] = self.gradient_bar[j] - 1.0;
         }
-        let free = (0..active).filter(|&j| self.status[j] == Bound::Free).count();
+        let free = (0..active)
+            .filter(|&j| self.status[j] == Bound::Free)
+            .count();
         if free * n > 2 * active * (n - active) {
             for i in active..n {
                 self.q.fill(i, active);
@@ -351,7 +367,8 @@ impl Solver {
     }
 
     fn rho(&self) -> f64 {
-        let (mut ub, mut lb, mut sum_free, mut free) = (f64::INFINITY, f64::NEG_INFINITY, 0.0, 0usize);
+        let (mut ub, mut lb, mut sum_free, mut free) =
+            (f64::INFINITY, f64::NEG_INFINITY, 0.0, 0usize);
         for i in 0..self.active_size {
             let yg = self.y(i) * self.gradient[i];
             match (self.status[i], self.q.y[i] == 1) {
@@ -372,11 +389,25 @@ impl Solver {
 }
 
 /// Solves the C-SVC dual for rows `x` (row-major, `dim` wide) with labels `y` in {-1, +1}.
-pub fn solve(dim: usize, x: Vec<f32>, y: Vec<i8>, kernel: Kernel, options: &SolverOptions) -> Solution {
+pub fn solve(
+    dim: usize,
+    x: Vec<f32>,
+    y: Vec<i8>,
+    kernel: Kernel,
+    options: &SolverOptions,
+) -> Solution {
     let rows = Rows::new(dim, x);
     let n = rows.len();
-    let diagonal = (0..n).map(|i| kernel.from_dot(rows.norms[i], rows.norms[i], rows.norms[i])).collect();
-    let q = QMatrix { cache: RowCache::new(n, options.cache_bytes), rows, y, kernel, diagonal };
+    let diagonal = (0..n)
+        .map(|i| kernel.from_dot(rows.norms[i], rows.norms[i], rows.norms[i]))
+        .collect();
+    let q = QMatrix {
+        cache: RowCache::new(n, options.cache_bytes),
+        rows,
+        y,
+        kernel,
+        diagonal,
+    };
     let mut s = Solver {
         q,
         n,
@@ -432,5 +463,10 @@ pub fn solve(dim: usize, x: Vec<f32>, y: Vec<i8>, kernel: Kernel, options: &Solv
     for (pos, &orig) in s.order.iter().enumerate() {
         alpha[orig] = s.alpha[pos];
     }
-    Solution { alpha, rho, iterations, hit_iteration_limit }
+    Solution {
+        alpha,
+        rho,
+        iterations,
+        hit_iteration_limit,
+    }
 }
