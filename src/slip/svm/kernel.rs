@@ -2,7 +2,8 @@
 //!
 //! Dot products run in `f32` with eight independent accumulators so the compiler vectorises
 //! them; on standardised 60-dimensional features the rounding error is around 1e-6 of the
-//! value, far below what moves a decision. The kernel value is then computed in `f64`.
+//! value, far below what moves a decision. Kernel values are `f32` too (they are cached as
+//! `f32`); sums over them are `f64`.
 
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 #[serde(tag = "type", rename_all = "snake_case")]
@@ -30,6 +31,29 @@ pub fn dot(a: &[f32], b: &[f32]) -> f32 {
     ((acc[0] + acc[4]) + (acc[1] + acc[5])) + ((acc[2] + acc[6]) + (acc[3] + acc[7])) + tail
 }
 
+/// `e^x` for `x <= 0` in `f32`, written so the compiler can vectorise it (no branches, no
+/// library call): `x = n ln 2 + r`, `e^r` by its degree-6 Taylor polynomial on
+/// `|r| <= ln 2 / 2`, `2^n` by building the float's exponent bits. Relative error below 3e-7,
+/// i.e. within a few ulps of `f32`. Measured: with `std`'s `f64` `exp`, computing the RBF
+/// terms took most of prediction time (83 us median for 6,274 support vectors).
+#[inline]
+pub fn exp_nonpositive(x: f32) -> f32 {
+    const LOG2E: f32 = std::f32::consts::LOG2_E;
+    const LN2_HI: f32 = 0.693_145_75;
+    const LN2_LO: f32 = 1.428_606_8e-6;
+    const ROUND: f32 = 12_582_912.0; // 1.5 * 2^23: adding and subtracting it rounds to an integer
+    let x = x.clamp(-87.0, 0.0);
+    let t = x * LOG2E + ROUND;
+    let n = t - ROUND;
+    let r = x - n * LN2_HI - n * LN2_LO;
+    let p = 1.0 + r * (1.0 + r * (0.5 + r * (1.0 / 6.0 + r * (1.0 / 24.0 + r * (1.0 / 120.0 + r * (1.0 / 720.0))))));
+    // The integer n sits in the low mantissa bits of t: no float-to-int conversion (whose
+    // saturating semantics kept the loop from vectorising).
+    let n_int = (t.to_bits() as i32).wrapping_sub(ROUND.to_bits() as i32);
+    let scale = f32::from_bits((n_int.wrapping_add(127) << 23) as u32);
+    p * scale
+}
+
 impl Kernel {
     /// Kernel value from the dot product and both squared norms.
     #[inline]
@@ -37,8 +61,8 @@ impl Kernel {
         match *self {
             Kernel::Linear => f64::from(dot),
             Kernel::Rbf { gamma } => {
-                let d2 = (f64::from(norm_a) + f64::from(norm_b) - 2.0 * f64::from(dot)).max(0.0);
-                (-gamma * d2).exp()
+                let d2 = (norm_a + norm_b - 2.0 * dot).max(0.0);
+                f64::from(exp_nonpositive(-(gamma as f32) * d2))
             }
         }
     }
@@ -96,6 +120,21 @@ mod tests {
         let b: Vec<f32> = (0..61).map(|i| 1.0 - i as f32 * 0.01).collect();
         let naive: f32 = a.iter().zip(&b).map(|(x, y)| x * y).sum();
         assert!((dot(&a, &b) - naive).abs() < 1e-3);
+    }
+
+    #[test]
+    fn fast_exp_is_accurate_to_f32_precision() {
+        let mut worst = 0.0f64;
+        let mut x = -87.0f32;
+        while x <= 0.0 {
+            let exact = f64::from(x).exp();
+            let rel = (f64::from(exp_nonpositive(x)) - exact).abs() / exact;
+            worst = worst.max(rel);
+            x += 0.0007;
+        }
+        assert!(worst < 3e-7, "{worst}");
+        assert_eq!(exp_nonpositive(0.0), 1.0);
+        assert!(exp_nonpositive(-1000.0) < 1e-37);
     }
 
     #[test]

@@ -114,7 +114,15 @@ pub struct SvmModel {
     pub iterations: usize,
     #[serde(skip)]
     norms: Vec<f32>,
+    #[serde(skip)]
+    coef32: Vec<f32>,
+    /// Support vectors in blocks of [`BLOCK`], each stored feature-major (see `decision`).
+    #[serde(skip)]
+    blocks: Vec<f32>,
 }
+
+/// Support vectors per block in prediction.
+const BLOCK: usize = 64;
 
 impl ValidSvmParams {
     pub fn params(&self) -> &SvmParams {
@@ -175,6 +183,8 @@ impl ValidSvmParams {
             weights,
             iterations: solution.iterations,
             norms: Vec::new(),
+            coef32: Vec::new(),
+            blocks: Vec::new(),
         };
         model.prepare();
         Ok(model)
@@ -189,6 +199,18 @@ impl SvmModel {
             .chunks_exact(self.dim)
             .map(|r| dot(r, r))
             .collect();
+        let n = self.dual_coef.len();
+        let padded = n.div_ceil(BLOCK) * BLOCK;
+        self.coef32 = self.dual_coef.iter().map(|c| *c as f32).collect();
+        self.coef32.resize(padded, 0.0);
+        self.norms.resize(padded, 0.0);
+        self.blocks = vec![0.0; padded * self.dim];
+        for (i, sv) in self.support_vectors.chunks_exact(self.dim).enumerate() {
+            let (b, k) = (i / BLOCK, i % BLOCK);
+            for (j, v) in sv.iter().enumerate() {
+                self.blocks[(b * self.dim + j) * BLOCK + k] = *v;
+            }
+        }
     }
 
     pub fn support_vector_count(&self) -> usize {
@@ -200,17 +222,17 @@ impl SvmModel {
         if let Some(w) = &self.weights {
             return w.iter().zip(x).map(|(a, b)| a * f64::from(*b)).sum::<f64>() - self.rho;
         }
-        let nx = dot(x, x);
-        let mut sum = 0.0;
-        for ((sv, coef), norm) in self
-            .support_vectors
-            .chunks_exact(self.dim)
-            .zip(&self.dual_coef)
-            .zip(&self.norms)
+        let Kernel::Rbf { gamma } = self.kernel else {
+            unreachable!("linear models predict through their weights")
+        };
+        #[cfg(target_arch = "x86_64")]
         {
-            sum += coef * self.kernel.from_dot(dot(sv, x), *norm, nx);
+            if std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma") {
+                // SAFETY: the CPU has the features the function is compiled for.
+                return unsafe { rbf_sum_avx2(self, gamma as f32, x) } - self.rho;
+            }
         }
-        sum - self.rho
+        rbf_sum(self, gamma as f32, x) - self.rho
     }
 
     pub fn predict(&self, x: &[f32]) -> Class {
@@ -220,6 +242,43 @@ impl SvmModel {
             Class::Static
         }
     }
+}
+
+/// `sum_i coef_i exp(-gamma |sv_i - x|^2)` over blocks of support vectors stored
+/// feature-major, so the inner loop runs over 64 support vectors at once with no horizontal
+/// sums: measured 80 us -> see the issue note for 6,277 support vectors, where row-major dot
+/// products spent most of their time reducing each short dot product.
+#[inline(always)]
+fn rbf_sum(m: &SvmModel, gamma: f32, x: &[f32]) -> f64 {
+    let nx = dot(x, x);
+    // Per-lane running sums: a single scalar sum would keep the loop from vectorising.
+    let mut total = [0.0f32; BLOCK];
+    for ((block, coefs), norms) in m
+        .blocks
+        .chunks_exact(BLOCK * m.dim)
+        .zip(m.coef32.chunks_exact(BLOCK))
+        .zip(m.norms.chunks_exact(BLOCK))
+    {
+        let mut acc = [0.0f32; BLOCK];
+        for (j, xj) in x.iter().enumerate() {
+            let col = &block[j * BLOCK..(j + 1) * BLOCK];
+            for k in 0..BLOCK {
+                acc[k] += col[k] * xj;
+            }
+        }
+        for k in 0..BLOCK {
+            let d2 = (norms[k] + nx - 2.0 * acc[k]).max(0.0);
+            total[k] += coefs[k] * kernel::exp_nonpositive(-gamma * d2);
+        }
+    }
+    total.iter().map(|v| f64::from(*v)).sum()
+}
+
+/// [`rbf_sum`] compiled for AVX2 and FMA, chosen at run time when the CPU has them.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+unsafe fn rbf_sum_avx2(m: &SvmModel, gamma: f32, x: &[f32]) -> f64 {
+    rbf_sum(m, gamma, x)
 }
 
 #[cfg(test)]

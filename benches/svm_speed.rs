@@ -1,0 +1,107 @@
+//! SVM fit time for 2k, 5k, 10k and 20k rows of 60-dimensional simulator features, and
+//! per-frame prediction latency. Run with `cargo bench --bench svm_speed`.
+//!
+//! The rows are written to `target/bench/svm_rows.csv` first (shuffled, seeded), so
+//! `python3 scripts/time_sklearn.py target/bench/svm_rows.csv` times scikit-learn's SVC on
+//! exactly the same rows and hyperparameters.
+
+use std::time::Instant;
+
+use rand::seq::SliceRandom;
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+use tmo::collect::{collect_trial, trial_seed, CollectRig, CollectSpec};
+use tmo::slip::dataset::{Dataset, LabelSpec};
+use tmo::slip::features::FeatureSpec;
+use tmo::slip::labels::OnsetSpec;
+use tmo::slip::scaler::Scaler;
+use tmo::slip::svm::SvmParams;
+use tmo::slip::Class;
+use tmo_hal::sim::SimConfig;
+
+const C: f64 = 3.989;
+const GAMMA: f64 = 0.02;
+
+fn rows() -> Dataset {
+    let objects = ["crisps_can", "windex_bottle", "bleach_bottle", "mustard_bottle", "banana"];
+    let trials: Vec<_> = (0..40u64)
+        .map(|i| {
+            let spec = CollectSpec {
+                rig: CollectRig::Hand,
+                object: objects[(i % 5) as usize].into(),
+                grasp_deg: if (i / 5) % 2 == 0 { 0.0 } else { 180.0 },
+                seed: trial_seed(11, i),
+                base: SimConfig::default(),
+            };
+            collect_trial(&spec, &format!("trial-{i:04}"), 0).unwrap()
+        })
+        .collect();
+    let ds = Dataset::from_trials(&trials, &FeatureSpec::new(30), &LabelSpec { n_slip: 13, onset: OnsetSpec::default() })
+        .downsample_static(0.4, 1);
+    let mut order: Vec<usize> = (0..ds.len()).collect();
+    order.shuffle(&mut ChaCha8Rng::seed_from_u64(3));
+    let mut shuffled = Dataset { dim: ds.dim, trial_ids: ds.trial_ids.clone(), ..Default::default() };
+    for &i in &order {
+        shuffled.x.extend_from_slice(ds.row(i));
+        shuffled.y.push(ds.y[i]);
+        shuffled.trial.push(ds.trial[i]);
+        shuffled.sensor.push(ds.sensor[i]);
+        shuffled.seq.push(ds.seq[i]);
+        shuffled.time_s.push(ds.time_s[i]);
+    }
+    shuffled
+}
+
+fn percentile(sorted: &[f64], p: f64) -> f64 {
+    sorted[((sorted.len() - 1) as f64 * p).round() as usize]
+}
+
+fn main() {
+    let ds = rows();
+    std::fs::create_dir_all("target/bench").unwrap();
+    ds.write_csv(std::path::Path::new("target/bench/svm_rows.csv")).unwrap();
+    println!(
+        "svm_speed: RBF C-SVC, C = {C}, gamma = {GAMMA}, tol 1e-3, {} rows of {} features written to target/bench/svm_rows.csv ({} slip)",
+        ds.len(),
+        ds.dim,
+        ds.count(Class::Slip)
+    );
+    let params = SvmParams::rbf(C, GAMMA).check().unwrap();
+    let mut last = None;
+    for n in [2_000usize, 5_000, 10_000, 20_000] {
+        assert!(ds.len() >= n, "only {} rows", ds.len());
+        let x = &ds.x[..n * ds.dim];
+        let y = &ds.y[..n];
+        let t0 = Instant::now();
+        let scaler = Scaler::fit(ds.dim, x);
+        let xs = scaler.transform(x);
+        let model = params.fit(ds.dim, &xs, y).unwrap();
+        let secs = t0.elapsed().as_secs_f64();
+        println!(
+            "  fit {n:>6} rows: {secs:>7.3} s  ({} support vectors, {} iterations)",
+            model.support_vector_count(),
+            model.iterations
+        );
+        last = Some((scaler, model));
+    }
+    let (scaler, model) = last.unwrap();
+    let mut scaled = vec![0.0f32; ds.dim];
+    let mut times = Vec::new();
+    let mut slips = 0;
+    for i in (ds.len() - 5000.min(ds.len())..ds.len()).cycle().take(20_000) {
+        let t0 = Instant::now();
+        scaler.transform_into(ds.row(i), &mut scaled);
+        let d = model.decision(&scaled);
+        times.push(t0.elapsed().as_secs_f64() * 1e6);
+        slips += usize::from(d > 0.0);
+    }
+    times.sort_by(|a, b| a.partial_cmp(b).unwrap());
+    println!(
+        "  predict one frame against {} support vectors: median {:.1} us, p99 {:.1} us ({} of {} frames slip)",
+        model.support_vector_count(),
+        percentile(&times, 0.5),
+        percentile(&times, 0.99),
+        slips,
+        times.len()
+    );
+}

@@ -1,0 +1,42 @@
+#!/usr/bin/env python3
+"""Times scikit-learn's SVC on the rows `cargo bench --bench svm_speed` wrote, with the same
+hyperparameters, sizes and scaling, for comparison with tmo's solver.
+
+    python3 scripts/time_sklearn.py target/bench/svm_rows.csv
+"""
+import sys
+import time
+
+import numpy as np
+import pandas as pd
+from sklearn.preprocessing import StandardScaler
+from sklearn.svm import SVC
+
+C, GAMMA = 3.989, 0.02
+
+
+def main(path):
+    df = pd.read_csv(path)
+    features = [c for c in df.columns if c.startswith("dr_") or c.startswith("dtheta_")]
+    x = df[features].to_numpy(dtype=np.float64)
+    y = (df.label == "slip").to_numpy().astype(int)
+    print(f"scikit-learn SVC rbf, C = {C}, gamma = {GAMMA}, tol 1e-3, cache 200 MB, {len(df)} rows")
+    model = scaler = None
+    for n in [2000, 5000, 10000, 20000]:
+        t0 = time.perf_counter()
+        scaler = StandardScaler().fit(x[:n])
+        model = SVC(kernel="rbf", C=C, gamma=GAMMA, tol=1e-3, cache_size=200).fit(scaler.transform(x[:n]), y[:n])
+        print(f"  fit {n:>6} rows: {time.perf_counter() - t0:>7.3f} s  ({model.n_support_.sum()} support vectors)")
+    rows = x[-5000:]
+    times = []
+    for i in range(20000):
+        r = rows[i % len(rows)].reshape(1, -1)
+        t0 = time.perf_counter()
+        model.decision_function(scaler.transform(r))
+        times.append((time.perf_counter() - t0) * 1e6)
+    times.sort()
+    print(f"  predict one frame: median {times[len(times) // 2]:.1f} us, p99 {times[int(0.99 * (len(times) - 1))]:.1f} us")
+
+
+if __name__ == "__main__":
+    main(sys.argv[1])
