@@ -13,6 +13,7 @@ use tmo::slip::features::FeatureSpec;
 use tmo::slip::labels::OnsetSpec;
 use tmo::slip::metrics::Scores;
 use tmo::slip::model::{self, ClassifierKind, Hyperparameters, ModelFile, TrialRef};
+use tmo::slip::tuning::{self, TuneSpec};
 use tmo::trace;
 use tmo::trial::{load_trials, TrialMeta};
 use tmo_hal::sim::{FaultRates, ObjectLibrary, SimConfig, SimRig};
@@ -93,8 +94,23 @@ struct TrainArgs {
     /// RBF kernel width gamma.
     #[arg(long, default_value_t = 1.104)]
     gamma: f64,
+    /// Find C (and gamma) by Bayesian optimisation of cross-validated macro F1 instead.
+    #[arg(long, value_enum, default_value = "none")]
+    search: SearchMethod,
+    /// Evaluations of the search.
+    #[arg(long, default_value_t = 20)]
+    iters: usize,
+    /// Cross-validation folds (split by trial) of the search.
+    #[arg(long, default_value_t = 3)]
+    folds: usize,
     #[arg(long)]
     out: PathBuf,
+}
+
+#[derive(Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+enum SearchMethod {
+    None,
+    Bayes,
 }
 
 #[derive(clap::Args)]
@@ -474,11 +490,38 @@ fn print_scores(label: &str, s: &Scores) {
 fn train(args: TrainArgs) -> Result<()> {
     let labels = label_spec(&args.labels)?;
     let (ds, refs, features) = load_dataset(&args.trials, &labels)?;
-    let hyper = Hyperparameters {
-        c: args.c,
-        gamma: args.gamma,
-    };
     let started = std::time::Instant::now();
+    let (hyper, search) = match args.search {
+        SearchMethod::None => (
+            Hyperparameters {
+                c: args.c,
+                gamma: args.gamma,
+            },
+            None,
+        ),
+        SearchMethod::Bayes => {
+            anyhow::ensure!(
+                args.classifier != ClassifierKind::Threshold,
+                "--search bayes: the threshold classifier has no hyperparameters"
+            );
+            let spec = TuneSpec {
+                kind: args.classifier,
+                scope: args.scope,
+                downsample: args.labels.downsample,
+                seed: args.labels.seed,
+                iterations: args.iters,
+                folds: args.folds,
+            };
+            let (hyper, record) = tuning::search(&ds, &spec)?;
+            let best = record
+                .evaluations
+                .iter()
+                .map(|e| e.score)
+                .fold(f64::NEG_INFINITY, f64::max);
+            println!("search: {} evaluations, best cross-validated macro F1 {best:.3} at C = {:.4}, gamma = {:.5}", record.evaluations.len(), hyper.c, hyper.gamma);
+            (hyper, Some(record))
+        }
+    };
     let models = model::train_models(
         &ds,
         args.classifier,
@@ -501,6 +544,7 @@ fn train(args: TrainArgs) -> Result<()> {
         sensors: ds.sensors(),
         models,
         training_trials: refs,
+        search,
         tmo_version,
         git_revision,
     };

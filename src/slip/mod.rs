@@ -1,6 +1,7 @@
 //! Slip detection: features from pin frames, labels from the marker track, classifiers and
 //! their scores (SPEC.md, "Slip detection method"). Usable without any hardware.
 
+pub mod bayes;
 pub mod dataset;
 pub mod features;
 pub mod labels;
@@ -10,6 +11,7 @@ pub mod model;
 pub mod scaler;
 pub mod svm;
 pub mod threshold;
+pub mod tuning;
 
 /// The two classes of a frame.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize)]

@@ -215,8 +215,19 @@ pub struct ModelFile {
     pub sensors: Vec<u8>,
     pub models: Vec<SensorModel>,
     pub training_trials: Vec<TrialRef>,
+    /// How the hyperparameters were found, when a search found them.
+    pub search: Option<SearchRecord>,
     pub tmo_version: String,
     pub git_revision: String,
+}
+
+/// A hyperparameter search: every evaluation, scored by cross-validated macro F1.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct SearchRecord {
+    pub method: String,
+    pub folds: usize,
+    pub parameters: Vec<String>,
+    pub evaluations: Vec<super::bayes::Evaluation>,
 }
 
 #[derive(Debug, thiserror::Error)]
@@ -295,35 +306,49 @@ impl ModelFile {
 
     /// Scores on `data` (every row, never down-sampled), overall and per sensor.
     pub fn evaluate(&self, data: &Dataset) -> Result<(Scores, Vec<(u8, Scores)>), ModelFileError> {
-        let mut scratch = Vec::new();
-        let mut overall = Confusion::default();
-        let mut per_sensor: Vec<(u8, Confusion)> = Vec::new();
-        for i in 0..data.len() {
-            let sensor = data.sensor[i];
-            let m = self.for_sensor(sensor).ok_or(ModelFileError::NoSensor {
-                path: "model".into(),
-                sensor,
-            })?;
-            let p = m.predict(data.row(i), &mut scratch);
-            overall.add(data.y[i], p);
-            match per_sensor.iter_mut().find(|(s, _)| *s == sensor) {
-                Some((_, c)) => c.add(data.y[i], p),
-                None => {
-                    let mut c = Confusion::default();
-                    c.add(data.y[i], p);
-                    per_sensor.push((sensor, c));
-                }
+        score_models(&self.models, self.scope, data).map_err(|sensor| ModelFileError::NoSensor {
+            path: "model".into(),
+            sensor,
+        })
+    }
+}
+
+/// Scores `models` (of `scope`) on every row of `data`, overall and per sensor; `Err(sensor)`
+/// if a local model set has no classifier for a sensor in the data.
+pub fn score_models(
+    models: &[SensorModel],
+    scope: Scope,
+    data: &Dataset,
+) -> Result<(Scores, Vec<(u8, Scores)>), u8> {
+    let pick = |sensor: u8| match scope {
+        Scope::Global => models.first(),
+        Scope::Local => models.iter().find(|m| m.sensor == Some(sensor)),
+    };
+    let mut scratch = Vec::new();
+    let mut overall = Confusion::default();
+    let mut per_sensor: Vec<(u8, Confusion)> = Vec::new();
+    for i in 0..data.len() {
+        let sensor = data.sensor[i];
+        let m = pick(sensor).ok_or(sensor)?;
+        let p = m.predict(data.row(i), &mut scratch);
+        overall.add(data.y[i], p);
+        match per_sensor.iter_mut().find(|(s, _)| *s == sensor) {
+            Some((_, c)) => c.add(data.y[i], p),
+            None => {
+                let mut c = Confusion::default();
+                c.add(data.y[i], p);
+                per_sensor.push((sensor, c));
             }
         }
-        per_sensor.sort_by_key(|(s, _)| *s);
-        Ok((
-            overall.scores(),
-            per_sensor
-                .into_iter()
-                .map(|(s, c)| (s, c.scores()))
-                .collect(),
-        ))
     }
+    per_sensor.sort_by_key(|(s, _)| *s);
+    Ok((
+        overall.scores(),
+        per_sensor
+            .into_iter()
+            .map(|(s, c)| (s, c.scores()))
+            .collect(),
+    ))
 }
 
 /// Trains the models of one file: one per sensor (local) or one for all (global), each on
