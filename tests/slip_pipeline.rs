@@ -90,3 +90,21 @@ fn threshold_classifier_learns_something_but_not_everything() {
     );
     assert!(scores.macro_f1 > 0.55, "{scores:?}");
 }
+
+#[test]
+fn relabelling_to_fewer_slip_frames_matches_labelling_afresh() {
+    let trials = collect(3);
+    let label = |n_slip| LabelSpec {
+        n_slip,
+        onset: OnsetSpec::default(),
+    };
+    let wide = Dataset::from_trials(&trials, &FeatureSpec::new(30), &label(15));
+    for n in [1, 5, 13] {
+        let narrow = Dataset::from_trials(&trials, &FeatureSpec::new(30), &label(n));
+        let mut derived = wide.with_n_slip(n).unwrap();
+        assert_eq!(narrow.count(Class::Slip), 3 * 3 * n, "n_slip {n}");
+        // filtering does not carry the count of frames that gave no features
+        derived.skipped_frames = narrow.skipped_frames;
+        assert_eq!(derived, narrow, "n_slip {n}");
+    }
+}

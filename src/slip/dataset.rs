@@ -30,6 +30,10 @@ pub struct Dataset {
     pub sensor: Vec<u8>,
     pub seq: Vec<u64>,
     pub time_s: Vec<f64>,
+    /// For rows built from trials: the frame's count since slip onset (1 for the first
+    /// slip frame), 0 for static rows; lets a sweep over `n_slip` label its trials once.
+    /// Empty for rows made by hand.
+    pub slip_frame: Vec<u32>,
     pub trial_ids: Vec<String>,
     /// Frames that gave no features (first frame of a sensor, wrong pin count, ...).
     pub skipped_frames: usize,
@@ -82,6 +86,7 @@ impl Dataset {
                 let frames: Vec<_> = trial.frames.iter().filter(|f| f.sensor == sensor).collect();
                 let times: Vec<f64> = frames.iter().map(|f| f.time_s).collect();
                 let classes = label_frames(&times, onset, labels.n_slip);
+                let first_slip = classes.iter().position(|c| *c == Some(Class::Slip));
                 ds.skipped_frames += usize::from(!frames.is_empty());
                 for k in 1..frames.len() {
                     let Some(class) = classes[k] else { continue };
@@ -95,6 +100,10 @@ impl Dataset {
                     ds.sensor.push(sensor);
                     ds.seq.push(frames[k].seq);
                     ds.time_s.push(frames[k].time_s);
+                    ds.slip_frame.push(match (class, first_slip) {
+                        (Class::Slip, Some(first)) => (k - first + 1) as u32,
+                        _ => 0,
+                    });
                 }
             }
         }
@@ -116,9 +125,19 @@ impl Dataset {
                 out.sensor.push(self.sensor[i]);
                 out.seq.push(self.seq[i]);
                 out.time_s.push(self.time_s[i]);
+                if let Some(f) = self.slip_frame.get(i) {
+                    out.slip_frame.push(*f);
+                }
             }
         }
         out
+    }
+
+    /// The rows a labelling with `n_slip` slip frames would give, from rows labelled with
+    /// at least that many; `None` for rows without `slip_frame` counts.
+    pub fn with_n_slip(&self, n_slip: usize) -> Option<Dataset> {
+        (self.slip_frame.len() == self.len())
+            .then(|| self.filter(|i| self.slip_frame[i] as usize <= n_slip))
     }
 
     pub fn sensor_only(&self, sensor: u8) -> Dataset {

@@ -10,6 +10,7 @@ pub mod metrics;
 pub mod model;
 pub mod scaler;
 pub mod svm;
+pub mod sweep;
 pub mod threshold;
 pub mod tuning;
 

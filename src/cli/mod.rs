@@ -1,0 +1,5 @@
+//! Subcommands: argument types and the glue from them to the library.
+
+pub mod sim;
+pub mod slip;
+pub mod sweep;

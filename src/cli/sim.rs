@@ -1,0 +1,277 @@
+//! `tmo sim ...`: the simulated rig from the command line.
+
+use std::path::{Path, PathBuf};
+
+use anyhow::{Context, Result};
+use clap::Subcommand;
+use tmo::collect::{self, CollectRig, CollectSpec};
+use tmo::scenario::Devices;
+use tmo::sim_presets::{self, Preset, PresetOptions};
+use tmo::trace;
+use tmo_hal::sim::{FaultRates, ObjectLibrary, SimConfig, SimRig};
+
+#[derive(Subcommand)]
+pub enum SimCommand {
+    /// Runs one simulated scenario and writes its physics, pins and markers as CSV.
+    Trace(TraceArgs),
+    /// Lists the object library.
+    Objects,
+    /// Records collect-mode trials (no reaction to slip) as training data.
+    Collect(CollectArgs),
+}
+
+#[derive(clap::Args)]
+pub struct CollectArgs {
+    /// Which rig: whole-hand release or the single-finger slip rail.
+    #[arg(long, value_enum, default_value = "hand")]
+    rig: CollectRig,
+    /// Number of trials.
+    #[arg(long, default_value_t = 20)]
+    trials: u64,
+    /// Objects, used in turn (default: the paper's five training objects, or the rail object).
+    #[arg(long, value_delimiter = ',')]
+    objects: Vec<String>,
+    /// Grasp angles in degrees, each used for a full round of objects.
+    #[arg(long, value_delimiter = ',', default_value = "0,180")]
+    grasps: Vec<f64>,
+    /// Batch seed; trial i uses seed * 1000003 + i.
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Simulator parameters (TOML); the rig is set by --rig.
+    #[arg(long)]
+    config: Option<PathBuf>,
+    /// Output directory; trials already there are kept and not run again.
+    #[arg(long, default_value = "trials/collect")]
+    out: PathBuf,
+}
+
+#[derive(clap::Args)]
+pub struct TraceArgs {
+    /// What to simulate.
+    #[arg(long, value_enum)]
+    scenario: Preset,
+    /// Object from the library (`tmo sim objects`); default crisps_can, or rail_object on the rail.
+    #[arg(long)]
+    object: Option<String>,
+    /// Hand roll, degrees (the paper uses 0 and 180).
+    #[arg(long, default_value_t = 0.0)]
+    grasp_deg: f64,
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Simulated seconds.
+    #[arg(long, default_value_t = 5.0)]
+    duration: f64,
+    /// Rail retraction speed, mm/s (the paper draws it from 0.1..5).
+    #[arg(long, default_value_t = 2.0)]
+    retract_speed: f64,
+    /// Rice poured per second in the pour scenario, g/s.
+    #[arg(long, default_value_t = 40.0)]
+    pour_rate: f64,
+    /// Simulator parameters (TOML, the fields of `sim.toml` in a trace); the scenario sets the rig.
+    #[arg(long)]
+    config: Option<PathBuf>,
+    /// Turn off sensor faults (mis-detected pins, dropped and stale frames).
+    #[arg(long)]
+    no_faults: bool,
+    /// Output directory.
+    #[arg(long, default_value = "results/trace")]
+    out: PathBuf,
+}
+
+pub fn run(command: SimCommand) -> Result<()> {
+    match command {
+        SimCommand::Objects => {
+            list_objects();
+            Ok(())
+        }
+        SimCommand::Trace(args) => sim_trace(args),
+        SimCommand::Collect(args) => sim_collect(args),
+    }
+}
+
+fn list_objects() {
+    println!(
+        "{:<16} {:>6} {:>9} {:>10} {:>5} {:>5} {:>8}",
+        "name", "ycb", "mass_g", "width_mm", "mu_s", "mu_k", "k_N/mm"
+    );
+    for o in ObjectLibrary::built_in().iter() {
+        println!(
+            "{:<16} {:>6} {:>9.1} {:>10.1} {:>5.2} {:>5.2} {:>8.1}",
+            o.name,
+            o.ycb_id.as_deref().unwrap_or("-"),
+            o.mass_g,
+            o.width_mm,
+            o.mu_static,
+            o.mu_kinetic,
+            o.stiffness_n_per_mm
+        );
+    }
+}
+
+fn load_sim_config(path: &Path) -> Result<SimConfig> {
+    let text =
+        std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
+    toml::from_str(&text).map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))
+}
+
+fn sim_trace(args: TraceArgs) -> Result<()> {
+    anyhow::ensure!(
+        args.duration > 0.0 && args.duration <= 600.0,
+        "--duration must be in (0, 600] s, got {}",
+        args.duration
+    );
+    let mut base = match &args.config {
+        Some(p) => load_sim_config(p)?,
+        None => SimConfig::default(),
+    };
+    base.seed = args.seed;
+    if args.no_faults {
+        base.faults = FaultRates::none();
+    }
+    let options = PresetOptions {
+        object: args.object.clone(),
+        grasp_deg: args.grasp_deg,
+        retract_speed_mm_s: args.retract_speed,
+        pour_rate_g_per_s: args.pour_rate,
+    };
+    let (config, script) = sim_presets::build(args.scenario, &options, base)?;
+    let rig = SimRig::new(config.clone()).with_context(|| match &args.config {
+        Some(p) => format!("invalid simulator configuration in {}", p.display()),
+        None => "invalid simulator configuration".to_string(),
+    })?;
+    let probe = rig.probe();
+    let mut devices = Devices {
+        clock: rig.clock(),
+        hand: rig.hand(),
+        arm: rig.arm(),
+        markers: rig.marker_tracker(),
+        sensors: rig.tactile_sensors(),
+    };
+    let mut truth = Vec::new();
+    let wall = std::time::Instant::now();
+    let recording = devices.run(script, args.duration, |_| truth.push(probe.state()))?;
+    let elapsed = wall.elapsed().as_secs_f64();
+    let files = trace::write_trace(
+        &args.out,
+        &config,
+        &truth,
+        &recording.frames,
+        &recording.markers,
+    )?;
+
+    let events = probe.events();
+    let times = |v: &[f64]| {
+        if v.is_empty() {
+            "none".to_string()
+        } else {
+            v.iter()
+                .map(|t| format!("{t:.3}"))
+                .collect::<Vec<_>>()
+                .join(", ")
+        }
+    };
+    let last = truth.last().cloned().unwrap_or_default();
+    println!(
+        "scenario {:?}, seed {}, {:.1} s simulated in {:.2} s",
+        args.scenario, args.seed, args.duration, elapsed
+    );
+    println!("  slip onsets (s):  {}", times(&events.slip_onsets_s));
+    println!("  catches (s):      {}", times(&events.catches_s));
+    println!(
+        "  dropped at (s):   {}",
+        events.drop_s.map_or("no".into(), |t| format!("{t:.3}"))
+    );
+    println!(
+        "  object height:    {:.1} mm at the end (started {:.1} mm)",
+        last.object_mm,
+        truth.first().map_or(0.0, |t| t.object_mm)
+    );
+    println!(
+        "  frames: {}, marker samples: {}",
+        recording.frames.len(),
+        recording.markers.len()
+    );
+    println!(
+        "wrote {}, {}, {}, {}",
+        files.truth.display(),
+        files.pins.display(),
+        files.markers.display(),
+        files.config.display()
+    );
+    Ok(())
+}
+
+pub fn unix_now() -> u64 {
+    std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map_or(0, |d| d.as_secs())
+}
+
+fn sim_collect(args: CollectArgs) -> Result<()> {
+    anyhow::ensure!(args.trials > 0, "--trials must be at least 1");
+    anyhow::ensure!(!args.grasps.is_empty(), "--grasps needs at least one angle");
+    let objects = if !args.objects.is_empty() {
+        args.objects.clone()
+    } else {
+        match args.rig {
+            CollectRig::Hand => [
+                "crisps_can",
+                "windex_bottle",
+                "bleach_bottle",
+                "mustard_bottle",
+                "banana",
+            ]
+            .map(String::from)
+            .to_vec(),
+            CollectRig::Rail => vec!["rail_object".to_string()],
+        }
+    };
+    let library = ObjectLibrary::built_in();
+    for o in &objects {
+        library.get(o).with_context(|| "--objects")?;
+    }
+    let base = match &args.config {
+        Some(p) => load_sim_config(p)?,
+        None => SimConfig::default(),
+    };
+    std::fs::create_dir_all(&args.out)
+        .with_context(|| format!("cannot create {}", args.out.display()))?;
+    let bar = indicatif::ProgressBar::new(args.trials);
+    bar.set_style(
+        indicatif::ProgressStyle::with_template(
+            "{prefix} [{bar:30}] {pos}/{len} trials, {elapsed} (eta {eta})",
+        )
+        .expect("valid template")
+        .progress_chars("=> "),
+    );
+    bar.set_prefix("collect");
+    let (mut ran, mut kept) = (0, 0);
+    for i in 0..args.trials {
+        let trial_id = format!("trial-{i:04}");
+        let path = args.out.join(format!("{trial_id}.mcap"));
+        if path.exists() {
+            kept += 1;
+            bar.inc(1);
+            continue;
+        }
+        let n = objects.len() as u64;
+        let spec = CollectSpec {
+            rig: args.rig,
+            object: objects[(i % n) as usize].clone(),
+            grasp_deg: args.grasps[((i / n) % args.grasps.len() as u64) as usize],
+            seed: collect::trial_seed(args.seed, i),
+            base: base.clone(),
+        };
+        let trial = collect::collect_trial(&spec, &trial_id, unix_now())
+            .with_context(|| format!("trial {trial_id}"))?;
+        tmo::trial::write_trial(&path, &trial)?;
+        ran += 1;
+        bar.inc(1);
+    }
+    bar.finish_and_clear();
+    println!(
+        "collected {ran} trials ({kept} already there) in {}",
+        args.out.display()
+    );
+    Ok(())
+}

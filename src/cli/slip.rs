@@ -1,0 +1,286 @@
+//! `tmo dataset`, `tmo train`, `tmo evaluate` and `tmo sweep`: the slip library from the command line.
+
+use std::path::PathBuf;
+
+use anyhow::{Context, Result};
+use clap::Subcommand;
+use tmo::slip::dataset::{Dataset, LabelSpec, Scope};
+use tmo::slip::features::FeatureSpec;
+use tmo::slip::labels::OnsetSpec;
+use tmo::slip::metrics::Scores;
+use tmo::slip::model::{self, ClassifierKind, Hyperparameters, ModelFile, TrialRef};
+use tmo::slip::tuning::{self, TuneSpec};
+use tmo::trial::{load_trials, TrialMeta};
+
+#[derive(Subcommand)]
+pub enum DatasetCommand {
+    /// Writes features, labels and trial/sensor/frame ids as CSV (for pandas or scikit-learn).
+    Export(ExportArgs),
+}
+
+/// How frames are labelled and sampled.
+#[derive(clap::Args, Clone)]
+pub struct LabelArgs {
+    /// Frames labelled slip after the marker onset.
+    #[arg(long, default_value_t = 13)]
+    n_slip: usize,
+    /// Proportion of static frames kept (slip frames are never dropped).
+    #[arg(long, default_value_t = 0.4)]
+    downsample: f64,
+    /// Fall below the held height that marks slip onset, mm.
+    #[arg(long, default_value_t = 1.0)]
+    onset_threshold_mm: f64,
+    /// Seed of the down-sampling.
+    #[arg(long, default_value_t = 0)]
+    seed: u64,
+}
+
+#[derive(clap::Args)]
+pub struct ExportArgs {
+    /// Trial logs (.mcap) or directories of them.
+    #[arg(required = true)]
+    trials: Vec<PathBuf>,
+    #[command(flatten)]
+    labels: LabelArgs,
+    #[arg(long)]
+    out: PathBuf,
+}
+
+#[derive(clap::Args)]
+pub struct TrainArgs {
+    /// Trial logs (.mcap) or directories of them.
+    #[arg(required = true)]
+    trials: Vec<PathBuf>,
+    #[arg(long, value_enum, default_value = "svm-rbf")]
+    classifier: ClassifierKind,
+    #[arg(long, value_enum, default_value = "global")]
+    scope: Scope,
+    #[command(flatten)]
+    labels: LabelArgs,
+    /// Regularisation C (SVM, logistic regression).
+    #[arg(long = "C", default_value_t = 3.989)]
+    c: f64,
+    /// RBF kernel width gamma.
+    #[arg(long, default_value_t = 1.104)]
+    gamma: f64,
+    /// Find C (and gamma) by Bayesian optimisation of cross-validated macro F1 instead.
+    #[arg(long, value_enum, default_value = "none")]
+    search: SearchMethod,
+    /// Evaluations of the search.
+    #[arg(long, default_value_t = 20)]
+    iters: usize,
+    /// Cross-validation folds (split by trial) of the search.
+    #[arg(long, default_value_t = 3)]
+    folds: usize,
+    #[arg(long)]
+    out: PathBuf,
+}
+
+#[derive(Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum SearchMethod {
+    None,
+    Bayes,
+}
+
+#[derive(clap::Args)]
+pub struct EvaluateArgs {
+    model: PathBuf,
+    /// Trial logs (.mcap) or directories of them.
+    #[arg(required = true)]
+    trials: Vec<PathBuf>,
+}
+
+pub fn label_spec(args: &LabelArgs) -> Result<LabelSpec> {
+    anyhow::ensure!(args.n_slip >= 1, "--n-slip must be at least 1");
+    anyhow::ensure!(
+        args.downsample > 0.0 && args.downsample <= 1.0,
+        "--downsample must be in (0, 1], got {}",
+        args.downsample
+    );
+    anyhow::ensure!(
+        args.onset_threshold_mm > 0.0,
+        "--onset-threshold-mm must be positive"
+    );
+    Ok(LabelSpec {
+        n_slip: args.n_slip,
+        onset: OnsetSpec {
+            drop_threshold_mm: args.onset_threshold_mm,
+            ..Default::default()
+        },
+    })
+}
+
+/// Loads trials and builds their labelled rows; all trials must have the same pin count.
+pub fn load_dataset(
+    paths: &[PathBuf],
+    labels: &LabelSpec,
+) -> Result<(Dataset, Vec<TrialRef>, FeatureSpec)> {
+    let loaded = load_trials(paths)?;
+    anyhow::ensure!(
+        !loaded.is_empty(),
+        "no trial logs (.mcap) found in {}",
+        paths
+            .iter()
+            .map(|p| p.display().to_string())
+            .collect::<Vec<_>>()
+            .join(", ")
+    );
+    let pins = loaded[0].2.meta.pins;
+    for (path, _, t) in &loaded {
+        anyhow::ensure!(
+            t.meta.pins == pins,
+            "{}: {} pins per sensor, but {} has {pins}",
+            path.display(),
+            t.meta.pins,
+            loaded[0].0.display()
+        );
+    }
+    let features = FeatureSpec::new(pins);
+    let refs = loaded
+        .iter()
+        .map(|(p, h, t)| TrialRef {
+            trial_id: t.meta.trial_id.clone(),
+            path: p.display().to_string(),
+            sha256: h.clone(),
+        })
+        .collect();
+    let trials: Vec<_> = loaded.into_iter().map(|(_, _, t)| t).collect();
+    let ds = Dataset::from_trials(&trials, &features, labels);
+    if !ds.trials_without_onset.is_empty() {
+        eprintln!(
+            "note: no slip onset in the marker track of {} trial(s): {}",
+            ds.trials_without_onset.len(),
+            ds.trials_without_onset.join(", ")
+        );
+    }
+    Ok((ds, refs, features))
+}
+
+pub fn dataset_export(args: ExportArgs) -> Result<()> {
+    let labels = label_spec(&args.labels)?;
+    let (ds, _, _) = load_dataset(&args.trials, &labels)?;
+    let ds = ds.downsample_static(args.labels.downsample, args.labels.seed);
+    ds.write_csv(&args.out)
+        .with_context(|| format!("cannot write {}", args.out.display()))?;
+    println!(
+        "wrote {} rows ({} static, {} slip) to {}",
+        ds.len(),
+        ds.count(tmo::slip::Class::Static),
+        ds.count(tmo::slip::Class::Slip),
+        args.out.display()
+    );
+    Ok(())
+}
+
+fn print_scores(label: &str, s: &Scores) {
+    let c = &s.confusion;
+    println!(
+        "{label:<10} macro F1 {:.3} | slip P {:.3} R {:.3} F1 {:.3} | static P {:.3} R {:.3} F1 {:.3} | TP {} FP {} TN {} FN {}",
+        s.macro_f1, s.slip.precision, s.slip.recall, s.slip.f1, s.static_.precision, s.static_.recall, s.static_.f1,
+        c.true_slip, c.false_slip, c.true_static, c.false_static
+    );
+}
+
+pub fn train(args: TrainArgs) -> Result<()> {
+    let labels = label_spec(&args.labels)?;
+    let (ds, refs, features) = load_dataset(&args.trials, &labels)?;
+    let started = std::time::Instant::now();
+    let (hyper, search) = match args.search {
+        SearchMethod::None => (
+            Hyperparameters {
+                c: args.c,
+                gamma: args.gamma,
+            },
+            None,
+        ),
+        SearchMethod::Bayes => {
+            anyhow::ensure!(
+                args.classifier != ClassifierKind::Threshold,
+                "--search bayes: the threshold classifier has no hyperparameters"
+            );
+            let spec = TuneSpec {
+                kind: args.classifier,
+                scope: args.scope,
+                downsample: args.labels.downsample,
+                seed: args.labels.seed,
+                iterations: args.iters,
+                folds: args.folds,
+            };
+            let (hyper, record) = tuning::search(&ds, &spec)?;
+            let best = record
+                .evaluations
+                .iter()
+                .map(|e| e.score)
+                .fold(f64::NEG_INFINITY, f64::max);
+            println!("search: {} evaluations, best cross-validated macro F1 {best:.3} at C = {:.4}, gamma = {:.5}", record.evaluations.len(), hyper.c, hyper.gamma);
+            (hyper, Some(record))
+        }
+    };
+    let models = model::train_models(
+        &ds,
+        args.classifier,
+        hyper,
+        args.scope,
+        args.labels.downsample,
+        args.labels.seed,
+    )?;
+    let (tmo_version, git_revision) = TrialMeta::code_version();
+    let file = ModelFile {
+        format: model::MODEL_FORMAT.into(),
+        version: model::MODEL_FORMAT_VERSION,
+        classifier: args.classifier,
+        hyperparameters: hyper,
+        features,
+        labels,
+        downsample: args.labels.downsample,
+        seed: args.labels.seed,
+        scope: args.scope,
+        sensors: ds.sensors(),
+        models,
+        training_trials: refs,
+        search,
+        tmo_version,
+        git_revision,
+    };
+    file.save(&args.out)?;
+    println!(
+        "trained {} ({:?} scope) on {} trials, {} rows, in {:.2} s",
+        args.classifier.name(),
+        args.scope,
+        file.training_trials.len(),
+        ds.len(),
+        started.elapsed().as_secs_f64()
+    );
+    for m in &file.models {
+        let label = m
+            .sensor
+            .map_or("global".to_string(), |s| format!("sensor {s}"));
+        print_scores(&label, &m.training_scores);
+    }
+    println!("wrote {}", args.out.display());
+    Ok(())
+}
+
+pub fn evaluate(args: EvaluateArgs) -> Result<()> {
+    let model = ModelFile::load(&args.model)?;
+    let (ds, _, features) = load_dataset(&args.trials, &model.labels)?;
+    anyhow::ensure!(
+        features == model.features,
+        "{}: the trials have {} pins, the model expects {}",
+        args.model.display(),
+        features.pins,
+        model.features.pins
+    );
+    let (overall, per_sensor) = model.evaluate(&ds)?;
+    println!(
+        "{} ({:?} scope) on {} rows",
+        model.classifier.name(),
+        model.scope,
+        ds.len()
+    );
+    print_scores("overall", &overall);
+    for (s, scores) in &per_sensor {
+        print_scores(&format!("sensor {s}"), scores);
+    }
+    Ok(())
+}

@@ -1,0 +1,347 @@
+//! `tmo sweep`: the paper's Fig. 5 grid as CSV, with its provenance beside it.
+//!
+//! Finished cells are appended to `<out>.partial` as they complete, so an interrupted
+//! sweep loses at most the cells in flight and `--resume` runs only the rest; the final
+//! CSV is sorted and written under its name only when every cell is done.
+
+use std::collections::HashSet;
+use std::path::{Path, PathBuf};
+use std::sync::Mutex;
+
+use anyhow::{Context, Result};
+use tmo::slip::dataset::{split_trials, LabelSpec, Scope};
+use tmo::slip::labels::OnsetSpec;
+use tmo::slip::model::{ClassifierKind, Hyperparameters, TrialRef};
+use tmo::slip::sweep::{
+    parse_f64_grid, parse_usize_grid, run_sweep, HyperChoice, SweepRow, SweepSpec,
+};
+use tmo::trial::{expand_trial_paths, TrialMeta};
+
+use super::slip::{load_dataset, SearchMethod};
+
+#[derive(clap::Args)]
+pub struct SweepArgs {
+    /// Trial logs (.mcap) or directories of them; split by trial into train and test
+    /// unless --test is given.
+    #[arg(required = true)]
+    trials: Vec<PathBuf>,
+    /// Test trials; when given, every trial in TRIALS trains.
+    #[arg(long, num_args = 1..)]
+    test: Vec<PathBuf>,
+    /// Share of TRIALS held out for testing (whole trials, seeded) when --test is absent.
+    #[arg(long, default_value_t = 0.5)]
+    test_fraction: f64,
+    /// Classifiers, comma-separated.
+    #[arg(
+        long,
+        value_enum,
+        value_delimiter = ',',
+        default_value = "svm-rbf,logreg,threshold"
+    )]
+    classifiers: Vec<ClassifierKind>,
+    /// Static down-sampling proportions: start:end:step or a list.
+    #[arg(long, default_value = "0.1:1.0:0.1")]
+    downsample: String,
+    /// Slip frames after onset: start:end or a list.
+    #[arg(long, default_value = "1:15")]
+    n_slip: String,
+    #[arg(long, value_enum, default_value = "global")]
+    scope: Scope,
+    /// Regularisation C when not searched.
+    #[arg(long = "C", default_value_t = 3.989)]
+    c: f64,
+    /// RBF kernel width gamma when not searched.
+    #[arg(long, default_value_t = 1.104)]
+    gamma: f64,
+    /// Search C (and gamma) by Bayesian optimisation in every cell, on training trials only.
+    #[arg(long, value_enum, default_value = "none")]
+    search: SearchMethod,
+    #[arg(long, default_value_t = 12)]
+    iters: usize,
+    #[arg(long, default_value_t = 3)]
+    folds: usize,
+    /// Fall below the held height that marks slip onset, mm.
+    #[arg(long, default_value_t = 1.0)]
+    onset_threshold_mm: f64,
+    /// Seed of the split, the down-sampling and the search.
+    #[arg(long, default_value_t = 0)]
+    seed: u64,
+    /// Finish an interrupted sweep with the same arguments, keeping its finished cells.
+    #[arg(long)]
+    resume: bool,
+    #[arg(long, default_value = "results/sweep.csv")]
+    out: PathBuf,
+}
+
+#[derive(serde::Serialize)]
+struct SweepProvenance<'a> {
+    command: Vec<String>,
+    classifiers: Vec<&'static str>,
+    downsample: &'a [f64],
+    n_slip: &'a [usize],
+    scope: Scope,
+    hyperparameters: String,
+    seed: u64,
+    onset_threshold_mm: f64,
+    train_trials: Vec<&'a TrialRef>,
+    test_trials: Vec<&'a TrialRef>,
+    tmo_version: String,
+    git_revision: String,
+    wall_seconds: f64,
+}
+
+fn partial_path(out: &Path) -> PathBuf {
+    let mut name = out.as_os_str().to_owned();
+    name.push(".partial");
+    PathBuf::from(name)
+}
+
+fn read_rows(path: &Path) -> Result<Vec<SweepRow>> {
+    let mut reader =
+        csv::Reader::from_path(path).with_context(|| format!("cannot read {}", path.display()))?;
+    reader
+        .deserialize()
+        .enumerate()
+        .map(|(i, r)| r.with_context(|| format!("{}: row {}", path.display(), i + 2)))
+        .collect()
+}
+
+fn write_rows(path: &Path, rows: &[SweepRow]) -> Result<()> {
+    let tmp = partial_path(&path.with_extension("writing"));
+    {
+        let mut w = csv::Writer::from_path(&tmp)
+            .with_context(|| format!("cannot write {}", tmp.display()))?;
+        for r in rows {
+            w.serialize(r)?;
+        }
+        w.flush()?;
+    }
+    std::fs::rename(&tmp, path).with_context(|| format!("cannot write {}", path.display()))
+}
+
+pub fn sweep(args: SweepArgs) -> Result<()> {
+    let downsample = parse_f64_grid(&args.downsample).context("--downsample")?;
+    let n_slip = parse_usize_grid(&args.n_slip).context("--n-slip")?;
+    anyhow::ensure!(
+        args.test_fraction > 0.0 && args.test_fraction < 1.0,
+        "--test-fraction must be in (0, 1), got {}",
+        args.test_fraction
+    );
+    anyhow::ensure!(
+        args.onset_threshold_mm > 0.0,
+        "--onset-threshold-mm must be positive"
+    );
+    let hyper = match args.search {
+        SearchMethod::None => HyperChoice::Fixed(Hyperparameters {
+            c: args.c,
+            gamma: args.gamma,
+        }),
+        SearchMethod::Bayes => HyperChoice::Search {
+            iterations: args.iters,
+            folds: args.folds,
+        },
+    };
+    let spec = SweepSpec {
+        classifiers: args.classifiers.clone(),
+        downsample: downsample.clone(),
+        n_slip: n_slip.clone(),
+        scope: args.scope,
+        hyper,
+        seed: args.seed,
+    };
+    spec.check()?;
+
+    let partial = partial_path(&args.out);
+    let done: Vec<SweepRow> = if args.resume {
+        let mut rows = Vec::new();
+        for p in [&args.out, &partial] {
+            if p.exists() {
+                rows.extend(read_rows(p)?);
+            }
+        }
+        rows
+    } else {
+        anyhow::ensure!(
+            !partial.exists(),
+            "{} holds cells of an interrupted sweep: pass --resume to finish it, or delete it",
+            partial.display()
+        );
+        Vec::new()
+    };
+
+    // Label once with the largest n_slip; every cell narrows it.
+    let labels = LabelSpec {
+        n_slip: *n_slip.iter().max().expect("checked non-empty"),
+        onset: OnsetSpec {
+            drop_threshold_mm: args.onset_threshold_mm,
+            ..Default::default()
+        },
+    };
+    let mut paths = args.trials.clone();
+    paths.extend(args.test.iter().cloned());
+    let (data, refs, _) = load_dataset(&paths, &labels)?;
+    let is_test: Vec<bool> = if args.test.is_empty() {
+        let (_, test) = split_trials(refs.len(), args.test_fraction, args.seed);
+        (0..refs.len() as u32).map(|t| test.contains(&t)).collect()
+    } else {
+        let n_train = expand_trial_paths(&args.trials)?.len();
+        (0..refs.len()).map(|t| t >= n_train).collect()
+    };
+    let train = data.filter(|i| !is_test[data.trial[i] as usize]);
+    let test = data.filter(|i| is_test[data.trial[i] as usize]);
+    anyhow::ensure!(
+        !train.is_empty() && !test.is_empty(),
+        "need rows in both the training and the test trials"
+    );
+
+    let finished: HashSet<_> = done.iter().map(SweepRow::key).collect();
+    let cells: Vec<_> = spec
+        .cells()
+        .into_iter()
+        .filter(|c| !finished.contains(&c.key()))
+        .collect();
+    if let Some(dir) = args.out.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
+    }
+    println!(
+        "sweep: {} cells to run ({} already done), {} train trials ({} rows), {} test trials ({} rows)",
+        cells.len(),
+        done.len(),
+        is_test.iter().filter(|t| !**t).count(),
+        train.len(),
+        is_test.iter().filter(|t| **t).count(),
+        test.len()
+    );
+    let started = std::time::Instant::now();
+    let bar = indicatif::ProgressBar::new(cells.len() as u64);
+    bar.set_style(
+        indicatif::ProgressStyle::with_template(
+            "sweep [{bar:30}] {pos}/{len} cells, {elapsed} (eta {eta}) {msg}",
+        )
+        .expect("valid template")
+        .progress_chars("=> "),
+    );
+    let append_header = !partial.exists();
+    let file = std::fs::OpenOptions::new()
+        .create(true)
+        .append(true)
+        .open(&partial)
+        .with_context(|| format!("cannot write {}", partial.display()))?;
+    let writer = Mutex::new(
+        csv::WriterBuilder::new()
+            .has_headers(append_header)
+            .from_writer(file),
+    );
+    let write_error = Mutex::new(None);
+    let result = run_sweep(&train, &test, &spec, &cells, |row| {
+        let mut w = writer.lock().expect("writer lock");
+        if let Err(e) = w
+            .serialize(row)
+            .and_then(|_| w.flush().map_err(csv::Error::from))
+        {
+            write_error.lock().expect("lock").get_or_insert(e);
+        }
+        bar.set_message(format!(
+            "last: {} n_slip {} d {} F1 {:.3}",
+            row.classifier, row.n_slip, row.downsample, row.macro_f1
+        ));
+        bar.inc(1);
+    });
+    bar.finish_and_clear();
+    drop(writer);
+    if let Some(e) = write_error.into_inner().expect("lock") {
+        return Err(e).with_context(|| format!("cannot write {}", partial.display()));
+    }
+    let new_rows = result.with_context(|| {
+        format!(
+            "sweep stopped; finished cells are in {} (run again with --resume)",
+            partial.display()
+        )
+    })?;
+
+    let mut rows = done;
+    rows.extend(new_rows);
+    rows.sort_by(|a, b| {
+        let rank = |r: &SweepRow| {
+            spec.classifiers
+                .iter()
+                .position(|k| k.name() == r.classifier)
+                .unwrap_or(usize::MAX)
+        };
+        (rank(a), a.n_slip, &a.downsample).cmp(&(rank(b), b.n_slip, &b.downsample))
+    });
+    rows.dedup_by(|a, b| a.key() == b.key());
+    write_rows(&args.out, &rows)?;
+    let _ = std::fs::remove_file(&partial);
+
+    let (tmo_version, git_revision) = TrialMeta::code_version();
+    let provenance = SweepProvenance {
+        command: std::env::args().collect(),
+        classifiers: spec.classifiers.iter().map(|k| k.name()).collect(),
+        downsample: &downsample,
+        n_slip: &n_slip,
+        scope: args.scope,
+        hyperparameters: match hyper {
+            HyperChoice::Fixed(h) => format!("fixed C = {}, gamma = {}", h.c, h.gamma),
+            HyperChoice::Search { iterations, folds } => format!(
+                "Bayesian search per cell: {iterations} evaluations, {folds}-fold CV by trial"
+            ),
+        },
+        seed: args.seed,
+        onset_threshold_mm: args.onset_threshold_mm,
+        train_trials: refs
+            .iter()
+            .zip(&is_test)
+            .filter(|(_, t)| !**t)
+            .map(|(r, _)| r)
+            .collect(),
+        test_trials: refs
+            .iter()
+            .zip(&is_test)
+            .filter(|(_, t)| **t)
+            .map(|(r, _)| r)
+            .collect(),
+        tmo_version,
+        git_revision,
+        wall_seconds: started.elapsed().as_secs_f64(),
+    };
+    let meta_path = args.out.with_extension("json");
+    std::fs::write(&meta_path, serde_json::to_string_pretty(&provenance)?)
+        .with_context(|| format!("cannot write {}", meta_path.display()))?;
+
+    println!(
+        "{} cells in {:.1} s; best test macro F1 per classifier:",
+        rows.len(),
+        started.elapsed().as_secs_f64()
+    );
+    for kind in &spec.classifiers {
+        let best = rows
+            .iter()
+            .filter(|r| r.classifier == kind.name())
+            .max_by(|a, b| a.macro_f1.total_cmp(&b.macro_f1));
+        if let Some(r) = best {
+            let mean = rows
+                .iter()
+                .filter(|x| x.classifier == kind.name())
+                .map(|x| x.macro_f1)
+                .sum::<f64>()
+                / rows.iter().filter(|x| x.classifier == kind.name()).count() as f64;
+            let hyper = match kind {
+                ClassifierKind::SvmRbf => format!(" (C {:.4}, gamma {:.5})", r.c, r.gamma),
+                ClassifierKind::SvmLinear | ClassifierKind::Logreg => format!(" (C {:.4})", r.c),
+                ClassifierKind::Threshold => String::new(),
+            };
+            println!(
+                "  {:<10} {:.3} at n_slip {:>2}, d {}{hyper}; mean over {} cells {:.3}",
+                r.classifier,
+                r.macro_f1,
+                r.n_slip,
+                r.downsample,
+                rows.iter().filter(|x| x.classifier == kind.name()).count(),
+                mean
+            );
+        }
+    }
+    println!("wrote {} and {}", args.out.display(), meta_path.display());
+    Ok(())
+}

@@ -1,0 +1,427 @@
+//! The paper's offline grid (Fig. 5): for every classifier, number of slip frames `n_slip`
+//! and static down-sampling `d`, train on the training trials (hyperparameters fixed or
+//! searched per cell on the training trials only) and score on every row of the test trials.
+//!
+//! Trials are labelled once with the largest `n_slip` and narrowed per cell
+//! ([`Dataset::with_n_slip`]); cells run in parallel, the costliest first.
+
+use std::time::Instant;
+
+use rayon::prelude::*;
+
+use super::dataset::{Dataset, Scope};
+use super::model::{score_models, train_models, ClassifierKind, Hyperparameters, TrainError};
+use super::tuning::{self, TuneError, TuneSpec};
+
+/// How a cell gets its hyperparameters.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum HyperChoice {
+    Fixed(Hyperparameters),
+    /// Bayesian optimisation of cross-validated macro F1 in every cell.
+    Search {
+        iterations: usize,
+        folds: usize,
+    },
+}
+
+#[derive(Debug, Clone, PartialEq)]
+pub struct SweepSpec {
+    pub classifiers: Vec<ClassifierKind>,
+    pub downsample: Vec<f64>,
+    pub n_slip: Vec<usize>,
+    pub scope: Scope,
+    pub hyper: HyperChoice,
+    pub seed: u64,
+}
+
+/// One cell of the grid.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Cell {
+    pub classifier: ClassifierKind,
+    pub n_slip: usize,
+    pub downsample: f64,
+}
+
+impl Cell {
+    /// Identifies the cell in a results file (d rounded as written there).
+    pub fn key(&self) -> (String, usize, String) {
+        (
+            self.classifier.name().to_string(),
+            self.n_slip,
+            format!("{:.3}", self.downsample),
+        )
+    }
+}
+
+/// One line of the sweep's CSV.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct SweepRow {
+    pub classifier: String,
+    pub scope: Scope,
+    pub n_slip: usize,
+    pub downsample: String,
+    pub c: f64,
+    pub gamma: f64,
+    /// Best cross-validated macro F1 of the search, when there was one.
+    pub cv_macro_f1: Option<f64>,
+    pub train_rows: usize,
+    pub train_slip_rows: usize,
+    pub test_rows: usize,
+    pub macro_f1: f64,
+    pub slip_precision: f64,
+    pub slip_recall: f64,
+    pub slip_f1: f64,
+    pub static_precision: f64,
+    pub static_recall: f64,
+    pub static_f1: f64,
+    pub true_slip: u64,
+    pub false_slip: u64,
+    pub true_static: u64,
+    pub false_static: u64,
+    pub seconds: f64,
+}
+
+impl SweepRow {
+    pub fn key(&self) -> (String, usize, String) {
+        (
+            self.classifier.clone(),
+            self.n_slip,
+            self.downsample.clone(),
+        )
+    }
+}
+
+#[derive(Debug, thiserror::Error)]
+pub enum SweepError {
+    #[error("the grid is empty: {0}")]
+    EmptyGrid(&'static str),
+    #[error("down-sampling proportion {0} is outside (0, 1]")]
+    Downsample(f64),
+    #[error("n_slip must be at least 1")]
+    NSlip,
+    #[error("the datasets were not labelled from trials (no slip frame counts)")]
+    NotFromTrials,
+    #[error("{cell:?}: {source}")]
+    Train {
+        cell: Cell,
+        #[source]
+        source: TrainError,
+    },
+    #[error("{cell:?}: {source}")]
+    Tune {
+        cell: Cell,
+        #[source]
+        source: TuneError,
+    },
+    #[error(
+        "{cell:?}: the test trials have sensor {sensor}, which no local model was trained for"
+    )]
+    Sensor { cell: Cell, sensor: u8 },
+}
+
+impl SweepSpec {
+    pub fn check(&self) -> Result<(), SweepError> {
+        if self.classifiers.is_empty() {
+            return Err(SweepError::EmptyGrid("no classifiers"));
+        }
+        if self.downsample.is_empty() {
+            return Err(SweepError::EmptyGrid("no down-sampling proportions"));
+        }
+        if self.n_slip.is_empty() {
+            return Err(SweepError::EmptyGrid("no n_slip values"));
+        }
+        if let Some(d) = self.downsample.iter().find(|d| !(**d > 0.0 && **d <= 1.0)) {
+            return Err(SweepError::Downsample(*d));
+        }
+        if self.n_slip.contains(&0) {
+            return Err(SweepError::NSlip);
+        }
+        Ok(())
+    }
+
+    /// Every cell, costliest first (RBF SVM, then the largest training sets), so the
+    /// parallel run does not end waiting on one big fit.
+    pub fn cells(&self) -> Vec<Cell> {
+        let mut cells: Vec<Cell> = self
+            .classifiers
+            .iter()
+            .flat_map(|&classifier| {
+                self.n_slip.iter().flat_map(move |&n_slip| {
+                    self.downsample.iter().map(move |&downsample| Cell {
+                        classifier,
+                        n_slip,
+                        downsample,
+                    })
+                })
+            })
+            .collect();
+        let cost = |c: &Cell| {
+            let kind = match c.classifier {
+                ClassifierKind::SvmRbf => 3.0,
+                ClassifierKind::SvmLinear => 2.0,
+                ClassifierKind::Logreg => 1.0,
+                ClassifierKind::Threshold => 0.0,
+            };
+            kind * 10.0 + c.downsample
+        };
+        cells.sort_by(|a, b| cost(b).total_cmp(&cost(a)));
+        cells
+    }
+}
+
+/// Trains and scores one cell.
+pub fn run_cell(
+    train: &Dataset,
+    test: &Dataset,
+    spec: &SweepSpec,
+    cell: Cell,
+) -> Result<SweepRow, SweepError> {
+    let started = Instant::now();
+    let train = train
+        .with_n_slip(cell.n_slip)
+        .ok_or(SweepError::NotFromTrials)?;
+    let test = test
+        .with_n_slip(cell.n_slip)
+        .ok_or(SweepError::NotFromTrials)?;
+    let (hyper, cv_macro_f1) = match (spec.hyper, cell.classifier) {
+        (HyperChoice::Fixed(h), _) => (h, None),
+        // T is picked from the training rows; there is nothing to search
+        (HyperChoice::Search { .. }, ClassifierKind::Threshold) => {
+            (Hyperparameters::default(), None)
+        }
+        (HyperChoice::Search { iterations, folds }, kind) => {
+            let tune = TuneSpec {
+                kind,
+                scope: spec.scope,
+                downsample: cell.downsample,
+                seed: spec.seed,
+                iterations,
+                folds,
+            };
+            let (h, record) = tuning::search(&train, &tune)
+                .map_err(|source| SweepError::Tune { cell, source })?;
+            let best = record
+                .evaluations
+                .iter()
+                .map(|e| e.score)
+                .fold(f64::NEG_INFINITY, f64::max);
+            (h, Some(best))
+        }
+    };
+    let models = train_models(
+        &train,
+        cell.classifier,
+        hyper,
+        spec.scope,
+        cell.downsample,
+        spec.seed,
+    )
+    .map_err(|source| SweepError::Train { cell, source })?;
+    let (s, _) = score_models(&models, spec.scope, &test)
+        .map_err(|sensor| SweepError::Sensor { cell, sensor })?;
+    let train_rows: usize = models.iter().map(|m| m.training_rows).sum();
+    let train_slip_rows = train.count(super::Class::Slip);
+    let (key_classifier, _, key_d) = cell.key();
+    Ok(SweepRow {
+        classifier: key_classifier,
+        scope: spec.scope,
+        n_slip: cell.n_slip,
+        downsample: key_d,
+        c: hyper.c,
+        gamma: hyper.gamma,
+        cv_macro_f1,
+        train_rows,
+        train_slip_rows,
+        test_rows: test.len(),
+        macro_f1: s.macro_f1,
+        slip_precision: s.slip.precision,
+        slip_recall: s.slip.recall,
+        slip_f1: s.slip.f1,
+        static_precision: s.static_.precision,
+        static_recall: s.static_.recall,
+        static_f1: s.static_.f1,
+        true_slip: s.confusion.true_slip,
+        false_slip: s.confusion.false_slip,
+        true_static: s.confusion.true_static,
+        false_static: s.confusion.false_static,
+        seconds: started.elapsed().as_secs_f64(),
+    })
+}
+
+/// Runs `cells` in parallel; `on_done` sees every finished row at once (to save or count it).
+/// The first failing cell stops the sweep; rows already passed to `on_done` stay valid.
+pub fn run_sweep(
+    train: &Dataset,
+    test: &Dataset,
+    spec: &SweepSpec,
+    cells: &[Cell],
+    on_done: impl Fn(&SweepRow) + Sync,
+) -> Result<Vec<SweepRow>, SweepError> {
+    spec.check()?;
+    cells
+        .par_iter()
+        .with_max_len(1)
+        .map(|&cell| {
+            let row = run_cell(train, test, spec, cell)?;
+            on_done(&row);
+            Ok(row)
+        })
+        .collect()
+}
+
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("`{text}`: expected {expected}")]
+pub struct RangeError {
+    pub text: String,
+    pub expected: &'static str,
+}
+
+/// Grid values from `start:end:step` (inclusive), `start:end` (step 1), or `a,b,c`.
+pub fn parse_f64_grid(text: &str) -> Result<Vec<f64>, RangeError> {
+    let err = || RangeError {
+        text: text.to_string(),
+        expected: "start:end:step (e.g. 0.1:1.0:0.1) or a list (0.2,0.4)",
+    };
+    let num = |s: &str| s.trim().parse::<f64>().ok().filter(|v| v.is_finite());
+    if text.contains(':') {
+        let parts: Vec<&str> = text.split(':').collect();
+        let (start, end, step) = match parts.as_slice() {
+            [a, b] => (num(a), num(b), Some(1.0)),
+            [a, b, c] => (num(a), num(b), num(c)),
+            _ => return Err(err()),
+        };
+        let (Some(start), Some(end), Some(step)) = (start, end, step) else {
+            return Err(err());
+        };
+        if step <= 0.0 || end < start {
+            return Err(err());
+        }
+        // Count steps rather than accumulate, so 0.1:1.0:0.1 ends at exactly 1.0.
+        let n = ((end - start) / step + 1e-9).floor() as usize;
+        if n > 10_000 {
+            return Err(err());
+        }
+        Ok((0..=n).map(|i| start + step * i as f64).collect())
+    } else {
+        text.split(',').map(|s| num(s).ok_or_else(err)).collect()
+    }
+}
+
+/// Whole-number grid values, in the forms of [`parse_f64_grid`].
+pub fn parse_usize_grid(text: &str) -> Result<Vec<usize>, RangeError> {
+    let values = parse_f64_grid(text)?;
+    values
+        .iter()
+        .map(|v| {
+            (v.fract() == 0.0 && *v >= 0.0)
+                .then_some(*v as usize)
+                .ok_or(RangeError {
+                    text: text.to_string(),
+                    expected: "whole numbers, e.g. 1:15 or 5,10,13",
+                })
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn grids_parse_as_the_paper_writes_them() {
+        let d = parse_f64_grid("0.1:1.0:0.1").unwrap();
+        assert_eq!(d.len(), 10);
+        assert!((d[9] - 1.0).abs() < 1e-12 && (d[0] - 0.1).abs() < 1e-12);
+        assert_eq!(
+            parse_usize_grid("1:15").unwrap(),
+            (1..=15).collect::<Vec<_>>()
+        );
+        assert_eq!(parse_usize_grid("5,13").unwrap(), vec![5, 13]);
+        assert_eq!(parse_f64_grid("0.4").unwrap(), vec![0.4]);
+        for bad in ["", "1:0", "0:1:0", "a:b", "1:2:3:4", "0.1,x"] {
+            assert!(parse_f64_grid(bad).is_err(), "{bad}");
+        }
+        assert!(parse_usize_grid("1.5:3").is_err());
+    }
+
+    #[test]
+    fn cells_cover_the_grid_costliest_first() {
+        let spec = SweepSpec {
+            classifiers: vec![ClassifierKind::Threshold, ClassifierKind::SvmRbf],
+            downsample: vec![0.2, 1.0],
+            n_slip: vec![1, 13],
+            scope: Scope::Global,
+            hyper: HyperChoice::Fixed(Hyperparameters::default()),
+            seed: 0,
+        };
+        spec.check().unwrap();
+        let cells = spec.cells();
+        assert_eq!(cells.len(), 8);
+        assert_eq!(cells[0].classifier, ClassifierKind::SvmRbf);
+        assert_eq!(cells[0].downsample, 1.0);
+        assert_eq!(cells[7].classifier, ClassifierKind::Threshold);
+        let bad = SweepSpec {
+            downsample: vec![0.0],
+            ..spec.clone()
+        };
+        assert!(matches!(bad.check(), Err(SweepError::Downsample(_))));
+        let bad = SweepSpec {
+            n_slip: vec![],
+            ..spec
+        };
+        assert!(matches!(bad.check(), Err(SweepError::EmptyGrid(_))));
+    }
+
+    /// Rows far apart for slip, with slip-frame counts as trials would give them.
+    fn toy(trials: u32) -> Dataset {
+        let mut ds = Dataset {
+            dim: 2,
+            trial_ids: (0..trials).map(|t| format!("t{t}")).collect(),
+            ..Default::default()
+        };
+        for t in 0..trials {
+            for i in 0..80u32 {
+                let slip_frame = i.saturating_sub(59); // frames 60.. are slip frames 1..20
+                let v = if slip_frame > 0 { 3.0 } else { 0.0 } + (i % 7) as f32 * 0.1;
+                ds.x.extend_from_slice(&[v, -v]);
+                ds.y.push(if slip_frame > 0 {
+                    super::super::Class::Slip
+                } else {
+                    super::super::Class::Static
+                });
+                ds.slip_frame.push(slip_frame);
+                ds.trial.push(t);
+                ds.sensor.push(0);
+                ds.seq.push(i as u64);
+                ds.time_s.push(i as f64 / 60.0);
+            }
+        }
+        ds
+    }
+
+    #[test]
+    fn a_sweep_scores_every_cell_on_the_whole_test_set() {
+        let (train, test) = (toy(4), toy(2));
+        let spec = SweepSpec {
+            classifiers: vec![ClassifierKind::Logreg, ClassifierKind::Threshold],
+            downsample: vec![0.5, 1.0],
+            n_slip: vec![2, 10],
+            scope: Scope::Global,
+            hyper: HyperChoice::Fixed(Hyperparameters { c: 1.0, gamma: 0.0 }),
+            seed: 1,
+        };
+        let seen = std::sync::atomic::AtomicUsize::new(0);
+        let rows = run_sweep(&train, &test, &spec, &spec.cells(), |_| {
+            seen.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        })
+        .unwrap();
+        assert_eq!(rows.len(), 8);
+        assert_eq!(seen.into_inner(), 8);
+        for r in &rows {
+            // test rows: 2 trials x (60 static rows + n_slip slip rows), never down-sampled
+            assert_eq!(r.test_rows, 2 * (60 + r.n_slip), "{r:?}");
+            assert_eq!(r.train_slip_rows, 4 * r.n_slip);
+            assert!(r.macro_f1 > 0.9, "{r:?}");
+        }
+    }
+}
