@@ -3,6 +3,8 @@
 //! The binary (`main.rs`) is the CLI and glue; the work lives here and in `tmo-hal`.
 
 pub mod collect;
+pub mod online;
+pub mod protocol;
 pub mod scenario;
 pub mod sim_presets;
 pub mod slip;

@@ -1,0 +1,401 @@
+//! Protocol files: TOML parsed into structs that reject unknown fields, then validated into
+//! a [`Plan`], the only thing the runner sees. Every default is the paper's value (SPEC.md,
+//! "Protocols") unless its doc comment says otherwise.
+//!
+//! Errors name the file, the line and column, the field and what was expected.
+
+mod params;
+
+use std::path::{Path, PathBuf};
+
+use serde::Deserialize;
+
+use crate::online::strategy::Strategy;
+pub use params::{Calibration, FirstTimeLift, HandRelease, Outcome, RailCatch, RicePour};
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Kind {
+    RailCatch,
+    HandRelease,
+    RicePour,
+    FirstTimeLift,
+    /// Finds g_min for first_time_lift by a systematic sweep of closure.
+    CalibrateLift,
+}
+
+impl std::fmt::Display for Kind {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            Kind::RailCatch => "rail_catch",
+            Kind::HandRelease => "hand_release",
+            Kind::RicePour => "rice_pour",
+            Kind::FirstTimeLift => "first_time_lift",
+            Kind::CalibrateLift => "calibrate_lift",
+        })
+    }
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Mode {
+    /// Detect slip and react.
+    #[default]
+    Online,
+    /// Run without reacting, to record training data.
+    Collect,
+}
+
+/// The file as written.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ProtocolFile {
+    pub kind: Kind,
+    #[serde(default)]
+    pub mode: Mode,
+    /// Trials per grid cell.
+    #[serde(default = "one")]
+    pub repetitions: u32,
+    /// Batch seed; trial i of the batch runs with a seed derived from it.
+    #[serde(default)]
+    pub seed: u64,
+    /// Objects from the library (`tmo sim objects`); default per kind.
+    #[serde(default)]
+    pub objects: Vec<String>,
+    /// Hand roll, degrees.
+    #[serde(default = "default_grasps")]
+    pub grasps_deg: Vec<f64>,
+    /// Model files (relative to the protocol file), one per classifier scope to compare.
+    #[serde(default)]
+    pub models: Vec<PathBuf>,
+    /// Strategies as `NFrxNSen` (`2x2`) or `2Fr2Sen`; default per kind.
+    #[serde(default)]
+    pub strategies: Vec<String>,
+    #[serde(default)]
+    pub outcome: Outcome,
+    pub rail_catch: Option<RailCatch>,
+    pub hand_release: Option<HandRelease>,
+    pub rice_pour: Option<RicePour>,
+    pub first_time_lift: Option<FirstTimeLift>,
+    pub calibrate_lift: Option<Calibration>,
+}
+
+fn one() -> u32 {
+    1
+}
+
+fn default_grasps() -> Vec<f64> {
+    vec![0.0]
+}
+
+/// Where something is wrong in a protocol file.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("{path}:{line}:{column}: {field}: {message}")]
+pub struct ProtocolError {
+    pub path: PathBuf,
+    pub line: usize,
+    pub column: usize,
+    /// Dotted path of the field, e.g. `hand_release.regrasp`.
+    pub field: String,
+    pub message: String,
+}
+
+/// Kind-specific parameters, validated.
+#[derive(Debug, Clone, PartialEq)]
+pub enum KindParams {
+    RailCatch(RailCatch),
+    HandRelease(HandRelease),
+    RicePour(RicePour),
+    FirstTimeLift(FirstTimeLift),
+    CalibrateLift(Calibration),
+}
+
+/// What the runner executes: every combination the file asks for.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Plan {
+    pub source: PathBuf,
+    pub source_sha256: String,
+    pub kind: Kind,
+    pub mode: Mode,
+    pub seed: u64,
+    pub repetitions: u32,
+    pub objects: Vec<String>,
+    pub grasps_deg: Vec<f64>,
+    /// Resolved model paths (empty in collect mode and for calibration).
+    pub models: Vec<PathBuf>,
+    pub strategies: Vec<Strategy>,
+    pub outcome: Outcome,
+    pub params: KindParams,
+}
+
+impl Plan {
+    /// Trials in the batch: objects x grasps x models x strategies x repetitions.
+    pub fn trial_count(&self) -> usize {
+        self.objects.len()
+            * self.grasps_deg.len()
+            * self.models.len().max(1)
+            * self.strategies.len().max(1)
+            * self.repetitions as usize
+    }
+}
+
+/// Line and column (1-based) of byte `offset` in `text`.
+fn line_column(text: &str, offset: usize) -> (usize, usize) {
+    let before = &text[..offset.min(text.len())];
+    let line = before.matches('\n').count() + 1;
+    let column = before
+        .rfind('\n')
+        .map_or(before.len(), |i| before.len() - i - 1)
+        + 1;
+    (line, column)
+}
+
+/// Byte span of the value at dotted `field` (e.g. `hand_release.regrasp` or `models.1`),
+/// or of the nearest enclosing item that has one.
+fn field_span(text: &str, field: &str) -> Option<std::ops::Range<usize>> {
+    let doc = toml_edit::ImDocument::parse(text.to_string()).ok()?;
+    let mut item = doc.as_item();
+    let mut span = None;
+    for part in field.split('.') {
+        if let Ok(i) = part.parse::<usize>() {
+            return item.as_array()?.get(i)?.span().or(span);
+        }
+        match item.as_table_like().and_then(|t| t.get(part)) {
+            Some(next) => item = next,
+            None => return span,
+        }
+        span = item.span().or(span);
+    }
+    span
+}
+
+/// Dotted path of the innermost key whose value spans byte `offset`, for parse errors.
+fn field_at(text: &str, offset: usize) -> Option<String> {
+    fn walk(item: &toml_edit::Item, offset: usize, path: &mut Vec<String>) {
+        let Some(table) = item.as_table_like() else {
+            return;
+        };
+        for (key, value) in table.iter() {
+            let header_or_value = value.span().is_some_and(|s| s.contains(&offset));
+            let nested = value.as_table_like().is_some() && !value.is_inline_table();
+            if header_or_value || nested {
+                path.push(key.to_string());
+                let before = path.len();
+                walk(value, offset, path);
+                if header_or_value || path.len() > before {
+                    return;
+                }
+                path.pop();
+            }
+        }
+    }
+    let doc = toml_edit::ImDocument::parse(text.to_string()).ok()?;
+    let mut path = Vec::new();
+    walk(doc.as_item(), offset, &mut path);
+    (!path.is_empty()).then(|| path.join("."))
+}
+
+impl ProtocolFile {
+    pub fn parse(path: &Path, text: &str) -> Result<Self, ProtocolError> {
+        toml::from_str(text).map_err(|e| {
+            let start = e.span().map(|s| s.start);
+            let (line, column) = start.map_or((1, 1), |s| line_column(text, s));
+            ProtocolError {
+                path: path.to_path_buf(),
+                line,
+                column,
+                field: start
+                    .and_then(|s| field_at(text, s))
+                    .unwrap_or_else(|| "(file)".into()),
+                message: e.message().to_string(),
+            }
+        })
+    }
+}
+
+/// Reads, parses and validates a protocol file.
+pub fn load(path: &Path, rig_sensors: u32) -> Result<Plan, ProtocolError> {
+    let text = std::fs::read_to_string(path).map_err(|e| ProtocolError {
+        path: path.to_path_buf(),
+        line: 1,
+        column: 1,
+        field: "(file)".into(),
+        message: format!("cannot read: {e}"),
+    })?;
+    let file = ProtocolFile::parse(path, &text)?;
+    validate(path, &text, file, rig_sensors)
+}
+
+/// Checks values and the grid; `text` locates the offending field.
+pub fn validate(
+    path: &Path,
+    text: &str,
+    file: ProtocolFile,
+    rig_sensors: u32,
+) -> Result<Plan, ProtocolError> {
+    let err = |field: &str, message: String| {
+        let (line, column) = field_span(text, field).map_or((1, 1), |s| line_column(text, s.start));
+        ProtocolError {
+            path: path.to_path_buf(),
+            line,
+            column,
+            field: field.to_string(),
+            message,
+        }
+    };
+    let library = tmo_hal::sim::ObjectLibrary::built_in();
+
+    if file.repetitions == 0 {
+        return Err(err("repetitions", "expected at least 1".into()));
+    }
+    let objects = if file.objects.is_empty() {
+        params::default_objects(file.kind)
+    } else {
+        file.objects.clone()
+    };
+    for (i, o) in objects.iter().enumerate() {
+        if library.get(o).is_err() {
+            return Err(err(
+                &format!("objects.{i}"),
+                format!("unknown object `{o}`; expected one of `tmo sim objects`"),
+            ));
+        }
+    }
+    if file.grasps_deg.is_empty() {
+        return Err(err("grasps_deg", "expected at least one angle".into()));
+    }
+    for (i, g) in file.grasps_deg.iter().enumerate() {
+        if !(-360.0..=360.0).contains(g) {
+            return Err(err(
+                &format!("grasps_deg.{i}"),
+                format!("expected an angle in -360..=360 degrees, got {g}"),
+            ));
+        }
+    }
+
+    let needs_models = file.mode == Mode::Online && file.kind != Kind::CalibrateLift;
+    if file.mode == Mode::Collect
+        && matches!(
+            file.kind,
+            Kind::FirstTimeLift | Kind::CalibrateLift | Kind::RicePour
+        )
+    {
+        return Err(err(
+            "mode",
+            format!(
+                "{} has no collect mode; expected mode = \"online\"",
+                file.kind
+            ),
+        ));
+    }
+    let base = path.parent().unwrap_or(Path::new("."));
+    let mut models = Vec::new();
+    if needs_models {
+        if file.models.is_empty() {
+            return Err(err(
+                "kind",
+                "an online protocol needs `models = [\"model.json\", ...]`".into(),
+            ));
+        }
+        for (i, m) in file.models.iter().enumerate() {
+            let resolved = base.join(m);
+            if !resolved.is_file() {
+                return Err(err(
+                    &format!("models.{i}"),
+                    format!("model file {} not found", resolved.display()),
+                ));
+            }
+            models.push(resolved);
+        }
+    } else if !file.models.is_empty() {
+        return Err(err(
+            "models",
+            "models apply only to online protocols".into(),
+        ));
+    }
+
+    let strategy_texts = if file.strategies.is_empty() {
+        params::default_strategies(file.kind)
+    } else {
+        file.strategies.clone()
+    };
+    let mut strategies = Vec::new();
+    if needs_models {
+        for (i, s) in strategy_texts.iter().enumerate() {
+            let field = format!("strategies.{i}");
+            let strategy: Strategy = s.parse().map_err(|e| err(&field, format!("{e}")))?;
+            let limit = if file.kind == Kind::RailCatch {
+                1
+            } else {
+                rig_sensors
+            };
+            strategy
+                .check(limit)
+                .map_err(|e| err(&field, format!("{e}")))?;
+            strategies.push(strategy);
+        }
+    }
+    file.outcome
+        .check()
+        .map_err(|(f, m)| err(&format!("outcome.{f}"), m))?;
+
+    let sections = [
+        ("rail_catch", file.rail_catch.is_some(), Kind::RailCatch),
+        (
+            "hand_release",
+            file.hand_release.is_some(),
+            Kind::HandRelease,
+        ),
+        ("rice_pour", file.rice_pour.is_some(), Kind::RicePour),
+        (
+            "first_time_lift",
+            file.first_time_lift.is_some(),
+            Kind::FirstTimeLift,
+        ),
+        (
+            "calibrate_lift",
+            file.calibrate_lift.is_some(),
+            Kind::CalibrateLift,
+        ),
+    ];
+    for (name, present, kind) in sections {
+        if present && kind != file.kind {
+            return Err(err(
+                name,
+                format!("section [{name}] does not apply to kind {}", file.kind),
+            ));
+        }
+    }
+    let params = match file.kind {
+        Kind::RailCatch => KindParams::RailCatch(file.rail_catch.clone().unwrap_or_default()),
+        Kind::HandRelease => KindParams::HandRelease(file.hand_release.clone().unwrap_or_default()),
+        Kind::RicePour => KindParams::RicePour(file.rice_pour.clone().unwrap_or_default()),
+        Kind::FirstTimeLift => {
+            KindParams::FirstTimeLift(file.first_time_lift.clone().unwrap_or_default())
+        }
+        Kind::CalibrateLift => {
+            KindParams::CalibrateLift(file.calibrate_lift.clone().unwrap_or_default())
+        }
+    };
+    params
+        .check()
+        .map_err(|(section, f, m)| err(&format!("{section}.{f}"), m))?;
+
+    Ok(Plan {
+        source: path.to_path_buf(),
+        source_sha256: crate::trial::sha256_hex(text.as_bytes()),
+        kind: file.kind,
+        mode: file.mode,
+        seed: file.seed,
+        repetitions: file.repetitions,
+        objects,
+        grasps_deg: file.grasps_deg,
+        models,
+        strategies,
+        outcome: file.outcome,
+        params,
+    })
+}
+
+#[cfg(test)]
+mod tests;

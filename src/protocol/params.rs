@@ -1,0 +1,285 @@
+//! Per-kind protocol parameters with the paper's values as defaults, and their checks.
+//! A check failure is `(section, field, what was expected)`.
+
+use serde::{Deserialize, Serialize};
+
+use super::{Kind, KindParams};
+
+type Check = Result<(), (&'static str, &'static str, String)>;
+
+fn in_range(section: &'static str, field: &'static str, v: f64, lo: f64, hi: f64) -> Check {
+    if v.is_finite() && v >= lo && v <= hi {
+        Ok(())
+    } else {
+        Err((
+            section,
+            field,
+            format!("expected a value in {lo}..={hi}, got {v}"),
+        ))
+    }
+}
+
+/// Slip onset and drop, as scored from the marker track.
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize, Serialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct Outcome {
+    /// Fall below the held height that marks slip onset, mm.
+    pub onset_threshold_mm: f64,
+    /// Fall below the held height that counts as dropped, mm.
+    pub drop_limit_mm: f64,
+}
+
+impl Default for Outcome {
+    fn default() -> Self {
+        Self {
+            onset_threshold_mm: 1.0,
+            drop_limit_mm: 80.0,
+        }
+    }
+}
+
+impl Outcome {
+    pub fn check(&self) -> Result<(), (&'static str, String)> {
+        in_range(
+            "outcome",
+            "onset_threshold_mm",
+            self.onset_threshold_mm,
+            0.1,
+            50.0,
+        )
+        .and_then(|_| in_range("outcome", "drop_limit_mm", self.drop_limit_mm, 1.0, 1000.0))
+        .map_err(|(_, f, m)| (f, m))?;
+        if self.drop_limit_mm <= self.onset_threshold_mm {
+            return Err((
+                "drop_limit_mm",
+                format!(
+                    "expected more than onset_threshold_mm ({}), got {}",
+                    self.onset_threshold_mm, self.drop_limit_mm
+                ),
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// Single finger on the slip rail.
+#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct RailCatch {
+    /// Arm retraction speed drawn uniformly from this range, mm/s.
+    pub retract_speed_mm_s: [f64; 2],
+    /// On slip: arm moves this far forward, mm.
+    pub forward_mm: f64,
+    /// On slip: finger torque limit rises by this fraction of its maximum.
+    pub torque_step: f64,
+    /// Trial length limit, s.
+    pub max_duration_s: f64,
+}
+
+impl Default for RailCatch {
+    fn default() -> Self {
+        Self {
+            retract_speed_mm_s: [0.1, 5.0],
+            forward_mm: 1.5,
+            // "rises a little" in the paper; 5 % is ours
+            torque_step: 0.05,
+            max_duration_s: 30.0,
+        }
+    }
+}
+
+/// Whole-hand pinch grasp released slowly until slip.
+#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct HandRelease {
+    /// Finger opening speed as a fraction of the servos' maximum speed.
+    pub release_speed_of_max: f64,
+    /// On slip: close to this fraction of the range tighter than the starting grasp.
+    pub regrasp: f64,
+    /// Lift before the release, mm.
+    pub lift_mm: f64,
+    /// Hold before the release, s.
+    pub hold_s: f64,
+    pub max_duration_s: f64,
+}
+
+impl Default for HandRelease {
+    fn default() -> Self {
+        Self {
+            release_speed_of_max: 0.005,
+            regrasp: 0.02,
+            lift_mm: 30.0,
+            hold_s: 1.0,
+            max_duration_s: 60.0,
+        }
+    }
+}
+
+/// Light grasp while rice is poured in.
+#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct RicePour {
+    /// Mass added per second, g/s (ours: the paper pours by hand).
+    pub pour_rate_g_per_s: f64,
+    /// Mass poured in all, g.
+    pub total_g: f64,
+    /// On slip: tighten by this fraction of the range.
+    pub regrasp: f64,
+    pub max_duration_s: f64,
+}
+
+impl Default for RicePour {
+    fn default() -> Self {
+        Self {
+            pour_rate_g_per_s: 40.0,
+            total_g: 400.0,
+            regrasp: 0.02,
+            max_duration_s: 60.0,
+        }
+    }
+}
+
+/// Close until contact, lift, tighten on every slip.
+#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct FirstTimeLift {
+    /// Mean pin displacement that counts as contact, px.
+    pub deformation_px: f64,
+    pub lift_speed_mm_s: f64,
+    pub lift_height_mm: f64,
+    /// On slip: close by this fraction of the range, then pause.
+    pub close_step: f64,
+    pub pause_s: f64,
+    /// Masses added to the object, g (one grid level each).
+    pub masses_g: Vec<f64>,
+    /// The calibration batch's g_min table (from `calibrate_lift`), for overgrasp.
+    pub calibration: Option<std::path::PathBuf>,
+    pub max_duration_s: f64,
+}
+
+impl Default for FirstTimeLift {
+    fn default() -> Self {
+        Self {
+            deformation_px: 0.5,
+            lift_speed_mm_s: 17.0,
+            lift_height_mm: 50.0,
+            close_step: 0.01,
+            pause_s: 0.1,
+            // seven levels over the paper's 50..500 g
+            masses_g: vec![50.0, 100.0, 150.0, 200.0, 300.0, 400.0, 500.0],
+            calibration: None,
+            max_duration_s: 60.0,
+        }
+    }
+}
+
+/// The systematic sweep that finds g_min: the smallest closure that lifts the object.
+#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct Calibration {
+    pub deformation_px: f64,
+    /// Closure step between attempts past contact, fraction of the range.
+    pub step: f64,
+    pub lift_speed_mm_s: f64,
+    pub lift_height_mm: f64,
+    pub masses_g: Vec<f64>,
+}
+
+impl Default for Calibration {
+    fn default() -> Self {
+        let lift = FirstTimeLift::default();
+        Self {
+            deformation_px: lift.deformation_px,
+            step: 0.005,
+            lift_speed_mm_s: lift.lift_speed_mm_s,
+            lift_height_mm: lift.lift_height_mm,
+            masses_g: lift.masses_g,
+        }
+    }
+}
+
+fn masses(section: &'static str, m: &[f64]) -> Check {
+    if m.is_empty() {
+        return Err((section, "masses_g", "expected at least one mass".into()));
+    }
+    m.iter()
+        .try_for_each(|v| in_range(section, "masses_g", *v, 0.0, 2000.0))
+}
+
+impl KindParams {
+    pub fn check(&self) -> Check {
+        match self {
+            KindParams::RailCatch(p) => {
+                let s = "rail_catch";
+                let [lo, hi] = p.retract_speed_mm_s;
+                in_range(s, "retract_speed_mm_s", lo, 0.01, 50.0)?;
+                in_range(s, "retract_speed_mm_s", hi, lo, 50.0)?;
+                in_range(s, "forward_mm", p.forward_mm, 0.0, 10.0)?;
+                in_range(s, "torque_step", p.torque_step, 0.0, 0.5)?;
+                in_range(s, "max_duration_s", p.max_duration_s, 1.0, 600.0)
+            }
+            KindParams::HandRelease(p) => {
+                let s = "hand_release";
+                in_range(s, "release_speed_of_max", p.release_speed_of_max, 1e-4, 0.5)?;
+                in_range(s, "regrasp", p.regrasp, 0.0, 0.2)?;
+                in_range(s, "lift_mm", p.lift_mm, 0.0, 300.0)?;
+                in_range(s, "hold_s", p.hold_s, 0.0, 60.0)?;
+                in_range(s, "max_duration_s", p.max_duration_s, 1.0, 600.0)
+            }
+            KindParams::RicePour(p) => {
+                let s = "rice_pour";
+                in_range(s, "pour_rate_g_per_s", p.pour_rate_g_per_s, 0.1, 1000.0)?;
+                in_range(s, "total_g", p.total_g, 1.0, 2000.0)?;
+                in_range(s, "regrasp", p.regrasp, 0.0, 0.2)?;
+                in_range(s, "max_duration_s", p.max_duration_s, 1.0, 600.0)
+            }
+            KindParams::FirstTimeLift(p) => {
+                let s = "first_time_lift";
+                in_range(s, "deformation_px", p.deformation_px, 0.01, 20.0)?;
+                in_range(s, "lift_speed_mm_s", p.lift_speed_mm_s, 0.1, 250.0)?;
+                in_range(s, "lift_height_mm", p.lift_height_mm, 1.0, 300.0)?;
+                in_range(s, "close_step", p.close_step, 1e-4, 0.2)?;
+                in_range(s, "pause_s", p.pause_s, 0.0, 10.0)?;
+                in_range(s, "max_duration_s", p.max_duration_s, 1.0, 600.0)?;
+                masses(s, &p.masses_g)
+            }
+            KindParams::CalibrateLift(p) => {
+                let s = "calibrate_lift";
+                in_range(s, "deformation_px", p.deformation_px, 0.01, 20.0)?;
+                in_range(s, "step", p.step, 1e-4, 0.2)?;
+                in_range(s, "lift_speed_mm_s", p.lift_speed_mm_s, 0.1, 250.0)?;
+                in_range(s, "lift_height_mm", p.lift_height_mm, 1.0, 300.0)?;
+                masses(s, &p.masses_g)
+            }
+        }
+    }
+}
+
+/// The paper's objects for each kind.
+pub fn default_objects(kind: Kind) -> Vec<String> {
+    let names: &[&str] = match kind {
+        Kind::RailCatch => &["rail_object"],
+        Kind::HandRelease => &[
+            "crisps_can",
+            "windex_bottle",
+            "bleach_bottle",
+            "mustard_bottle",
+            "banana",
+        ],
+        Kind::RicePour => &["crisps_can"],
+        Kind::FirstTimeLift | Kind::CalibrateLift => &["crisps_can"],
+    };
+    names.iter().map(|s| s.to_string()).collect()
+}
+
+/// The paper's strategy grid for each kind.
+pub fn default_strategies(kind: Kind) -> Vec<String> {
+    let names: &[&str] = match kind {
+        Kind::RailCatch => &["1x1", "2x1"],
+        Kind::HandRelease => &["1x1", "2x1", "1x2", "2x2", "1x3", "2x3"],
+        Kind::RicePour => &["2x2"],
+        Kind::FirstTimeLift => &["1x1"],
+        Kind::CalibrateLift => &[],
+    };
+    names.iter().map(|s| s.to_string()).collect()
+}

@@ -1,0 +1,122 @@
+use super::*;
+
+fn check(text: &str) -> Result<Plan, ProtocolError> {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("m.json"), "{}").unwrap();
+    let path = dir.path().join("p.toml");
+    std::fs::write(&path, text).unwrap();
+    load(&path, 3)
+}
+
+const MINIMAL: &str = "kind = \"hand_release\"\nmodels = [\"m.json\"]\n";
+
+#[test]
+fn a_minimal_file_takes_the_papers_values() {
+    let plan = check(MINIMAL).unwrap();
+    assert_eq!(plan.kind, Kind::HandRelease);
+    assert_eq!(plan.objects.len(), 5);
+    assert_eq!(plan.strategies.len(), 6);
+    let KindParams::HandRelease(p) = &plan.params else {
+        panic!("{plan:?}")
+    };
+    assert_eq!((p.release_speed_of_max, p.regrasp), (0.005, 0.02));
+    assert_eq!(plan.outcome.onset_threshold_mm, 1.0);
+    assert_eq!(plan.trial_count(), 5 * 6);
+}
+
+#[test]
+fn unknown_fields_are_named_with_their_line() {
+    let e = check("kind = \"hand_release\"\nmodels = [\"m.json\"]\n\n[hand_release]\nregrasp = 0.02\nrelease_sped = 0.1\n").unwrap_err();
+    assert_eq!(e.line, 6, "{e}");
+    assert!(e.message.contains("release_sped"), "{e}");
+    assert!(e.to_string().contains("p.toml:6:"), "{e}");
+}
+
+#[test]
+fn wrong_types_say_what_was_expected() {
+    let e = check("kind = \"hand_release\"\nrepetitions = \"ten\"\n").unwrap_err();
+    assert_eq!(e.line, 2, "{e}");
+    assert_eq!(e.field, "repetitions", "{e}");
+    assert!(e.message.contains("expected u32"), "{e}");
+    let e = check(&format!("{MINIMAL}[outcome]\ndrop_limit_mm = \"far\"\n")).unwrap_err();
+    assert_eq!(e.field, "outcome.drop_limit_mm", "{e}");
+    let e = check("kind = \"juggling\"\n").unwrap_err();
+    assert!(e.message.contains("hand_release"), "{e}");
+}
+
+#[test]
+fn out_of_range_values_point_at_the_field() {
+    let e = check(&format!("{MINIMAL}[hand_release]\nregrasp = 0.9\n")).unwrap_err();
+    assert_eq!(e.field, "hand_release.regrasp");
+    assert_eq!((e.line, e.column), (4, 11), "{e}");
+    assert!(e.message.contains("0..=0.2"), "{e}");
+    let e = check(&format!("{MINIMAL}repetitions = 0\n")).unwrap_err();
+    assert_eq!(e.field, "repetitions");
+    let e = check(&format!("{MINIMAL}[outcome]\ndrop_limit_mm = 0.5\n")).unwrap_err();
+    assert_eq!(e.field, "outcome.drop_limit_mm", "{e}");
+}
+
+#[test]
+fn a_missing_model_file_is_named() {
+    let e = check("kind = \"rice_pour\"\nmodels = [\"m.json\", \"gone.json\"]\n").unwrap_err();
+    assert_eq!(e.field, "models.1");
+    assert_eq!((e.line, e.column), (2, 21), "{e}");
+    assert!(e.message.contains("gone.json"), "{e}");
+    let e = check("kind = \"rice_pour\"\n").unwrap_err();
+    assert!(e.message.contains("models"), "{e}");
+}
+
+#[test]
+fn impossible_grids_are_refused() {
+    let e =
+        check("kind = \"hand_release\"\nmodels = [\"m.json\"]\nstrategies = [\"1x2\", \"1x4\"]\n")
+            .unwrap_err();
+    assert_eq!(e.field, "strategies.1");
+    assert!(e.message.contains("3"), "{e}");
+    let e = check("kind = \"rail_catch\"\nmodels = [\"m.json\"]\nstrategies = [\"1x2\"]\n")
+        .unwrap_err();
+    assert_eq!(e.field, "strategies.0", "{e}");
+    let e = check(&format!("{MINIMAL}objects = [\"anvil\"]\n")).unwrap_err();
+    assert_eq!(e.field, "objects.0");
+    let e = check(&format!("{MINIMAL}grasps_deg = []\n")).unwrap_err();
+    assert_eq!(e.field, "grasps_deg");
+    let e = check(&format!("{MINIMAL}[rice_pour]\ntotal_g = 100\n")).unwrap_err();
+    assert_eq!(e.field, "rice_pour", "{e}");
+    let e = check("kind = \"first_time_lift\"\nmode = \"collect\"\n").unwrap_err();
+    assert_eq!(e.field, "mode", "{e}");
+}
+
+#[test]
+fn collect_mode_needs_no_model() {
+    let plan = check("kind = \"rail_catch\"\nmode = \"collect\"\nrepetitions = 4\n").unwrap();
+    assert!(plan.models.is_empty() && plan.strategies.is_empty());
+    assert_eq!(plan.trial_count(), 4);
+}
+
+/// Every example in `protocols/` is valid once the models it names exist.
+#[test]
+fn the_example_protocols_are_valid() {
+    let examples = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("protocols");
+    let mut seen = 0;
+    for entry in std::fs::read_dir(&examples).unwrap() {
+        let path = entry.unwrap().path();
+        if path.extension().is_none_or(|e| e != "toml") {
+            continue;
+        }
+        let dir = tempfile::tempdir().unwrap();
+        let text = std::fs::read_to_string(&path).unwrap();
+        let file = ProtocolFile::parse(&path, &text).unwrap();
+        std::fs::create_dir_all(dir.path().join("protocols")).unwrap();
+        for m in &file.models {
+            let model = dir.path().join("protocols").join(m);
+            std::fs::create_dir_all(model.parent().unwrap()).unwrap();
+            std::fs::write(model, "{}").unwrap();
+        }
+        let copy = dir.path().join("protocols").join(path.file_name().unwrap());
+        std::fs::write(&copy, &text).unwrap();
+        let plan = load(&copy, 3).unwrap_or_else(|e| panic!("{e}"));
+        assert!(plan.trial_count() >= 1, "{}", path.display());
+        seen += 1;
+    }
+    assert_eq!(seen, 7);
+}
