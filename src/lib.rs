@@ -4,6 +4,7 @@
 
 pub mod collect;
 pub mod online;
+pub mod outcome;
 pub mod protocol;
 pub mod scenario;
 pub mod sim_presets;

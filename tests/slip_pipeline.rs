@@ -108,3 +108,14 @@ fn relabelling_to_fewer_slip_frames_matches_labelling_afresh() {
         assert_eq!(derived, narrow, "n_slip {n}");
     }
 }
+
+#[test]
+fn collect_mode_releases_score_as_unanswered_slips() {
+    use tmo::outcome::{score_catch, CatchSpec, Verdict};
+    for trial in collect(5) {
+        let o = score_catch(&trial.markers, None, &CatchSpec::default());
+        eprintln!("{}: {o:?}", trial.meta.object);
+        assert_eq!(o.verdict, Verdict::FalseNegative, "{}", trial.meta.trial_id);
+        assert!(o.onset_s.is_some());
+    }
+}

@@ -380,6 +380,17 @@ pub fn validate(
     params
         .check()
         .map_err(|(section, f, m)| err(&format!("{section}.{f}"), m))?;
+    if let (KindParams::HandRelease(p), Mode::Online) = (&params, file.mode) {
+        if p.lift_mm <= file.outcome.drop_limit_mm {
+            return Err(err(
+                "hand_release.lift_mm",
+                format!(
+                    "expected more than outcome.drop_limit_mm ({} mm) so that a drop shows in the marker track, got {}",
+                    file.outcome.drop_limit_mm, p.lift_mm
+                ),
+            ));
+        }
+    }
 
     Ok(Plan {
         source: path.to_path_buf(),

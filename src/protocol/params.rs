@@ -96,7 +96,8 @@ pub struct HandRelease {
     pub release_speed_of_max: f64,
     /// On slip: close to this fraction of the range tighter than the starting grasp.
     pub regrasp: f64,
-    /// Lift before the release, mm.
+    /// Lift before the release, mm; online trials must lift above the drop limit so a
+    /// drop can be told from the marker track.
     pub lift_mm: f64,
     /// Hold before the release, s.
     pub hold_s: f64,
@@ -108,7 +109,7 @@ impl Default for HandRelease {
         Self {
             release_speed_of_max: 0.005,
             regrasp: 0.02,
-            lift_mm: 30.0,
+            lift_mm: 120.0,
             hold_s: 1.0,
             max_duration_s: 60.0,
         }

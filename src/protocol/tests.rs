@@ -82,6 +82,8 @@ fn impossible_grids_are_refused() {
     assert_eq!(e.field, "grasps_deg");
     let e = check(&format!("{MINIMAL}[rice_pour]\ntotal_g = 100\n")).unwrap_err();
     assert_eq!(e.field, "rice_pour", "{e}");
+    let e = check(&format!("{MINIMAL}[hand_release]\nlift_mm = 30\n")).unwrap_err();
+    assert_eq!(e.field, "hand_release.lift_mm", "{e}");
     let e = check("kind = \"first_time_lift\"\nmode = \"collect\"\n").unwrap_err();
     assert_eq!(e.field, "mode", "{e}");
 }

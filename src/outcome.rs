@@ -1,0 +1,198 @@
+//! Outcome of a catch trial (hand release, slip rail), scored from the marker track and the
+//! time the hand reacted, so sim, replay and real trials are scored by the same code
+//! (SPEC.md, "Trial outcome definitions"):
+//!
+//! - onset: the marker-track slip onset ([`slip_onset`]);
+//! - FP: the hand reacted before the onset (whatever followed; `dropped` records a fall);
+//! - FN: the object was dropped: it fell more than the drop limit below its held height;
+//! - TP: the hand reacted after the onset and the object came to rest held;
+//! - D: object height (relative to the hand) at the onset minus at rest after the catch.
+//!
+//! A trial with no onset and no reaction is a `NoSlip` trial (nothing to catch).
+
+use tmo_hal::MarkerSample;
+
+use crate::slip::labels::{slip_onset, OnsetSpec};
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Verdict {
+    TruePositive,
+    FalsePositive,
+    FalseNegative,
+    NoSlip,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct CatchOutcome {
+    pub verdict: Verdict,
+    pub onset_s: Option<f64>,
+    pub reaction_s: Option<f64>,
+    /// Reaction time after the onset, s (negative for an early reaction).
+    pub latency_s: Option<f64>,
+    pub dropped: bool,
+    /// D, mm: only for a caught object.
+    pub slip_distance_mm: Option<f64>,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CatchSpec {
+    pub onset: OnsetSpec,
+    pub drop_limit_mm: f64,
+    /// The object is at rest when its height spans less than this over `rest_window_s`.
+    pub rest_tolerance_mm: f64,
+    pub rest_window_s: f64,
+}
+
+impl Default for CatchSpec {
+    fn default() -> Self {
+        Self {
+            onset: OnsetSpec::default(),
+            drop_limit_mm: 80.0,
+            rest_tolerance_mm: 1.5,
+            rest_window_s: 0.3,
+        }
+    }
+}
+
+fn relative_height(m: &MarkerSample) -> f64 {
+    m.object_mm - m.hand_mm
+}
+
+/// Scores one trial from its marker track and the first reaction of the hand, if any.
+pub fn score_catch(
+    track: &[MarkerSample],
+    reaction_s: Option<f64>,
+    spec: &CatchSpec,
+) -> CatchOutcome {
+    let onset_s = slip_onset(track, &spec.onset);
+    // Held height: the median before the onset (or before the reaction, or over the track).
+    let until = onset_s.or(reaction_s).unwrap_or(f64::INFINITY);
+    let mut before: Vec<f64> = track
+        .iter()
+        .filter(|m| m.time_s < until)
+        .map(relative_height)
+        .collect();
+    before.sort_by(f64::total_cmp);
+    let held = before.get(before.len() / 2).copied();
+    let lowest = track
+        .iter()
+        .filter(|m| m.time_s >= until)
+        .map(relative_height)
+        .fold(f64::INFINITY, f64::min);
+    let dropped = match held {
+        Some(h) => lowest < h - spec.drop_limit_mm,
+        None => false,
+    };
+    let at_rest = rest_height(track, spec);
+    let verdict = match (onset_s, reaction_s) {
+        // An early reaction is the detector's error whatever followed; `dropped` says that.
+        (Some(o), Some(r)) if r < o => Verdict::FalsePositive,
+        (None, Some(_)) => Verdict::FalsePositive,
+        (_, _) if dropped => Verdict::FalseNegative,
+        (Some(_), Some(_)) if at_rest.is_some() => Verdict::TruePositive,
+        // reacted but never came to rest, or slipped with no reaction and not yet dropped
+        (Some(_), _) => Verdict::FalseNegative,
+        (None, None) => Verdict::NoSlip,
+    };
+    let onset_height =
+        onset_s.and_then(|o| track.iter().find(|m| m.time_s >= o).map(relative_height));
+    CatchOutcome {
+        verdict,
+        onset_s,
+        reaction_s,
+        latency_s: onset_s.zip(reaction_s).map(|(o, r)| r - o),
+        dropped,
+        slip_distance_mm: match (verdict, onset_height, at_rest) {
+            (Verdict::TruePositive, Some(o), Some(rest)) => Some((o - rest).max(0.0)),
+            _ => None,
+        },
+    }
+}
+
+/// Mean height over the last `rest_window_s` of the track if it moved less than the
+/// tolerance there.
+fn rest_height(track: &[MarkerSample], spec: &CatchSpec) -> Option<f64> {
+    let end = track.last()?.time_s;
+    let tail: Vec<f64> = track
+        .iter()
+        .filter(|m| m.time_s >= end - spec.rest_window_s)
+        .map(relative_height)
+        .collect();
+    let (lo, hi) = tail
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
+            (a.min(*v), b.max(*v))
+        });
+    (tail.len() >= 3 && hi - lo < spec.rest_tolerance_mm)
+        .then(|| tail.iter().sum::<f64>() / tail.len() as f64)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// 60 Hz track: held at 100 mm below the hand, slipping at 200 mm/s from `slip_s` for
+    /// `slide_mm` (then held again), or falling freely if `slide_mm` is infinite.
+    fn track(slip_s: Option<f64>, slide_mm: f64, seconds: f64) -> Vec<MarkerSample> {
+        (0..(seconds * 60.0) as usize)
+            .map(|i| {
+                let t = i as f64 / 60.0;
+                let fall = slip_s.map_or(0.0, |s| {
+                    if t <= s {
+                        0.0
+                    } else if slide_mm.is_finite() {
+                        (200.0 * (t - s)).min(slide_mm)
+                    } else {
+                        0.5 * 9810.0 * (t - s).powi(2)
+                    }
+                });
+                let noise = 0.2 * (((i * 7919) % 11) as f64 / 11.0 - 0.5);
+                MarkerSample {
+                    time_s: t,
+                    object_mm: 300.0 - fall + noise,
+                    hand_mm: 400.0,
+                }
+            })
+            .collect()
+    }
+
+    #[test]
+    fn a_reaction_after_onset_that_holds_the_object_is_a_true_positive() {
+        let o = score_catch(
+            &track(Some(1.0), 25.0, 3.0),
+            Some(1.1),
+            &CatchSpec::default(),
+        );
+        assert_eq!(o.verdict, Verdict::TruePositive);
+        let onset = o.onset_s.unwrap();
+        assert!((1.0..1.05).contains(&onset), "{onset}");
+        assert!((o.latency_s.unwrap() - (1.1 - onset)).abs() < 1e-12);
+        // D: from the first sample past 1 mm down to 25 mm down
+        let d = o.slip_distance_mm.unwrap();
+        assert!((d - 25.0).abs() < 3.5, "{d}");
+    }
+
+    #[test]
+    fn reacting_before_onset_is_a_false_positive_and_a_fall_a_false_negative() {
+        let spec = CatchSpec::default();
+        let early = score_catch(&track(Some(1.0), 25.0, 3.0), Some(0.5), &spec);
+        assert_eq!(early.verdict, Verdict::FalsePositive);
+        assert!(early.latency_s.unwrap() < 0.0);
+        let never = score_catch(&track(None, 0.0, 3.0), Some(0.5), &spec);
+        assert_eq!(never.verdict, Verdict::FalsePositive);
+
+        let fell = score_catch(&track(Some(1.0), f64::INFINITY, 2.0), Some(1.2), &spec);
+        assert_eq!(fell.verdict, Verdict::FalseNegative);
+        assert!(fell.dropped && fell.slip_distance_mm.is_none());
+        let unanswered = score_catch(&track(Some(1.0), f64::INFINITY, 2.0), None, &spec);
+        assert_eq!(unanswered.verdict, Verdict::FalseNegative);
+    }
+
+    #[test]
+    fn a_still_object_and_a_still_hand_is_no_slip() {
+        let o = score_catch(&track(None, 0.0, 3.0), None, &CatchSpec::default());
+        assert_eq!(o.verdict, Verdict::NoSlip);
+        assert!(!o.dropped && o.onset_s.is_none());
+    }
+}
