@@ -119,3 +119,75 @@ fn collect_mode_releases_score_as_unanswered_slips() {
         assert!(o.onset_s.is_some());
     }
 }
+
+/// Online detection replayed over recorded collect trials: a stricter strategy never
+/// reacts earlier, and the outcome scorer sees the reactions against the marker onsets.
+#[test]
+fn stricter_strategies_never_react_earlier_on_recorded_trials() {
+    use tmo::online::classify::first_reaction;
+    use tmo::online::strategy::Strategy;
+    use tmo::outcome::{score_catch, CatchSpec};
+    use tmo::slip::dataset::Scope;
+    use tmo::slip::model::{
+        train_models, ClassifierKind, Hyperparameters, ModelFile, MODEL_FORMAT,
+        MODEL_FORMAT_VERSION,
+    };
+
+    let trials = collect(14);
+    let (train, test) = trials.split_at(9);
+    let labels = LabelSpec {
+        n_slip: 5,
+        onset: OnsetSpec::default(),
+    };
+    let features = FeatureSpec::new(30);
+    let data = Dataset::from_trials(train, &features, &labels);
+    let hyper = Hyperparameters { c: 1.0, gamma: 0.0 };
+    let models = train_models(&data, ClassifierKind::Logreg, hyper, Scope::Global, 0.4, 1).unwrap();
+    let model = ModelFile {
+        format: MODEL_FORMAT.into(),
+        version: MODEL_FORMAT_VERSION,
+        classifier: ClassifierKind::Logreg,
+        hyperparameters: hyper,
+        features,
+        labels,
+        downsample: 0.4,
+        seed: 1,
+        scope: Scope::Global,
+        sensors: data.sensors(),
+        models,
+        training_trials: vec![],
+        search: None,
+        tmo_version: String::new(),
+        git_revision: String::new(),
+    };
+    let strategies: Vec<Strategy> = ["1x1", "2x1", "1x2", "2x2", "1x3", "2x3"]
+        .iter()
+        .map(|s| s.parse().unwrap())
+        .collect();
+    let mut reacted_after_onset = 0;
+    for trial in test {
+        let times: Vec<Option<f64>> = strategies
+            .iter()
+            .map(|s| first_reaction(&model, 3, &trial.frames, *s).map(|r| r.time_s))
+            .collect();
+        for (i, a) in strategies.iter().enumerate() {
+            for (j, b) in strategies.iter().enumerate() {
+                let stricter = b.frames >= a.frames && b.sensors >= a.sensors;
+                if let (true, Some(tb)) = (stricter, times[j]) {
+                    let ta = times[i].expect("a looser strategy reacts too");
+                    assert!(ta <= tb, "{a} at {ta}, {b} at {tb}");
+                }
+            }
+        }
+        let o = score_catch(&trial.markers, times[0], &CatchSpec::default());
+        eprintln!(
+            "{}: {:?} latency {:?}",
+            trial.meta.trial_id, o.verdict, o.latency_s
+        );
+        reacted_after_onset += usize::from(o.latency_s.is_some_and(|l| l >= 0.0));
+    }
+    assert!(
+        reacted_after_onset >= 1,
+        "1Fr1Sen should catch at least one slip"
+    );
+}
