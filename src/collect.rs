@@ -44,6 +44,28 @@ pub fn trial_seed(batch_seed: u64, index: u64) -> u64 {
     batch_seed.wrapping_mul(1_000_003).wrapping_add(index)
 }
 
+/// The simulated hand-release rig: the object stands on the table with the fingers just
+/// open of contact; returns the configuration, a grasp that holds the object with `safety`
+/// times the friction it needs ("closed until stable"), and the contact closure.
+pub fn hand_release_rig(
+    base: &SimConfig,
+    options: &PresetOptions,
+    safety: f64,
+) -> Result<(SimConfig, f64, f64), CollectError> {
+    let object = options
+        .object
+        .clone()
+        .unwrap_or_else(|| "crisps_can".into());
+    let (mut config, _) = sim_presets::build(Preset::Release, options, base.clone())?;
+    let closure = sim_presets::holding_closure(base, &object, 0.0, safety)?;
+    let contact = sim_presets::contact_closure(base, &object)?;
+    if let tmo_hal::sim::RigSetup::Hand(h) = &mut config.rig {
+        h.start = tmo_hal::sim::ObjectStart::OnTable;
+        h.initial_closure = (contact - 0.02).max(0.0);
+    }
+    Ok((config, closure, contact))
+}
+
 /// Runs one trial on the simulator.
 pub fn collect_trial(
     spec: &CollectSpec,
@@ -62,17 +84,8 @@ pub fn collect_trial(
                 grasp_deg: spec.grasp_deg,
                 ..Default::default()
             };
-            let (mut config, _) = sim_presets::build(Preset::Release, &options, base.clone())?;
-            // "Closed until stable": close on the object standing on the table to a grasp
-            // that holds it with a safety factor that varies from trial to trial, lift it,
-            // hold it, then release at 0.5 % of the fingers' maximum speed.
             let safety: f64 = rng.gen_range(1.2..1.8);
-            let closure = sim_presets::holding_closure(&base, &spec.object, 0.0, safety)?;
-            let contact = sim_presets::contact_closure(&base, &spec.object)?;
-            if let tmo_hal::sim::RigSetup::Hand(h) = &mut config.rig {
-                h.start = tmo_hal::sim::ObjectStart::OnTable;
-                h.initial_closure = (contact - 0.02).max(0.0);
-            }
+            let (config, closure, contact) = hand_release_rig(&base, &options, safety)?;
             let hold_s: f64 = rng.gen_range(0.5..2.0);
             let script = Script::GraspLiftRelease {
                 closure,

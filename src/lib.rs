@@ -6,6 +6,7 @@ pub mod collect;
 pub mod online;
 pub mod outcome;
 pub mod protocol;
+pub mod runner;
 pub mod scenario;
 pub mod sim_presets;
 pub mod slip;

@@ -94,7 +94,7 @@ where
     M: MarkerTracker,
     S: TactileSensor,
 {
-    fn poll(&mut self, rec: &mut Recording) -> Result<(), ScenarioError> {
+    pub(crate) fn poll(&mut self, rec: &mut Recording) -> Result<(), ScenarioError> {
         for s in self.sensors.iter_mut() {
             while let Some(f) = s.next_frame().map_err(device("tactile sensor"))? {
                 rec.frames.push(f);
