@@ -33,6 +33,8 @@ enum Command {
     Train(TrainArgs),
     /// Scores a model on recorded trials (never down-sampled).
     Evaluate(EvaluateArgs),
+    /// Runs a protocol's batch of trials (only hand_release on the simulator so far).
+    Run(cli::run::RunArgs),
     /// Trains and scores every cell of a classifier x n_slip x down-sampling grid (paper Fig. 5).
     Sweep(SweepArgs),
 }
@@ -54,5 +56,6 @@ fn run(cli: Cli) -> Result<()> {
         Command::Train(args) => cli::slip::train(args),
         Command::Evaluate(args) => cli::slip::evaluate(args),
         Command::Sweep(args) => cli::sweep::sweep(args),
+        Command::Run(args) => cli::run::run(args),
     }
 }

@@ -1,5 +1,6 @@
 //! Subcommands: argument types and the glue from them to the library.
 
+pub mod run;
 pub mod sim;
 pub mod slip;
 pub mod sweep;
