@@ -126,13 +126,7 @@ pub fn collect_trial(
         }
     };
     let rig = SimRig::new(config.clone())?;
-    let mut devices = Devices {
-        clock: rig.clock(),
-        hand: rig.hand(),
-        arm: rig.arm(),
-        markers: rig.marker_tracker(),
-        sensors: rig.tactile_sensors(),
-    };
+    let mut devices = Devices::of_sim(&rig);
     let recording = devices.run(script, duration, |_| {})?;
     // Ground truth goes along for diagnostics (how late the marker onset is); labels never
     // use it.

@@ -64,6 +64,28 @@ pub struct Devices<C, H, A, M, S> {
     pub sensors: Vec<S>,
 }
 
+/// The simulated rig's devices.
+pub type SimDevices = Devices<
+    tmo_hal::sim::SimClock,
+    tmo_hal::sim::SimHand,
+    tmo_hal::sim::SimArm,
+    tmo_hal::sim::SimMarkerTracker,
+    tmo_hal::sim::SimTactileSensor,
+>;
+
+impl SimDevices {
+    /// Every device of `rig`, each a handle onto the same simulation.
+    pub fn of_sim(rig: &tmo_hal::sim::SimRig) -> Self {
+        Devices {
+            clock: rig.clock(),
+            hand: rig.hand(),
+            arm: rig.arm(),
+            markers: rig.marker_tracker(),
+            sensors: rig.tactile_sensors(),
+        }
+    }
+}
+
 /// Everything the devices delivered during a scenario.
 #[derive(Debug, Default, Clone, PartialEq)]
 pub struct Recording {

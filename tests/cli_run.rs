@@ -1,31 +1,11 @@
 //! `tmo run` on the simulator: a short online hand-release batch, resuming an interrupted
 //! batch, and malformed protocols.
 
+mod common;
+
 use std::path::Path;
-use std::process::{Command, Output};
 
-fn tmo(dir: &Path, args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_tmo"))
-        .current_dir(dir)
-        .args(args)
-        .output()
-        .expect("tmo runs")
-}
-
-fn ok(out: &Output) -> String {
-    assert!(
-        out.status.success(),
-        "{}\n{}",
-        String::from_utf8_lossy(&out.stdout),
-        String::from_utf8_lossy(&out.stderr)
-    );
-    String::from_utf8_lossy(&out.stdout).into_owned()
-}
-
-fn fails(out: &Output) -> String {
-    assert_eq!(out.status.code(), Some(2), "{out:?}");
-    String::from_utf8_lossy(&out.stderr).into_owned()
-}
+use common::*;
 
 const PROTOCOL: &str = r#"
 kind = "hand_release"

@@ -1,15 +1,10 @@
 //! Runs the real `tmo` binary on the simulator in a fresh directory per test.
 
-use std::path::Path;
-use std::process::{Command, Output};
+mod common;
 
-fn tmo(dir: &Path, args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_tmo"))
-        .current_dir(dir)
-        .args(args)
-        .output()
-        .expect("tmo runs")
-}
+use std::path::Path;
+
+use common::*;
 
 fn read_csv(path: &Path) -> (Vec<String>, Vec<Vec<String>>) {
     let mut r = csv::Reader::from_path(path).unwrap();

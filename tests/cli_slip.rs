@@ -1,32 +1,11 @@
 //! The slip commands on the real binary: collect on the simulator, export, train, evaluate,
 //! sweep (including an interrupted one) and their errors.
 
+mod common;
+
 use std::path::Path;
-use std::process::{Command, Output};
 
-fn tmo(dir: &Path, args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_tmo"))
-        .current_dir(dir)
-        .args(args)
-        .output()
-        .expect("tmo runs")
-}
-
-fn ok(out: &Output) -> String {
-    assert!(
-        out.status.success(),
-        "{}\n{}",
-        String::from_utf8_lossy(&out.stdout),
-        String::from_utf8_lossy(&out.stderr)
-    );
-    String::from_utf8_lossy(&out.stdout).into_owned()
-}
-
-/// Exit code 2 and the stderr text.
-fn fails(out: &Output) -> String {
-    assert_eq!(out.status.code(), Some(2), "{out:?}");
-    String::from_utf8_lossy(&out.stderr).into_owned()
-}
+use common::*;
 
 fn collect(dir: &Path, n: &str, out: &str, seed: &str) {
     ok(&tmo(

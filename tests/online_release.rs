@@ -10,9 +10,7 @@ use tmo::sim_presets::PresetOptions;
 use tmo::slip::dataset::{Dataset, LabelSpec, Scope};
 use tmo::slip::features::FeatureSpec;
 use tmo::slip::labels::OnsetSpec;
-use tmo::slip::model::{
-    train_models, ClassifierKind, Hyperparameters, ModelFile, MODEL_FORMAT, MODEL_FORMAT_VERSION,
-};
+use tmo::slip::model::{ClassifierKind, Hyperparameters, ModelFile, TrainSpec};
 use tmo_hal::sim::{SimConfig, SimRig};
 
 const OBJECTS: [&str; 5] = [
@@ -42,25 +40,21 @@ fn model() -> ModelFile {
     };
     let features = FeatureSpec::new(30);
     let data = Dataset::from_trials(&trials, &features, &labels);
-    let hyper = Hyperparameters { c: 1.0, gamma: 0.0 };
-    let models = train_models(&data, ClassifierKind::Logreg, hyper, Scope::Global, 0.4, 1).unwrap();
-    ModelFile {
-        format: MODEL_FORMAT.into(),
-        version: MODEL_FORMAT_VERSION,
-        classifier: ClassifierKind::Logreg,
-        hyperparameters: hyper,
-        features,
-        labels,
-        downsample: 0.4,
-        seed: 1,
-        scope: Scope::Global,
-        sensors: data.sensors(),
-        models,
-        training_trials: vec![],
-        search: None,
-        tmo_version: String::new(),
-        git_revision: String::new(),
-    }
+    ModelFile::train(
+        &data,
+        &TrainSpec {
+            kind: ClassifierKind::Logreg,
+            hyper: Hyperparameters { c: 1.0, gamma: 0.0 },
+            scope: Scope::Global,
+            features,
+            labels,
+            downsample: 0.4,
+            seed: 1,
+        },
+        vec![],
+        None,
+    )
+    .unwrap()
 }
 
 fn release(object: &str, seed: u64, online: Option<Online<'_>>) -> (Verdict, bool) {
@@ -74,13 +68,7 @@ fn release(object: &str, seed: u64, online: Option<Online<'_>>) -> (Verdict, boo
     };
     let (config, closure, _) = hand_release_rig(&base, &options, 1.5).unwrap();
     let rig = SimRig::new(config).unwrap();
-    let mut devices = Devices {
-        clock: rig.clock(),
-        hand: rig.hand(),
-        arm: rig.arm(),
-        markers: rig.marker_tracker(),
-        sensors: rig.tactile_sensors(),
-    };
+    let mut devices = Devices::of_sim(&rig);
     let params = ReleaseParams {
         closure,
         close_speed_per_s: 0.05,

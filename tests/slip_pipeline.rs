@@ -128,10 +128,7 @@ fn stricter_strategies_never_react_earlier_on_recorded_trials() {
     use tmo::online::strategy::Strategy;
     use tmo::outcome::{score_catch, CatchSpec};
     use tmo::slip::dataset::Scope;
-    use tmo::slip::model::{
-        train_models, ClassifierKind, Hyperparameters, ModelFile, MODEL_FORMAT,
-        MODEL_FORMAT_VERSION,
-    };
+    use tmo::slip::model::{ClassifierKind, Hyperparameters, ModelFile, TrainSpec};
 
     let trials = collect(14);
     let (train, test) = trials.split_at(9);
@@ -142,24 +139,21 @@ fn stricter_strategies_never_react_earlier_on_recorded_trials() {
     let features = FeatureSpec::new(30);
     let data = Dataset::from_trials(train, &features, &labels);
     let hyper = Hyperparameters { c: 1.0, gamma: 0.0 };
-    let models = train_models(&data, ClassifierKind::Logreg, hyper, Scope::Global, 0.4, 1).unwrap();
-    let model = ModelFile {
-        format: MODEL_FORMAT.into(),
-        version: MODEL_FORMAT_VERSION,
-        classifier: ClassifierKind::Logreg,
-        hyperparameters: hyper,
-        features,
-        labels,
-        downsample: 0.4,
-        seed: 1,
-        scope: Scope::Global,
-        sensors: data.sensors(),
-        models,
-        training_trials: vec![],
-        search: None,
-        tmo_version: String::new(),
-        git_revision: String::new(),
-    };
+    let model = ModelFile::train(
+        &data,
+        &TrainSpec {
+            kind: ClassifierKind::Logreg,
+            hyper,
+            scope: Scope::Global,
+            features,
+            labels,
+            downsample: 0.4,
+            seed: 1,
+        },
+        vec![],
+        None,
+    )
+    .unwrap();
     let strategies: Vec<Strategy> = ["1x1", "2x1", "1x2", "2x2", "1x3", "2x3"]
         .iter()
         .map(|s| s.parse().unwrap())

@@ -140,13 +140,7 @@ fn sim_trace(args: TraceArgs) -> Result<()> {
         None => "invalid simulator configuration".to_string(),
     })?;
     let probe = rig.probe();
-    let mut devices = Devices {
-        clock: rig.clock(),
-        hand: rig.hand(),
-        arm: rig.arm(),
-        markers: rig.marker_tracker(),
-        sensors: rig.tactile_sensors(),
-    };
+    let mut devices = Devices::of_sim(&rig);
     let mut truth = Vec::new();
     let wall = std::time::Instant::now();
     let recording = devices.run(script, args.duration, |_| truth.push(probe.state()))?;

@@ -10,7 +10,7 @@ use tmo::slip::labels::OnsetSpec;
 use tmo::slip::metrics::Scores;
 use tmo::slip::model::{self, ClassifierKind, Hyperparameters, ModelFile, TrialRef};
 use tmo::slip::tuning::{self, TuneSpec};
-use tmo::trial::{load_trials, TrialMeta};
+use tmo::trial::load_trials;
 
 #[derive(Subcommand)]
 pub enum DatasetCommand {
@@ -216,32 +216,16 @@ pub fn train(args: TrainArgs) -> Result<()> {
             (hyper, Some(record))
         }
     };
-    let models = model::train_models(
-        &ds,
-        args.classifier,
+    let spec = model::TrainSpec {
+        kind: args.classifier,
         hyper,
-        args.scope,
-        args.labels.downsample,
-        args.labels.seed,
-    )?;
-    let (tmo_version, git_revision) = TrialMeta::code_version();
-    let file = ModelFile {
-        format: model::MODEL_FORMAT.into(),
-        version: model::MODEL_FORMAT_VERSION,
-        classifier: args.classifier,
-        hyperparameters: hyper,
+        scope: args.scope,
         features,
         labels,
         downsample: args.labels.downsample,
         seed: args.labels.seed,
-        scope: args.scope,
-        sensors: ds.sensors(),
-        models,
-        training_trials: refs,
-        search,
-        tmo_version,
-        git_revision,
     };
+    let file = ModelFile::train(&ds, &spec, refs, search)?;
     file.save(&args.out)?;
     println!(
         "trained {} ({:?} scope) on {} trials, {} rows, in {:.2} s",

@@ -125,13 +125,7 @@ pub fn run_sim_trial(
     let safety: f64 = rng.gen_range(1.2..1.8);
     let (config, closure, _) = hand_release_rig(&base, &options, safety)?;
     let rig = SimRig::new(config.clone())?;
-    let mut devices = Devices {
-        clock: rig.clock(),
-        hand: rig.hand(),
-        arm: rig.arm(),
-        markers: rig.marker_tracker(),
-        sensors: rig.tactile_sensors(),
-    };
+    let mut devices = Devices::of_sim(&rig);
     let release_speed_per_s = p.release_speed_of_max * config.servo.max_speed_per_s;
     let params = ReleaseParams {
         closure,

@@ -221,6 +221,56 @@ pub struct ModelFile {
     pub git_revision: String,
 }
 
+/// What to train: everything a model file records about its fit but the data.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TrainSpec {
+    pub kind: ClassifierKind,
+    pub hyper: Hyperparameters,
+    pub scope: Scope,
+    pub features: FeatureSpec,
+    pub labels: LabelSpec,
+    pub downsample: f64,
+    pub seed: u64,
+}
+
+impl ModelFile {
+    /// Trains the models of `spec` on `data` (labelled as `spec.labels` says) into a file
+    /// that records how, on what, and with which code.
+    pub fn train(
+        data: &Dataset,
+        spec: &TrainSpec,
+        training_trials: Vec<TrialRef>,
+        search: Option<SearchRecord>,
+    ) -> Result<Self, TrainError> {
+        let models = train_models(
+            data,
+            spec.kind,
+            spec.hyper,
+            spec.scope,
+            spec.downsample,
+            spec.seed,
+        )?;
+        let (tmo_version, git_revision) = crate::trial::TrialMeta::code_version();
+        Ok(ModelFile {
+            format: MODEL_FORMAT.into(),
+            version: MODEL_FORMAT_VERSION,
+            classifier: spec.kind,
+            hyperparameters: spec.hyper,
+            features: spec.features,
+            labels: spec.labels,
+            downsample: spec.downsample,
+            seed: spec.seed,
+            scope: spec.scope,
+            sensors: data.sensors(),
+            models,
+            training_trials,
+            search,
+            tmo_version,
+            git_revision,
+        })
+    }
+}
+
 /// A hyperparameter search: every evaluation, scored by cross-validated macro F1.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct SearchRecord {
