@@ -155,3 +155,242 @@ fn arm<E: tmo_hal::Error>(e: E) -> ScenarioError {
         message: e.to_string(),
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use std::sync::{Arc, Mutex};
+
+    use mockall::mock;
+    use tmo_hal::{ErrorKind, ErrorType, HandPositions, MarkerSample, PinFrame, Pose};
+
+    use super::*;
+    use crate::slip::dataset::{LabelSpec, Scope};
+    use crate::slip::features::FeatureSpec;
+    use crate::slip::model::{Classifier, ClassifierKind, SensorModel, MODEL_FORMAT};
+    use crate::slip::threshold::ThresholdModel;
+
+    #[derive(Debug, thiserror::Error)]
+    #[error("mock device failure")]
+    struct MockError;
+
+    impl tmo_hal::Error for MockError {
+        fn kind(&self) -> ErrorKind {
+            ErrorKind::Other
+        }
+    }
+
+    mock! {
+        Hand {}
+        impl ErrorType for Hand { type Error = MockError; }
+        impl tmo_hal::Hand for Hand {
+            fn set_targets(&mut self, targets: HandPositions) -> Result<(), MockError>;
+            fn set_torque_limit(&mut self, fraction: f64) -> Result<(), MockError>;
+            fn present_positions(&mut self) -> Result<HandPositions, MockError>;
+        }
+    }
+
+    mock! {
+        Arm {}
+        impl ErrorType for Arm { type Error = MockError; }
+        impl tmo_hal::Arm for Arm {
+            fn tcp_pose(&mut self) -> Result<Pose, MockError>;
+            fn move_linear(&mut self, offset_mm: [f64; 3], speed_mm_s: f64) -> Result<(), MockError>;
+            fn move_velocity(&mut self, velocity_mm_s: [f64; 3]) -> Result<(), MockError>;
+            fn stop(&mut self) -> Result<(), MockError>;
+        }
+    }
+
+    mock! {
+        Markers {}
+        impl ErrorType for Markers { type Error = MockError; }
+        impl tmo_hal::MarkerTracker for Markers {
+            fn next_sample(&mut self) -> Result<Option<MarkerSample>, MockError>;
+        }
+    }
+
+    mock! {
+        Sensor {}
+        impl ErrorType for Sensor { type Error = MockError; }
+        impl tmo_hal::TactileSensor for Sensor {
+            fn next_frame(&mut self) -> Result<Option<PinFrame>, MockError>;
+        }
+    }
+
+    /// A virtual clock the mocks can read.
+    #[derive(Clone, Default)]
+    struct SharedClock(Arc<Mutex<f64>>);
+
+    impl Clock for SharedClock {
+        fn now_s(&self) -> f64 {
+            *self.0.lock().unwrap()
+        }
+        fn sleep_until(&mut self, time_s: f64) {
+            let mut t = self.0.lock().unwrap();
+            *t = t.max(time_s);
+        }
+    }
+
+    const PINS: usize = 4;
+
+    /// A sensor delivering 60 fps from `phase_s`, its pins still until `slip_from_s`, then
+    /// all moving 2 px per frame (slip for a threshold of 0.5 px/frame).
+    fn sensor(id: u8, phase_s: f64, slip_from_s: f64, clock: SharedClock) -> MockSensor {
+        let mut s = MockSensor::new();
+        let mut next = 0u64;
+        let mut x = 0.0f32;
+        s.expect_next_frame().returning(move || {
+            let t = phase_s + next as f64 / 60.0;
+            if t > clock.now_s() {
+                return Ok(None);
+            }
+            if t >= slip_from_s {
+                x += 2.0;
+            }
+            next += 1;
+            Ok(Some(PinFrame {
+                sensor: id,
+                seq: next,
+                time_s: t,
+                pins: (0..PINS).map(|i| [x + 10.0 * i as f32, 50.0]).collect(),
+            }))
+        });
+        s
+    }
+
+    fn threshold_model() -> ModelFile {
+        ModelFile {
+            format: MODEL_FORMAT.into(),
+            version: crate::slip::model::MODEL_FORMAT_VERSION,
+            classifier: ClassifierKind::Threshold,
+            hyperparameters: Default::default(),
+            features: FeatureSpec::new(PINS),
+            labels: LabelSpec {
+                n_slip: 5,
+                onset: Default::default(),
+            },
+            downsample: 1.0,
+            seed: 0,
+            scope: Scope::Global,
+            sensors: vec![0, 1, 2],
+            models: vec![SensorModel {
+                sensor: None,
+                scaler: None,
+                classifier: Classifier::Threshold(ThresholdModel { threshold: 0.5 }),
+                training_rows: 0,
+                training_scores: Default::default(),
+            }],
+            training_trials: vec![],
+            search: None,
+            tmo_version: String::new(),
+            git_revision: String::new(),
+        }
+    }
+
+    const CLOSURE: f64 = 0.4;
+
+    fn params() -> ReleaseParams {
+        ReleaseParams {
+            closure: CLOSURE,
+            close_speed_per_s: 0.05,
+            lift_mm: 10.0,
+            lift_speed_mm_s: 100.0,
+            hold_s: 0.0,
+            release_speed_per_s: 0.01,
+            regrasp: 0.02,
+            observe_s: 0.2,
+            max_duration_s: 3.0,
+        }
+    }
+
+    /// Runs a release with sensors that start slipping at the given times; returns the
+    /// record and every target the hand was sent.
+    fn run(slip_from_s: [f64; 3], strategy: &str) -> (ReleaseRecord, Vec<HandPositions>) {
+        let clock = SharedClock::default();
+        let sent = Arc::new(Mutex::new(Vec::new()));
+        let mut hand = MockHand::new();
+        hand.expect_present_positions()
+            .returning(|| Ok([CLOSURE, CLOSURE, CLOSURE, 0.0]));
+        let log = sent.clone();
+        hand.expect_set_targets().returning(move |t| {
+            log.lock().unwrap().push(t);
+            Ok(())
+        });
+        let mut arm = MockArm::new();
+        arm.expect_move_linear()
+            .withf(|offset, speed| *offset == [0.0, 0.0, 10.0] && *speed == 100.0)
+            .times(1)
+            .returning(|_, _| Ok(()));
+        arm.expect_stop().times(1).returning(|| Ok(()));
+        let mut markers = MockMarkers::new();
+        markers.expect_next_sample().returning(|| Ok(None));
+        let sensors = (0..3)
+            .map(|k| sensor(k as u8, 0.004 * k as f64, slip_from_s[k], clock.clone()))
+            .collect();
+        let mut devices = Devices {
+            clock,
+            hand,
+            arm,
+            markers,
+            sensors,
+        };
+        let model = threshold_model();
+        let online = Online {
+            model: &model,
+            strategy: strategy.parse().unwrap(),
+        };
+        let record = run_release(&mut devices, &params(), Some(online)).unwrap();
+        let targets = sent.lock().unwrap().clone();
+        (record, targets)
+    }
+
+    fn regrasps(targets: &[HandPositions]) -> usize {
+        let q = CLOSURE + 0.02;
+        targets
+            .iter()
+            .filter(|t| t[..3].iter().all(|v| (v - q).abs() < 1e-12))
+            .count()
+    }
+
+    #[test]
+    fn two_by_two_regrasps_once_on_the_second_slip_frame_of_the_second_sensor() {
+        // Sensor 0 slips from 1.0 s, sensor 1 from 1.1 s, sensor 2 never.
+        let (record, targets) = run([1.0, 1.1, 99.0], "2x2");
+        let armed = record.armed_s.unwrap();
+        assert!((armed - 0.6).abs() < 0.01, "armed at {armed}");
+        let reaction = record.reaction.expect("reacted");
+        assert_eq!(reaction.sensor, 1);
+        // sensor 1's frames fall at 0.004 + k/60; its first slip frame is the first at or
+        // after 1.1 s, the reaction comes on the next one
+        let first_slip = (((1.1 - 0.004) * 60.0_f64).ceil()) / 60.0 + 0.004;
+        assert!(
+            (reaction.time_s - (first_slip + 1.0 / 60.0)).abs() < 1e-9,
+            "reacted at {}",
+            reaction.time_s
+        );
+        assert_eq!(regrasps(&targets), 1, "exactly one regrasp");
+        // nothing is sent after the regrasp: the hand holds the new grasp
+        assert_eq!(regrasps(&targets[targets.len() - 1..]), 1);
+        assert!(record.ended_s >= reaction.time_s + 0.2);
+    }
+
+    #[test]
+    fn one_sensor_slipping_never_fires_a_two_sensor_strategy() {
+        let (record, targets) = run([1.0, 99.0, 99.0], "2x2");
+        assert_eq!(record.reaction, None);
+        assert_eq!(regrasps(&targets), 0);
+        // the release ran to the time limit, opening the fingers
+        assert!(targets.last().unwrap()[0] < CLOSURE);
+        let (record, _) = run([1.0, 99.0, 99.0], "1x1");
+        let r = record.reaction.unwrap();
+        assert_eq!(r.sensor, 0);
+        assert!(r.time_s >= 1.0 && r.time_s < 1.0 + 1.0 / 60.0 + 1e-9);
+    }
+
+    #[test]
+    fn slip_before_the_release_is_not_acted_on() {
+        // Pins moving from the start (closing, lifting): no reaction until armed.
+        let (record, _) = run([0.0, 0.0, 0.0], "1x1");
+        let r = record.reaction.unwrap();
+        assert!(r.time_s >= record.armed_s.unwrap(), "{r:?}");
+    }
+}
