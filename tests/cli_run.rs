@@ -124,3 +124,49 @@ fn malformed_protocols_are_refused_with_their_place() {
         assert!(err.contains(expected), "{text}\n{err}");
     }
 }
+
+#[test]
+fn a_batch_killed_mid_run_resumes_to_the_same_trials() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    setup(d);
+    let args = |out: &'static str| vec!["run", "release.toml", "--repeat", "25", "--out", out];
+    ok(&tmo(d, &args("whole")));
+    let whole = std::fs::read_to_string(d.join("whole/outcomes.csv")).unwrap();
+    assert_eq!(whole.lines().count(), 101);
+
+    let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_tmo"))
+        .current_dir(d)
+        .args(args("killed"))
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
+    let killed = d.join("killed");
+    let started = std::time::Instant::now();
+    while (!killed.exists() || sorted_logs(&killed).len() < 5) && started.elapsed().as_secs() < 60 {
+        std::thread::sleep(std::time::Duration::from_millis(2));
+    }
+    child.kill().unwrap(); // SIGKILL: no chance to tidy up
+    child.wait().unwrap();
+    let survivors = sorted_logs(&killed).len();
+    assert!(
+        (5..100).contains(&survivors),
+        "killed after {survivors} trials"
+    );
+    assert!(!killed.join("outcomes.csv").exists());
+
+    let stdout = ok(&tmo(d, &[&args("killed")[..], &["--resume"]].concat()));
+    assert!(
+        stdout.contains(&format!(
+            "({} run, {survivors} already there)",
+            100 - survivors
+        )),
+        "{stdout}"
+    );
+    assert_eq!(sorted_logs(&killed), sorted_logs(&d.join("whole")));
+    assert_eq!(
+        std::fs::read_to_string(killed.join("outcomes.csv")).unwrap(),
+        whole
+    );
+}
