@@ -79,6 +79,8 @@ fn release(object: &str, seed: u64, online: Option<Online<'_>>) -> (Verdict, boo
         regrasp: 0.02,
         observe_s: 1.5,
         max_duration_s: 40.0,
+        silent_limit_s: 0.25,
+        stale_limit: 10,
     };
     let record = run_release(&mut devices, &params, online).unwrap();
     let reaction = record.reaction.map(|r| r.time_s);

@@ -160,6 +160,10 @@ pub fn run(args: RunArgs) -> Result<()> {
         started.elapsed().as_secs_f64()
     );
     print_table(&rows);
+    let aborted = rows.iter().filter(|r| r.fault.is_some()).count();
+    if aborted > 0 {
+        println!("{aborted} trial(s) aborted by a sensor fault (see the fault column)");
+    }
     println!(
         "wrote {} trial logs, {}, {} and {}",
         out.display(),

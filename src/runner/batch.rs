@@ -137,6 +137,8 @@ pub fn run_sim_trial(
         regrasp: p.regrasp,
         observe_s: 1.5,
         max_duration_s: p.max_duration_s,
+        silent_limit_s: 0.25,
+        stale_limit: 10,
     };
     let online = match (plan.mode, planned.model, planned.strategy) {
         (Mode::Online, Some(m), Some(strategy)) => Some(Online {
@@ -163,6 +165,9 @@ pub fn run_sim_trial(
     }
     if let Some(a) = record.armed_s {
         put("armed_s", format!("{a:.4}"));
+    }
+    if let Some(f) = record.fault {
+        put("fault", serde_json::to_string(&f).unwrap_or_default());
     }
     if let Some(r) = record.reaction {
         put("reaction_s", format!("{:.4}", r.time_s));
@@ -222,6 +227,8 @@ pub struct OutcomeRow {
     pub latency_s: Option<f64>,
     pub dropped: bool,
     pub slip_distance_mm: Option<f64>,
+    /// Why the trial was aborted, if it was (JSON).
+    pub fault: Option<String>,
 }
 
 pub fn score_trial(trial: &Trial, spec: &CatchSpec) -> OutcomeRow {
@@ -240,6 +247,7 @@ pub fn score_trial(trial: &Trial, spec: &CatchSpec) -> OutcomeRow {
         latency_s: o.latency_s,
         dropped: o.dropped,
         slip_distance_mm: o.slip_distance_mm,
+        fault: param("fault"),
     }
 }
 

@@ -30,6 +30,19 @@ pub struct ReleaseParams {
     /// How long to watch after the reaction, s.
     pub observe_s: f64,
     pub max_duration_s: f64,
+    /// A sensor silent this long aborts the trial, s.
+    pub silent_limit_s: f64,
+    /// This many identical frames in a row from one sensor abort the trial (a frozen
+    /// camera repeats its last frame; noise makes real frames differ).
+    pub stale_limit: u32,
+}
+
+/// Why a trial was aborted; the hand held its position and the arm stopped.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(tag = "fault", rename_all = "snake_case")]
+pub enum Fault {
+    SilentSensor { sensor: u8, last_frame_s: f64 },
+    StaleFrames { sensor: u8, repeats: u32 },
 }
 
 /// The model and strategy of an online trial.
@@ -45,6 +58,7 @@ pub struct ReleaseRecord {
     /// When the release (and the detector) started.
     pub armed_s: Option<f64>,
     pub reaction: Option<Reaction>,
+    pub fault: Option<Fault>,
     pub ended_s: f64,
 }
 
@@ -77,6 +91,11 @@ where
     let (mut phase, mut phase_t0) = (Phase::Closing, dev.clock.now_s());
     let mut armed_s = None;
     let mut reaction: Option<Reaction> = None;
+    let mut fault = None;
+    let t0 = dev.clock.now_s();
+    let mut last_frame_s = vec![t0; sensors];
+    let mut repeats = vec![0u32; sensors];
+    let mut previous_pins: Vec<Option<Vec<[f32; 2]>>> = vec![None; sensors];
     loop {
         let now = dev.clock.now_s();
         let elapsed = now - phase_t0;
@@ -112,6 +131,35 @@ where
         dev.clock.sleep(TICK_S);
         let first_new = rec.frames.len();
         dev.poll(&mut rec)?;
+        let now = dev.clock.now_s();
+        for f in &rec.frames[first_new..] {
+            let k = usize::from(f.sensor);
+            if k >= sensors {
+                continue;
+            }
+            last_frame_s[k] = now;
+            let same = previous_pins[k].as_ref() == Some(&f.pins);
+            repeats[k] = if same { repeats[k] + 1 } else { 0 };
+            previous_pins[k] = Some(f.pins.clone());
+            if repeats[k] >= p.stale_limit {
+                fault.get_or_insert(Fault::StaleFrames {
+                    sensor: f.sensor,
+                    repeats: repeats[k],
+                });
+            }
+        }
+        if let Some(k) = (0..sensors).find(|&k| now - last_frame_s[k] > p.silent_limit_s) {
+            fault.get_or_insert(Fault::SilentSensor {
+                sensor: k as u8,
+                last_frame_s: last_frame_s[k],
+            });
+        }
+        if fault.is_some() {
+            // Make safe: hold where the fingers are, stop the arm.
+            let held = dev.hand.present_positions().map_err(hand)?;
+            dev.hand.set_targets(held).map_err(hand)?;
+            break;
+        }
         if let (Some(c), Some(d)) = (classifier.as_mut(), detector.as_mut()) {
             for f in &rec.frames[first_new..] {
                 // Every frame is classified so each sensor has its previous frame ready;
@@ -136,6 +184,7 @@ where
         recording: rec,
         armed_s,
         reaction,
+        fault,
         ended_s: dev.clock.now_s(),
     })
 }
@@ -232,26 +281,48 @@ mod tests {
 
     const PINS: usize = 4;
 
-    /// A sensor delivering 60 fps from `phase_s`, its pins still until `slip_from_s`, then
-    /// all moving 2 px per frame (slip for a threshold of 0.5 px/frame).
-    fn sensor(id: u8, phase_s: f64, slip_from_s: f64, clock: SharedClock) -> MockSensor {
+    /// What a mock sensor does: from `slip_from_s` all pins move 2 px per frame (slip for
+    /// a threshold of 0.5 px/frame); from `silent_from_s` it sends nothing; from
+    /// `frozen_from_s` it repeats its last frame exactly.
+    #[derive(Clone, Copy)]
+    struct Script {
+        slip_from_s: f64,
+        silent_from_s: f64,
+        frozen_from_s: f64,
+    }
+
+    fn slips_from(t: f64) -> Script {
+        Script {
+            slip_from_s: t,
+            silent_from_s: 99.0,
+            frozen_from_s: 99.0,
+        }
+    }
+
+    /// A sensor delivering 60 fps from `phase_s` as `script` says.
+    fn sensor(id: u8, phase_s: f64, script: Script, clock: SharedClock) -> MockSensor {
         let mut s = MockSensor::new();
         let mut next = 0u64;
         let mut x = 0.0f32;
+        let mut y = 50.0f32;
         s.expect_next_frame().returning(move || {
             let t = phase_s + next as f64 / 60.0;
-            if t > clock.now_s() {
+            if t > clock.now_s() || t >= script.silent_from_s {
                 return Ok(None);
             }
-            if t >= slip_from_s {
-                x += 2.0;
-            }
             next += 1;
+            if t < script.frozen_from_s {
+                if t >= script.slip_from_s {
+                    x += 2.0;
+                }
+                // a hair of noise, as real frames have, so still pins are not stale frames
+                y = 50.0 + 0.01 * (next % 2) as f32;
+            }
             Ok(Some(PinFrame {
                 sensor: id,
                 seq: next,
                 time_s: t,
-                pins: (0..PINS).map(|i| [x + 10.0 * i as f32, 50.0]).collect(),
+                pins: (0..PINS).map(|i| [x + 10.0 * i as f32, y]).collect(),
             }))
         });
         s
@@ -299,12 +370,14 @@ mod tests {
             regrasp: 0.02,
             observe_s: 0.2,
             max_duration_s: 3.0,
+            silent_limit_s: 0.25,
+            stale_limit: 10,
         }
     }
 
     /// Runs a release with sensors that start slipping at the given times; returns the
     /// record and every target the hand was sent.
-    fn run(slip_from_s: [f64; 3], strategy: &str) -> (ReleaseRecord, Vec<HandPositions>) {
+    fn run(scripts: [Script; 3], strategy: &str) -> (ReleaseRecord, Vec<HandPositions>) {
         let clock = SharedClock::default();
         let sent = Arc::new(Mutex::new(Vec::new()));
         let mut hand = MockHand::new();
@@ -324,7 +397,7 @@ mod tests {
         let mut markers = MockMarkers::new();
         markers.expect_next_sample().returning(|| Ok(None));
         let sensors = (0..3)
-            .map(|k| sensor(k as u8, 0.004 * k as f64, slip_from_s[k], clock.clone()))
+            .map(|k| sensor(k as u8, 0.004 * k as f64, scripts[k], clock.clone()))
             .collect();
         let mut devices = Devices {
             clock,
@@ -354,7 +427,7 @@ mod tests {
     #[test]
     fn two_by_two_regrasps_once_on_the_second_slip_frame_of_the_second_sensor() {
         // Sensor 0 slips from 1.0 s, sensor 1 from 1.1 s, sensor 2 never.
-        let (record, targets) = run([1.0, 1.1, 99.0], "2x2");
+        let (record, targets) = run([slips_from(1.0), slips_from(1.1), slips_from(99.0)], "2x2");
         let armed = record.armed_s.unwrap();
         assert!((armed - 0.6).abs() < 0.01, "armed at {armed}");
         let reaction = record.reaction.expect("reacted");
@@ -375,12 +448,12 @@ mod tests {
 
     #[test]
     fn one_sensor_slipping_never_fires_a_two_sensor_strategy() {
-        let (record, targets) = run([1.0, 99.0, 99.0], "2x2");
+        let (record, targets) = run([slips_from(1.0), slips_from(99.0), slips_from(99.0)], "2x2");
         assert_eq!(record.reaction, None);
         assert_eq!(regrasps(&targets), 0);
         // the release ran to the time limit, opening the fingers
         assert!(targets.last().unwrap()[0] < CLOSURE);
-        let (record, _) = run([1.0, 99.0, 99.0], "1x1");
+        let (record, _) = run([slips_from(1.0), slips_from(99.0), slips_from(99.0)], "1x1");
         let r = record.reaction.unwrap();
         assert_eq!(r.sensor, 0);
         assert!(r.time_s >= 1.0 && r.time_s < 1.0 + 1.0 / 60.0 + 1e-9);
@@ -389,8 +462,47 @@ mod tests {
     #[test]
     fn slip_before_the_release_is_not_acted_on() {
         // Pins moving from the start (closing, lifting): no reaction until armed.
-        let (record, _) = run([0.0, 0.0, 0.0], "1x1");
+        let (record, _) = run([slips_from(0.0); 3], "1x1");
         let r = record.reaction.unwrap();
         assert!(r.time_s >= record.armed_s.unwrap(), "{r:?}");
+    }
+
+    #[test]
+    fn a_silent_or_frozen_sensor_aborts_the_trial_safely() {
+        let silent = Script {
+            silent_from_s: 1.0,
+            ..slips_from(99.0)
+        };
+        let (record, targets) = run([slips_from(99.0), silent, slips_from(99.0)], "2x2");
+        let Some(Fault::SilentSensor {
+            sensor,
+            last_frame_s,
+        }) = record.fault
+        else {
+            panic!("{:?}", record.fault)
+        };
+        assert_eq!(sensor, 1);
+        assert!(last_frame_s < 1.0 + 1e-9);
+        assert!((record.ended_s - (last_frame_s + 0.25)).abs() < 0.01);
+        // the hand was told to hold where it was
+        assert_eq!(targets.last().unwrap(), &[CLOSURE, CLOSURE, CLOSURE, 0.0]);
+
+        let frozen = Script {
+            frozen_from_s: 1.0,
+            ..slips_from(99.0)
+        };
+        let (record, _) = run([frozen, slips_from(99.0), slips_from(99.0)], "2x2");
+        assert!(
+            matches!(
+                record.fault,
+                Some(Fault::StaleFrames {
+                    sensor: 0,
+                    repeats: 10
+                })
+            ),
+            "{:?}",
+            record.fault
+        );
+        assert!(record.ended_s > 1.0 + 9.0 / 60.0 && record.ended_s < 1.0 + 12.0 / 60.0);
     }
 }
