@@ -172,5 +172,6 @@ pub fn collect_trial(
         meta,
         frames: recording.frames,
         markers: recording.markers,
+        events: Vec::new(),
     })
 }

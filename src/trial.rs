@@ -17,6 +17,7 @@ use tmo_hal::{MarkerSample, PinFrame};
 pub const TRIAL_FORMAT_VERSION: u32 = 1;
 
 const PIN_FRAME_SCHEMA: &str = r#"{"title":"tmo.PinFrame","type":"object","properties":{"sensor":{"type":"integer"},"seq":{"type":"integer"},"time_s":{"type":"number"},"pins":{"type":"array","items":{"type":"array","items":{"type":"number"},"minItems":2,"maxItems":2}}},"required":["sensor","seq","time_s","pins"]}"#;
+const EVENT_SCHEMA: &str = r#"{"title":"tmo.Event","type":"object","properties":{"time_s":{"type":"number"},"data":{}},"required":["time_s","data"]}"#;
 const MARKER_SCHEMA: &str = r#"{"title":"tmo.MarkerSample","type":"object","properties":{"time_s":{"type":"number"},"object_mm":{"type":"number"},"hand_mm":{"type":"number"}},"required":["time_s","object_mm","hand_mm"]}"#;
 
 /// Where a trial came from: enough to reproduce it.
@@ -60,6 +61,24 @@ pub struct Trial {
     pub meta: TrialMeta,
     pub frames: Vec<PinFrame>,
     pub markers: Vec<MarkerSample>,
+    /// What the runner did and decided (commands, phases, classifier outputs, detector
+    /// events), each on its own channel named by `topic`.
+    pub events: Vec<TrialEvent>,
+}
+
+/// One runner message: `topic` is its channel (e.g. `/classifier`, `/detector`,
+/// `/command/hand`), `data` its JSON body.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct TrialEvent {
+    pub time_s: f64,
+    #[serde(skip)]
+    pub topic: String,
+    pub data: serde_json::Value,
+}
+
+/// Channels that are not runner events.
+fn is_event_topic(topic: &str) -> bool {
+    topic != "/marker" && !topic.starts_with("/tactile/")
 }
 
 #[derive(Debug, thiserror::Error)]
@@ -163,6 +182,38 @@ pub fn write_trial(path: &Path, trial: &Trial) -> Result<(), TrialError> {
                 .map_err(mcap_err(path))?;
             sequence += 1;
         }
+        let event_schema = w
+            .add_schema("tmo.Event", "jsonschema", EVENT_SCHEMA.as_bytes())
+            .map_err(mcap_err(path))?;
+        let mut event_channels: BTreeMap<&str, u16> = BTreeMap::new();
+        for e in &trial.events {
+            if !is_event_topic(&e.topic) || !e.topic.starts_with('/') {
+                return Err(TrialError::Mcap {
+                    path: path.into(),
+                    message: format!("`{}` cannot be an event channel", e.topic),
+                });
+            }
+            let channel_id = match event_channels.get(e.topic.as_str()) {
+                Some(id) => *id,
+                None => {
+                    let id = w
+                        .add_channel(event_schema, &e.topic, "json", &none)
+                        .map_err(mcap_err(path))?;
+                    event_channels.insert(&e.topic, id);
+                    id
+                }
+            };
+            let data = serde_json::to_vec(e).expect("events serialise");
+            let header = mcap::records::MessageHeader {
+                channel_id,
+                sequence,
+                log_time: nanos(e.time_s),
+                publish_time: nanos(e.time_s),
+            };
+            w.write_to_known_channel(&header, &data)
+                .map_err(mcap_err(path))?;
+            sequence += 1;
+        }
         let meta = serde_json::to_string(&trial.meta).expect("metadata serialises");
         w.write_metadata(&mcap::records::Metadata {
             name: "tmo.trial".into(),
@@ -220,6 +271,7 @@ pub fn read_trial(path: &Path) -> Result<Trial, TrialError> {
     }
     let mut frames = Vec::new();
     let mut markers = Vec::new();
+    let mut events = Vec::new();
     for (index, message) in mcap::MessageStream::new(&buf)
         .map_err(mcap_err(path))?
         .enumerate()
@@ -236,14 +288,21 @@ pub fn read_trial(path: &Path) -> Result<Trial, TrialError> {
             markers.push(serde_json::from_slice::<MarkerSample>(&message.data).map_err(bad)?);
         } else if topic.starts_with("/tactile/") {
             frames.push(serde_json::from_slice::<PinFrame>(&message.data).map_err(bad)?);
+        } else {
+            let mut e: TrialEvent = serde_json::from_slice(&message.data).map_err(bad)?;
+            e.topic = topic.to_string();
+            events.push(e);
         }
     }
     frames.sort_by(|a, b| a.time_s.total_cmp(&b.time_s).then(a.sensor.cmp(&b.sensor)));
     markers.sort_by(|a, b| a.time_s.total_cmp(&b.time_s));
+    // stable: events of one instant keep the order they were logged in
+    events.sort_by(|a, b| a.time_s.total_cmp(&b.time_s));
     Ok(Trial {
         meta,
         frames,
         markers,
+        events,
     })
 }
 
@@ -342,6 +401,18 @@ mod tests {
                 object_mm: 300.1,
                 hand_mm: 360.0,
             }],
+            events: vec![
+                TrialEvent {
+                    time_s: 0.01,
+                    topic: "/classifier".into(),
+                    data: serde_json::json!({"sensor": 0, "seq": 1, "class": "static"}),
+                },
+                TrialEvent {
+                    time_s: 0.027,
+                    topic: "/detector".into(),
+                    data: serde_json::json!({"event": "reaction", "sensor": 0}),
+                },
+            ],
         }
     }
 

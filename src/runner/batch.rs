@@ -210,6 +210,7 @@ pub fn run_sim_trial(
         },
         frames: record.recording.frames,
         markers: record.recording.markers,
+        events: record.events,
     })
 }
 

@@ -11,6 +11,8 @@ use crate::online::classify::{FrameClassifier, Reaction};
 use crate::online::strategy::{Detector, Strategy};
 use crate::scenario::{Devices, Recording, ScenarioError};
 use crate::slip::model::ModelFile;
+use crate::trial::TrialEvent;
+use serde_json::json;
 
 /// Control period, s (1 kHz).
 const TICK_S: f64 = 0.001;
@@ -60,9 +62,20 @@ pub struct ReleaseRecord {
     pub reaction: Option<Reaction>,
     pub fault: Option<Fault>,
     pub ended_s: f64,
+    /// Phases, commands, classifier outputs and detector events, for the trial log.
+    pub events: Vec<TrialEvent>,
 }
 
-#[derive(Debug, Clone, Copy, PartialEq)]
+fn event(time_s: f64, topic: &str, data: serde_json::Value) -> TrialEvent {
+    TrialEvent {
+        time_s,
+        topic: topic.to_string(),
+        data,
+    }
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
 enum Phase {
     Closing,
     Settling,
@@ -96,6 +109,14 @@ where
     let mut last_frame_s = vec![t0; sensors];
     let mut repeats = vec![0u32; sensors];
     let mut previous_pins: Vec<Option<Vec<[f32; 2]>>> = vec![None; sensors];
+    let mut events = vec![
+        event(t0, "/phase", json!({"phase": phase})),
+        event(
+            t0,
+            "/command/hand",
+            json!({"ramp_to": p.closure, "speed_per_s": p.close_speed_per_s}),
+        ),
+    ];
     loop {
         let now = dev.clock.now_s();
         let elapsed = now - phase_t0;
@@ -110,17 +131,30 @@ where
                     .map_err(hand)?;
                 if q(0) >= p.closure {
                     (phase, phase_t0) = (Phase::Settling, now);
+                    events.push(event(now, "/phase", json!({"phase": phase})));
                 }
             }
             Phase::Settling if elapsed >= 0.3 => {
                 dev.arm
                     .move_linear([0.0, 0.0, p.lift_mm], p.lift_speed_mm_s)
                     .map_err(arm)?;
+                events.push(event(
+                    now,
+                    "/command/arm",
+                    json!({"move_linear_mm": [0.0, 0.0, p.lift_mm], "speed_mm_s": p.lift_speed_mm_s}),
+                ));
                 (phase, phase_t0) = (Phase::Lifting, now);
+                events.push(event(now, "/phase", json!({"phase": phase})));
             }
             Phase::Lifting if elapsed >= p.lift_mm / p.lift_speed_mm_s + 0.2 + p.hold_s => {
                 (phase, phase_t0) = (Phase::Releasing, now);
                 armed_s = Some(now);
+                events.push(event(now, "/phase", json!({"phase": phase})));
+                events.push(event(
+                    now,
+                    "/command/hand",
+                    json!({"ramp_to": 0.0, "speed_per_s": -p.release_speed_per_s}),
+                ));
             }
             Phase::Releasing => {
                 let q = (p.closure - p.release_speed_per_s * elapsed).max(0.0);
@@ -154,10 +188,12 @@ where
                 last_frame_s: last_frame_s[k],
             });
         }
-        if fault.is_some() {
+        if let Some(f) = fault {
             // Make safe: hold where the fingers are, stop the arm.
             let held = dev.hand.present_positions().map_err(hand)?;
             dev.hand.set_targets(held).map_err(hand)?;
+            events.push(event(now, "/fault", json!(f)));
+            events.push(event(now, "/command/hand", json!({ "targets": held })));
             break;
         }
         if let (Some(c), Some(d)) = (classifier.as_mut(), detector.as_mut()) {
@@ -165,6 +201,11 @@ where
                 // Every frame is classified so each sensor has its previous frame ready;
                 // only frames of the release count towards a reaction.
                 let Some(class) = c.classify(f) else { continue };
+                events.push(event(
+                    f.time_s,
+                    "/classifier",
+                    json!({"sensor": f.sensor, "seq": f.seq, "class": class}),
+                ));
                 if phase == Phase::Releasing && d.observe(usize::from(f.sensor), class) {
                     reaction = Some(Reaction {
                         time_s: f.time_s,
@@ -174,18 +215,36 @@ where
                     let q = (p.closure + p.regrasp).min(1.0);
                     dev.hand.set_targets([q, q, q, start[3]]).map_err(hand)?;
                     phase = Phase::Reacted;
+                    let now = dev.clock.now_s();
+                    events.push(event(
+                        now,
+                        "/detector",
+                        json!({"event": "reaction", "frame_time_s": f.time_s, "sensor": f.sensor, "seq": f.seq, "strategy": d.strategy().to_string()}),
+                    ));
+                    events.push(event(
+                        now,
+                        "/command/hand",
+                        json!({ "targets": [q, q, q, start[3]] }),
+                    ));
+                    events.push(event(now, "/phase", json!({"phase": phase})));
                     break;
                 }
             }
         }
     }
     dev.arm.stop().map_err(arm)?;
+    events.push(event(
+        dev.clock.now_s(),
+        "/command/arm",
+        json!({"stop": true}),
+    ));
     Ok(ReleaseRecord {
         recording: rec,
         armed_s,
         reaction,
         fault,
         ended_s: dev.clock.now_s(),
+        events,
     })
 }
 
@@ -441,6 +500,14 @@ mod tests {
             reaction.time_s
         );
         assert_eq!(regrasps(&targets), 1, "exactly one regrasp");
+        let topics = |t: &str| record.events.iter().filter(|e| e.topic == t).count();
+        assert_eq!(topics("/detector"), 1);
+        assert_eq!(
+            topics("/phase"),
+            5,
+            "closing, settling, lifting, releasing, reacted"
+        );
+        assert!(topics("/classifier") > 100);
         // nothing is sent after the regrasp: the hand holds the new grasp
         assert_eq!(regrasps(&targets[targets.len() - 1..]), 1);
         assert!(record.ended_s >= reaction.time_s + 0.2);
