@@ -329,7 +329,8 @@ pub fn load_trials(paths: &[PathBuf]) -> Result<Vec<(PathBuf, String, Trial)>, T
     Ok(out)
 }
 
-/// The `.mcap` files among `paths`, with directories expanded (sorted by name).
+/// The `.mcap` files among `paths`, with directories expanded (sorted by name); in a
+/// directory, logs of aborted trials (`*.aborted.mcap`) are left out.
 pub fn expand_trial_paths(paths: &[PathBuf]) -> Result<Vec<PathBuf>, TrialError> {
     let mut out = Vec::new();
     for p in paths {
@@ -341,6 +342,10 @@ pub fn expand_trial_paths(paths: &[PathBuf]) -> Result<Vec<PathBuf>, TrialError>
                 })?
                 .filter_map(|e| e.ok().map(|e| e.path()))
                 .filter(|q| q.extension().is_some_and(|x| x == "mcap"))
+                .filter(|q| {
+                    !q.file_name()
+                        .is_some_and(|n| n.to_string_lossy().ends_with(".aborted.mcap"))
+                })
                 .collect();
             found.sort();
             out.extend(found);

@@ -170,3 +170,59 @@ fn a_batch_killed_mid_run_resumes_to_the_same_trials() {
         whole
     );
 }
+
+#[test]
+fn ctrl_c_keeps_finished_trials_and_the_batch_resumes() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    setup(d);
+    let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_tmo"))
+        .current_dir(d)
+        .args(["run", "release.toml", "--repeat", "25", "--out", "b"])
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let out = d.join("b");
+    let started = std::time::Instant::now();
+    while (!out.exists() || sorted_logs(&out).len() < 3) && started.elapsed().as_secs() < 60 {
+        std::thread::sleep(std::time::Duration::from_millis(2));
+    }
+    let status = std::process::Command::new("kill")
+        .args(["-INT", &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(status.success());
+    let output = child.wait_with_output().unwrap();
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert_eq!(output.status.code(), Some(130), "{stderr}");
+    assert!(stderr.contains("--resume"), "{stderr}");
+    let logs = sorted_logs(&out);
+    let aborted: Vec<_> = logs
+        .iter()
+        .filter(|l| l.ends_with(".aborted.mcap"))
+        .collect();
+    assert_eq!(aborted.len(), 1, "{logs:?}");
+    let trial = tmo::trial::read_trial(&out.join(aborted[0])).unwrap();
+    assert!(trial.events.iter().any(|e| e.topic == "/fault"));
+
+    let done = logs.len() - 1;
+    let stdout = ok(&tmo(
+        d,
+        &[
+            "run",
+            "release.toml",
+            "--repeat",
+            "25",
+            "--out",
+            "b",
+            "--resume",
+        ],
+    ));
+    assert!(
+        stdout.contains(&format!("{done} already there")),
+        "{stdout}"
+    );
+    let csv = std::fs::read_to_string(out.join("outcomes.csv")).unwrap();
+    assert_eq!(csv.lines().count(), 101);
+}

@@ -82,7 +82,13 @@ fn release(object: &str, seed: u64, online: Option<Online<'_>>) -> (Verdict, boo
         silent_limit_s: 0.25,
         stale_limit: 10,
     };
-    let record = run_release(&mut devices, &params, online).unwrap();
+    let record = run_release(
+        &mut devices,
+        &params,
+        online,
+        &std::sync::atomic::AtomicBool::new(false),
+    )
+    .unwrap();
     let reaction = record.reaction.map(|r| r.time_s);
     let o = score_catch(&record.recording.markers, reaction, &CatchSpec::default());
     eprintln!(

@@ -9,6 +9,9 @@ use tmo::runner::batch::{self, OutcomeRow};
 use tmo::slip::model::ModelFile;
 use tmo::trial::{read_trial, sha256_hex, write_trial};
 
+/// Exit code of a batch stopped by Ctrl-C (128 + SIGINT, as shells report it).
+pub const EXIT_INTERRUPTED: i32 = 130;
+
 #[derive(Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 pub enum Backend {
     #[value(alias = "mock")]
@@ -110,6 +113,12 @@ pub fn run(args: RunArgs) -> Result<()> {
         serde_json::to_string_pretty(&manifest)?.as_bytes(),
     )?;
 
+    // Ctrl-C: the running trial makes the rig safe and ends; its log is kept as aborted.
+    let stop = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
+    let flag = stop.clone();
+    ctrlc::set_handler(move || flag.store(true, std::sync::atomic::Ordering::Relaxed))
+        .context("cannot install the Ctrl-C handler")?;
+
     let spec = batch::catch_spec(&plan);
     let bar = indicatif::ProgressBar::new(trials.len() as u64);
     bar.set_style(
@@ -132,8 +141,20 @@ pub fn run(args: RunArgs) -> Result<()> {
             let unix = std::time::SystemTime::now()
                 .duration_since(std::time::UNIX_EPOCH)
                 .map_or(0, |d| d.as_secs());
-            let trial = batch::run_sim_trial(&plan, t, &models, unix)
+            let trial = batch::run_sim_trial(&plan, t, &models, unix, &stop)
                 .with_context(|| format!("trial {}", t.trial_id))?;
+            if stop.load(std::sync::atomic::Ordering::Relaxed) {
+                bar.finish_and_clear();
+                let aborted = batch::aborted_trial_path(&out, t);
+                write_trial(&aborted, &trial)?;
+                eprintln!(
+                    "interrupted: {} finished trial(s) are in {}; {} kept as aborted; run again with --resume to finish",
+                    ran + kept,
+                    out.display(),
+                    aborted.display()
+                );
+                std::process::exit(EXIT_INTERRUPTED);
+            }
             write_trial(&path, &trial)?;
             ran += 1;
         }

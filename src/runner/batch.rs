@@ -105,6 +105,7 @@ pub fn run_sim_trial(
     planned: &PlannedTrial,
     models: &[(ModelFile, String)],
     started_unix_s: u64,
+    stop: &std::sync::atomic::AtomicBool,
 ) -> Result<Trial, BatchError> {
     let KindParams::HandRelease(p) = &plan.params else {
         return Err(BatchError::Unsupported(plan.kind));
@@ -147,7 +148,7 @@ pub fn run_sim_trial(
         }),
         _ => None,
     };
-    let record = run_release(&mut devices, &params, online)?;
+    let record = run_release(&mut devices, &params, online, stop)?;
     let mut parameters = std::collections::BTreeMap::new();
     let mut put = |k: &str, v: String| {
         parameters.insert(k.to_string(), v);
@@ -255,6 +256,12 @@ pub fn score_trial(trial: &Trial, spec: &CatchSpec) -> OutcomeRow {
 /// Where trial `t` of a batch in `dir` is logged.
 pub fn trial_path(dir: &Path, t: &PlannedTrial) -> PathBuf {
     dir.join(format!("{}.mcap", t.trial_id))
+}
+
+/// Where an interrupted trial's log is kept: beside the batch, not counted as done, so
+/// `--resume` runs the trial again.
+pub fn aborted_trial_path(dir: &Path, t: &PlannedTrial) -> PathBuf {
+    dir.join(format!("{}.aborted.mcap", t.trial_id))
 }
 
 #[cfg(test)]

@@ -5,6 +5,8 @@
 //! The detector is armed only while releasing: closing and lifting make large pin motions
 //! that are not slip, and the paper's hand reacts only during the release.
 
+use std::sync::atomic::{AtomicBool, Ordering};
+
 use tmo_hal::{Arm, Clock, Hand, MarkerTracker, TactileSensor};
 
 use crate::online::classify::{FrameClassifier, Reaction};
@@ -43,8 +45,16 @@ pub struct ReleaseParams {
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 #[serde(tag = "fault", rename_all = "snake_case")]
 pub enum Fault {
-    SilentSensor { sensor: u8, last_frame_s: f64 },
-    StaleFrames { sensor: u8, repeats: u32 },
+    SilentSensor {
+        sensor: u8,
+        last_frame_s: f64,
+    },
+    StaleFrames {
+        sensor: u8,
+        repeats: u32,
+    },
+    /// The operator stopped the batch (Ctrl-C).
+    Interrupted,
 }
 
 /// The model and strategy of an online trial.
@@ -84,10 +94,12 @@ enum Phase {
     Reacted,
 }
 
+/// Runs one release; `stop` set (by a Ctrl-C handler) ends it safely as [`Fault::Interrupted`].
 pub fn run_release<C, H, A, M, S>(
     dev: &mut Devices<C, H, A, M, S>,
     p: &ReleaseParams,
     online: Option<Online<'_>>,
+    stop: &AtomicBool,
 ) -> Result<ReleaseRecord, ScenarioError>
 where
     C: Clock,
@@ -187,6 +199,9 @@ where
                 sensor: k as u8,
                 last_frame_s: last_frame_s[k],
             });
+        }
+        if stop.load(Ordering::Relaxed) {
+            fault.get_or_insert(Fault::Interrupted);
         }
         if let Some(f) = fault {
             // Make safe: hold where the fingers are, stop the arm.
@@ -470,7 +485,13 @@ mod tests {
             model: &model,
             strategy: strategy.parse().unwrap(),
         };
-        let record = run_release(&mut devices, &params(), Some(online)).unwrap();
+        let record = run_release(
+            &mut devices,
+            &params(),
+            Some(online),
+            &AtomicBool::new(false),
+        )
+        .unwrap();
         let targets = sent.lock().unwrap().clone();
         (record, targets)
     }
