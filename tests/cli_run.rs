@@ -176,7 +176,7 @@ fn ctrl_c_keeps_finished_trials_and_the_batch_resumes() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     setup(d);
-    let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_tmo"))
+    let child = std::process::Command::new(env!("CARGO_BIN_EXE_tmo"))
         .current_dir(d)
         .args(["run", "release.toml", "--repeat", "25", "--out", "b"])
         .stdout(std::process::Stdio::null())
