@@ -4,7 +4,8 @@
 use tmo::collect::{collect_trial, hand_release_rig, trial_seed, CollectRig, CollectSpec};
 use tmo::online::strategy::Strategy;
 use tmo::outcome::{score_catch, CatchSpec, Verdict};
-use tmo::runner::hand_release::{run_release, Online, ReleaseParams};
+use tmo::runner::hand_release::{run_release, ReleaseParams};
+use tmo::runner::Online;
 use tmo::scenario::Devices;
 use tmo::sim_presets::PresetOptions;
 use tmo::slip::dataset::{Dataset, LabelSpec, Scope};
@@ -79,8 +80,7 @@ fn release(object: &str, seed: u64, online: Option<Online<'_>>) -> (Verdict, boo
         regrasp: 0.02,
         observe_s: 1.5,
         max_duration_s: 40.0,
-        silent_limit_s: 0.25,
-        stale_limit: 10,
+        watch: Default::default(),
     };
     let record = run_release(
         &mut devices,

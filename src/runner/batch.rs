@@ -13,7 +13,8 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use tmo_hal::sim::{SimConfig, SimRig};
 
-use super::hand_release::{run_release, Online, ReleaseParams};
+use super::hand_release::{run_release, ReleaseParams};
+use super::Online;
 use crate::collect::{hand_release_rig, trial_seed, CollectError};
 use crate::online::strategy::Strategy;
 use crate::outcome::{score_catch, CatchOutcome, CatchSpec, Verdict};
@@ -138,8 +139,7 @@ pub fn run_sim_trial(
         regrasp: p.regrasp,
         observe_s: 1.5,
         max_duration_s: p.max_duration_s,
-        silent_limit_s: 0.25,
-        stale_limit: 10,
+        watch: Default::default(),
     };
     let online = match (plan.mode, planned.model, planned.strategy) {
         (Mode::Online, Some(m), Some(strategy)) => Some(Online {

@@ -5,14 +5,14 @@
 //! The detector is armed only while releasing: closing and lifting make large pin motions
 //! that are not slip, and the paper's hand reacts only during the release.
 
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::AtomicBool;
 
 use tmo_hal::{Arm, Clock, Hand, MarkerTracker, TactileSensor};
 
-use crate::online::classify::{FrameClassifier, Reaction};
-use crate::online::strategy::{Detector, Strategy};
+use super::monitor::{FrameMonitor, Verdict, WatchLimits};
+use super::{event, Fault, Online};
+use crate::online::classify::Reaction;
 use crate::scenario::{Devices, Recording, ScenarioError};
-use crate::slip::model::ModelFile;
 use crate::trial::TrialEvent;
 use serde_json::json;
 
@@ -34,34 +34,7 @@ pub struct ReleaseParams {
     /// How long to watch after the reaction, s.
     pub observe_s: f64,
     pub max_duration_s: f64,
-    /// A sensor silent this long aborts the trial, s.
-    pub silent_limit_s: f64,
-    /// This many identical frames in a row from one sensor abort the trial (a frozen
-    /// camera repeats its last frame; noise makes real frames differ).
-    pub stale_limit: u32,
-}
-
-/// Why a trial was aborted; the hand held its position and the arm stopped.
-#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
-#[serde(tag = "fault", rename_all = "snake_case")]
-pub enum Fault {
-    SilentSensor {
-        sensor: u8,
-        last_frame_s: f64,
-    },
-    StaleFrames {
-        sensor: u8,
-        repeats: u32,
-    },
-    /// The operator stopped the batch (Ctrl-C).
-    Interrupted,
-}
-
-/// The model and strategy of an online trial.
-#[derive(Clone, Copy)]
-pub struct Online<'m> {
-    pub model: &'m ModelFile,
-    pub strategy: Strategy,
+    pub watch: WatchLimits,
 }
 
 #[derive(Debug, Clone, PartialEq)]
@@ -74,14 +47,6 @@ pub struct ReleaseRecord {
     pub ended_s: f64,
     /// Phases, commands, classifier outputs and detector events, for the trial log.
     pub events: Vec<TrialEvent>,
-}
-
-fn event(time_s: f64, topic: &str, data: serde_json::Value) -> TrialEvent {
-    TrialEvent {
-        time_s,
-        topic: topic.to_string(),
-        data,
-    }
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
@@ -108,19 +73,14 @@ where
     M: MarkerTracker,
     S: TactileSensor,
 {
-    let sensors = dev.sensors.len();
-    let mut classifier = online.map(|o| FrameClassifier::new(o.model, sensors));
-    let mut detector = online.map(|o| Detector::new(o.strategy, sensors));
+    let t0 = dev.clock.now_s();
+    let mut monitor = FrameMonitor::new(dev.sensors.len(), online, p.watch, t0);
     let start = dev.hand.present_positions().map_err(hand)?;
     let mut rec = Recording::default();
-    let (mut phase, mut phase_t0) = (Phase::Closing, dev.clock.now_s());
+    let (mut phase, mut phase_t0) = (Phase::Closing, t0);
     let mut armed_s = None;
     let mut reaction: Option<Reaction> = None;
     let mut fault = None;
-    let t0 = dev.clock.now_s();
-    let mut last_frame_s = vec![t0; sensors];
-    let mut repeats = vec![0u32; sensors];
-    let mut previous_pins: Vec<Option<Vec<[f32; 2]>>> = vec![None; sensors];
     let mut events = vec![
         event(t0, "/phase", json!({"phase": phase})),
         event(
@@ -178,72 +138,28 @@ where
         let first_new = rec.frames.len();
         dev.poll(&mut rec)?;
         let now = dev.clock.now_s();
-        for f in &rec.frames[first_new..] {
-            let k = usize::from(f.sensor);
-            if k >= sensors {
-                continue;
+        let armed = phase == Phase::Releasing;
+        match monitor.feed(&rec.frames[first_new..], now, armed, stop, &mut events) {
+            Verdict::Continue => {}
+            Verdict::Abort(f) => {
+                // Make safe: hold where the fingers are; the arm stops below.
+                fault = Some(f);
+                let held = dev.hand.present_positions().map_err(hand)?;
+                dev.hand.set_targets(held).map_err(hand)?;
+                events.push(event(now, "/command/hand", json!({ "targets": held })));
+                break;
             }
-            last_frame_s[k] = now;
-            let same = previous_pins[k].as_ref() == Some(&f.pins);
-            repeats[k] = if same { repeats[k] + 1 } else { 0 };
-            previous_pins[k] = Some(f.pins.clone());
-            if repeats[k] >= p.stale_limit {
-                fault.get_or_insert(Fault::StaleFrames {
-                    sensor: f.sensor,
-                    repeats: repeats[k],
-                });
-            }
-        }
-        if let Some(k) = (0..sensors).find(|&k| now - last_frame_s[k] > p.silent_limit_s) {
-            fault.get_or_insert(Fault::SilentSensor {
-                sensor: k as u8,
-                last_frame_s: last_frame_s[k],
-            });
-        }
-        if stop.load(Ordering::Relaxed) {
-            fault.get_or_insert(Fault::Interrupted);
-        }
-        if let Some(f) = fault {
-            // Make safe: hold where the fingers are, stop the arm.
-            let held = dev.hand.present_positions().map_err(hand)?;
-            dev.hand.set_targets(held).map_err(hand)?;
-            events.push(event(now, "/fault", json!(f)));
-            events.push(event(now, "/command/hand", json!({ "targets": held })));
-            break;
-        }
-        if let (Some(c), Some(d)) = (classifier.as_mut(), detector.as_mut()) {
-            for f in &rec.frames[first_new..] {
-                // Every frame is classified so each sensor has its previous frame ready;
-                // only frames of the release count towards a reaction.
-                let Some(class) = c.classify(f) else { continue };
+            Verdict::React(r) => {
+                reaction = Some(r);
+                let q = (p.closure + p.regrasp).min(1.0);
+                dev.hand.set_targets([q, q, q, start[3]]).map_err(hand)?;
+                phase = Phase::Reacted;
                 events.push(event(
-                    f.time_s,
-                    "/classifier",
-                    json!({"sensor": f.sensor, "seq": f.seq, "class": class}),
+                    now,
+                    "/command/hand",
+                    json!({ "targets": [q, q, q, start[3]] }),
                 ));
-                if phase == Phase::Releasing && d.observe(usize::from(f.sensor), class) {
-                    reaction = Some(Reaction {
-                        time_s: f.time_s,
-                        sensor: f.sensor,
-                        seq: f.seq,
-                    });
-                    let q = (p.closure + p.regrasp).min(1.0);
-                    dev.hand.set_targets([q, q, q, start[3]]).map_err(hand)?;
-                    phase = Phase::Reacted;
-                    let now = dev.clock.now_s();
-                    events.push(event(
-                        now,
-                        "/detector",
-                        json!({"event": "reaction", "frame_time_s": f.time_s, "sensor": f.sensor, "seq": f.seq, "strategy": d.strategy().to_string()}),
-                    ));
-                    events.push(event(
-                        now,
-                        "/command/hand",
-                        json!({ "targets": [q, q, q, start[3]] }),
-                    ));
-                    events.push(event(now, "/phase", json!({"phase": phase})));
-                    break;
-                }
+                events.push(event(now, "/phase", json!({"phase": phase})));
             }
         }
     }
@@ -289,7 +205,7 @@ mod tests {
     use super::*;
     use crate::slip::dataset::{LabelSpec, Scope};
     use crate::slip::features::FeatureSpec;
-    use crate::slip::model::{Classifier, ClassifierKind, SensorModel, MODEL_FORMAT};
+    use crate::slip::model::{Classifier, ClassifierKind, ModelFile, SensorModel, MODEL_FORMAT};
     use crate::slip::threshold::ThresholdModel;
 
     #[derive(Debug, thiserror::Error)]
@@ -444,8 +360,7 @@ mod tests {
             regrasp: 0.02,
             observe_s: 0.2,
             max_duration_s: 3.0,
-            silent_limit_s: 0.25,
-            stale_limit: 10,
+            watch: WatchLimits::default(),
         }
     }
 

@@ -1,5 +1,42 @@
 //! Protocol runners: one state machine per protocol kind over the HAL traits, generic over
-//! backends (issue 4; in progress: hand release only, no batch layer yet).
+//! backends (issue 4, in progress).
 
 pub mod batch;
 pub mod hand_release;
+pub mod monitor;
+
+use crate::online::strategy::Strategy;
+use crate::slip::model::ModelFile;
+use crate::trial::TrialEvent;
+
+/// Why a trial was aborted; the hand held its position and the arm stopped.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(tag = "fault", rename_all = "snake_case")]
+pub enum Fault {
+    SilentSensor {
+        sensor: u8,
+        last_frame_s: f64,
+    },
+    StaleFrames {
+        sensor: u8,
+        repeats: u32,
+    },
+    /// The operator stopped the batch (Ctrl-C).
+    Interrupted,
+}
+
+/// The model and strategy of an online trial.
+#[derive(Clone, Copy)]
+pub struct Online<'m> {
+    pub model: &'m ModelFile,
+    pub strategy: Strategy,
+}
+
+/// A runner message for the trial log.
+pub fn event(time_s: f64, topic: &str, data: serde_json::Value) -> TrialEvent {
+    TrialEvent {
+        time_s,
+        topic: topic.to_string(),
+        data,
+    }
+}

@@ -1,0 +1,132 @@
+//! What every runner does with arriving frames: watch each sensor for silence and frozen
+//! frames, classify every frame, and (when armed) feed the NFr x NSen detector.
+
+use std::sync::atomic::{AtomicBool, Ordering};
+
+use serde_json::json;
+use tmo_hal::PinFrame;
+
+use super::{event, Fault, Online};
+use crate::online::classify::{FrameClassifier, Reaction};
+use crate::online::strategy::Detector;
+use crate::trial::TrialEvent;
+
+/// Watchdog limits.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct WatchLimits {
+    /// A sensor silent this long aborts the trial, s.
+    pub silent_limit_s: f64,
+    /// This many identical frames in a row from one sensor abort the trial (a frozen
+    /// camera repeats its last frame; noise makes real frames differ).
+    pub stale_limit: u32,
+}
+
+impl Default for WatchLimits {
+    fn default() -> Self {
+        Self {
+            silent_limit_s: 0.25,
+            stale_limit: 10,
+        }
+    }
+}
+
+/// What the latest frames call for.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Verdict {
+    Continue,
+    Abort(Fault),
+    React(Reaction),
+}
+
+pub struct FrameMonitor<'m> {
+    limits: WatchLimits,
+    classifier: Option<FrameClassifier<'m>>,
+    detector: Option<Detector>,
+    last_frame_s: Vec<f64>,
+    repeats: Vec<u32>,
+    previous_pins: Vec<Option<Vec<[f32; 2]>>>,
+}
+
+impl<'m> FrameMonitor<'m> {
+    pub fn new(sensors: usize, online: Option<Online<'m>>, limits: WatchLimits, t0: f64) -> Self {
+        Self {
+            limits,
+            classifier: online.map(|o| FrameClassifier::new(o.model, sensors)),
+            detector: online.map(|o| Detector::new(o.strategy, sensors)),
+            last_frame_s: vec![t0; sensors],
+            repeats: vec![0; sensors],
+            previous_pins: vec![None; sensors],
+        }
+    }
+
+    /// Takes the frames that arrived by `now`. A fault (or `stop`) wins over a reaction;
+    /// only `armed` frames count towards a reaction. Classifier outputs and the reaction go
+    /// to `events`.
+    pub fn feed(
+        &mut self,
+        frames: &[PinFrame],
+        now: f64,
+        armed: bool,
+        stop: &AtomicBool,
+        events: &mut Vec<TrialEvent>,
+    ) -> Verdict {
+        let sensors = self.last_frame_s.len();
+        let mut fault = None;
+        for f in frames {
+            let k = usize::from(f.sensor);
+            if k >= sensors {
+                continue;
+            }
+            self.last_frame_s[k] = now;
+            let same = self.previous_pins[k].as_ref() == Some(&f.pins);
+            self.repeats[k] = if same { self.repeats[k] + 1 } else { 0 };
+            self.previous_pins[k] = Some(f.pins.clone());
+            if self.repeats[k] >= self.limits.stale_limit {
+                fault.get_or_insert(Fault::StaleFrames {
+                    sensor: f.sensor,
+                    repeats: self.repeats[k],
+                });
+            }
+        }
+        if let Some(k) =
+            (0..sensors).find(|&k| now - self.last_frame_s[k] > self.limits.silent_limit_s)
+        {
+            fault.get_or_insert(Fault::SilentSensor {
+                sensor: k as u8,
+                last_frame_s: self.last_frame_s[k],
+            });
+        }
+        if stop.load(Ordering::Relaxed) {
+            fault.get_or_insert(Fault::Interrupted);
+        }
+        if let Some(f) = fault {
+            events.push(event(now, "/fault", json!(f)));
+            return Verdict::Abort(f);
+        }
+        let (Some(c), Some(d)) = (self.classifier.as_mut(), self.detector.as_mut()) else {
+            return Verdict::Continue;
+        };
+        for f in frames {
+            // Every frame is classified so each sensor has its previous frame ready.
+            let Some(class) = c.classify(f) else { continue };
+            events.push(event(
+                f.time_s,
+                "/classifier",
+                json!({"sensor": f.sensor, "seq": f.seq, "class": class}),
+            ));
+            if armed && d.observe(usize::from(f.sensor), class) {
+                events.push(event(
+                    now,
+                    "/detector",
+                    json!({"event": "reaction", "frame_time_s": f.time_s, "sensor": f.sensor, "seq": f.seq, "strategy": d.strategy().to_string()}),
+                ));
+                return Verdict::React(Reaction {
+                    time_s: f.time_s,
+                    sensor: f.sensor,
+                    seq: f.seq,
+                });
+            }
+        }
+        Verdict::Continue
+    }
+}
