@@ -3,7 +3,10 @@
 //! (SPEC.md, "Trial outcome definitions"):
 //!
 //! - onset: the marker-track slip onset ([`slip_onset`]);
-//! - FP: the hand reacted before the onset (whatever followed; `dropped` records a fall);
+//! - FP: the hand reacted before the onset (whatever followed; `dropped` records a fall),
+//!   by more than the marker's own lag: the onset sample is the first one 1 mm down, which
+//!   comes 27-65 ms (measured on the simulator) after the fall really began, so a tactile
+//!   reaction inside that window is not early;
 //! - FN: the object was dropped: it fell more than the drop limit below its held height;
 //! - TP: the hand reacted after the onset and the object came to rest held;
 //! - D: object height (relative to the hand) at the onset minus at rest after the catch.
@@ -43,6 +46,8 @@ pub struct CatchSpec {
     /// `rest_window_s` differ by less than this.
     pub rest_tolerance_mm: f64,
     pub rest_window_s: f64,
+    /// How long before the marker onset a reaction may come and still count as after it.
+    pub marker_lag_s: f64,
 }
 
 impl Default for CatchSpec {
@@ -52,6 +57,7 @@ impl Default for CatchSpec {
             drop_limit_mm: 80.0,
             rest_tolerance_mm: 1.0,
             rest_window_s: 0.5,
+            marker_lag_s: 0.07,
         }
     }
 }
@@ -88,7 +94,7 @@ pub fn score_catch(
     let at_rest = rest_height(track, spec);
     let verdict = match (onset_s, reaction_s) {
         // An early reaction is the detector's error whatever followed; `dropped` says that.
-        (Some(o), Some(r)) if r < o => Verdict::FalsePositive,
+        (Some(o), Some(r)) if r < o - spec.marker_lag_s => Verdict::FalsePositive,
         (None, Some(_)) => Verdict::FalsePositive,
         (_, _) if dropped => Verdict::FalseNegative,
         (Some(_), Some(_)) if at_rest.is_some() => Verdict::TruePositive,
@@ -180,6 +186,10 @@ mod tests {
         let early = score_catch(&track(Some(1.0), 25.0, 3.0), Some(0.5), &spec);
         assert_eq!(early.verdict, Verdict::FalsePositive);
         assert!(early.latency_s.unwrap() < 0.0);
+        // within the marker's lag before its onset: the fall had begun
+        let prompt = score_catch(&track(Some(1.0), 25.0, 3.0), Some(1.0), &spec);
+        assert_eq!(prompt.verdict, Verdict::TruePositive);
+        assert!(prompt.latency_s.unwrap() < 0.0);
         let never = score_catch(&track(None, 0.0, 3.0), Some(0.5), &spec);
         assert_eq!(never.verdict, Verdict::FalsePositive);
 

@@ -121,3 +121,105 @@ fn a_trained_detector_catches_releases_that_otherwise_fall() {
     }
     assert!(caught >= 4, "caught {caught} of 5");
 }
+
+fn rail_model() -> ModelFile {
+    let trials: Vec<_> = (0..16)
+        .map(|i| {
+            let spec = CollectSpec {
+                rig: CollectRig::Rail,
+                object: "rail_object".into(),
+                grasp_deg: 0.0,
+                seed: trial_seed(12, i),
+                base: SimConfig::default(),
+            };
+            collect_trial(&spec, &format!("r{i}"), 0).unwrap()
+        })
+        .collect();
+    let labels = LabelSpec {
+        n_slip: 5,
+        onset: OnsetSpec::default(),
+    };
+    let features = FeatureSpec::new(30);
+    let data = Dataset::from_trials(&trials, &features, &labels);
+    ModelFile::train(
+        &data,
+        &TrainSpec {
+            kind: ClassifierKind::Logreg,
+            hyper: Hyperparameters { c: 1.0, gamma: 0.0 },
+            scope: Scope::Global,
+            features,
+            labels,
+            downsample: 0.4,
+            seed: 1,
+        },
+        vec![],
+        None,
+    )
+    .unwrap()
+}
+
+fn rail(speed: f64, seed: u64, online: Option<Online<'_>>) -> (Verdict, bool) {
+    use tmo::runner::monitor::WatchLimits;
+    use tmo::runner::rail_catch::{run_rail, RailParams};
+    use tmo::sim_presets::{build, Preset};
+    let options = PresetOptions {
+        retract_speed_mm_s: speed,
+        ..Default::default()
+    };
+    let base = SimConfig {
+        seed,
+        ..SimConfig::default()
+    };
+    let (config, _) = build(Preset::Rail, &options, base).unwrap();
+    let rig = SimRig::new(config).unwrap();
+    let mut devices = Devices::of_sim(&rig);
+    let params = RailParams {
+        retract_speed_mm_s: speed,
+        retract_mm: 10.0,
+        forward_mm: 1.5,
+        forward_speed_mm_s: 20.0,
+        torque_limit: 0.8,
+        torque_step: 0.05,
+        observe_s: 1.5,
+        max_duration_s: 3.0 / speed + 1.5,
+        watch: WatchLimits::default(),
+    };
+    let record = run_rail(
+        &mut devices,
+        &params,
+        online,
+        &std::sync::atomic::AtomicBool::new(false),
+    )
+    .unwrap();
+    let o = score_catch(
+        &record.recording.markers,
+        record.reaction.map(|r| r.time_s),
+        &CatchSpec::default(),
+    );
+    eprintln!(
+        "rail {speed} mm/s online {}: {:?} dropped {} latency {:?} D {:?} truth {:?}",
+        online.is_some(),
+        o.verdict,
+        o.dropped,
+        o.latency_s,
+        o.slip_distance_mm,
+        rig.probe().events()
+    );
+    (o.verdict, o.dropped)
+}
+
+#[test]
+fn a_trained_detector_catches_the_rail_object() {
+    let model = rail_model();
+    let mut caught = 0;
+    for (i, speed) in [0.3, 1.0, 2.0, 3.5, 5.0].into_iter().enumerate() {
+        let seed = 700 + i as u64;
+        assert_eq!(rail(speed, seed, None), (Verdict::FalseNegative, true));
+        let online = Online {
+            model: &model,
+            strategy: "1x1".parse().unwrap(),
+        };
+        caught += usize::from(rail(speed, seed, Some(online)).0 == Verdict::TruePositive);
+    }
+    assert!(caught >= 4, "caught {caught} of 5");
+}

@@ -4,6 +4,7 @@
 pub mod batch;
 pub mod hand_release;
 pub mod monitor;
+pub mod rail_catch;
 
 use crate::online::strategy::Strategy;
 use crate::slip::model::ModelFile;

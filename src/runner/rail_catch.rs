@@ -1,0 +1,144 @@
+//! Single finger on the slip rail (SPEC.md "rail_catch"): the finger presses the object
+//! against a low-friction rail and the arm retracts until the object slips; with a model,
+//! on slip the arm stops, moves `forward_mm` back towards the object and the finger's
+//! torque limit rises by `torque_step`.
+
+use std::sync::atomic::AtomicBool;
+
+use serde_json::json;
+use tmo_hal::{Arm, Clock, Hand, MarkerTracker, TactileSensor};
+
+use super::monitor::{FrameMonitor, Verdict, WatchLimits};
+use super::{event, Fault, Online};
+use crate::online::classify::Reaction;
+use crate::scenario::{Devices, Recording, ScenarioError};
+use crate::trial::TrialEvent;
+
+/// Control period, s (1 kHz).
+const TICK_S: f64 = 0.001;
+/// Frames before arming: the classifier needs a previous frame per sensor.
+const SETTLE_S: f64 = 0.2;
+
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RailParams {
+    pub retract_speed_mm_s: f64,
+    pub retract_mm: f64,
+    pub forward_mm: f64,
+    pub forward_speed_mm_s: f64,
+    /// Finger torque limit at the start, fraction of the maximum.
+    pub torque_limit: f64,
+    pub torque_step: f64,
+    pub observe_s: f64,
+    pub max_duration_s: f64,
+    pub watch: WatchLimits,
+}
+
+#[derive(Debug, Clone, PartialEq)]
+pub struct RailRecord {
+    pub recording: Recording,
+    pub armed_s: Option<f64>,
+    pub reaction: Option<Reaction>,
+    pub fault: Option<Fault>,
+    pub ended_s: f64,
+    pub events: Vec<TrialEvent>,
+}
+
+pub fn run_rail<C, H, A, M, S>(
+    dev: &mut Devices<C, H, A, M, S>,
+    p: &RailParams,
+    online: Option<Online<'_>>,
+    stop: &AtomicBool,
+) -> Result<RailRecord, ScenarioError>
+where
+    C: Clock,
+    H: Hand,
+    A: Arm,
+    M: MarkerTracker,
+    S: TactileSensor,
+{
+    let t0 = dev.clock.now_s();
+    let mut monitor = FrameMonitor::new(dev.sensors.len(), online, p.watch, t0);
+    let mut rec = Recording::default();
+    let mut events = Vec::new();
+    dev.hand.set_torque_limit(p.torque_limit).map_err(hand)?;
+    events.push(event(
+        t0,
+        "/command/hand",
+        json!({"torque_limit": p.torque_limit}),
+    ));
+    dev.arm
+        .move_linear([-p.retract_mm, 0.0, 0.0], p.retract_speed_mm_s)
+        .map_err(arm)?;
+    events.push(event(
+        t0,
+        "/command/arm",
+        json!({"move_linear_mm": [-p.retract_mm, 0.0, 0.0], "speed_mm_s": p.retract_speed_mm_s}),
+    ));
+    let (mut reaction, mut fault): (Option<Reaction>, Option<Fault>) = (None, None);
+    loop {
+        let now = dev.clock.now_s();
+        if now - t0 >= p.max_duration_s || reaction.is_some_and(|r| now >= r.time_s + p.observe_s) {
+            break;
+        }
+        dev.clock.sleep(TICK_S);
+        let first_new = rec.frames.len();
+        dev.poll(&mut rec)?;
+        let now = dev.clock.now_s();
+        let armed = reaction.is_none() && now - t0 >= SETTLE_S;
+        match monitor.feed(&rec.frames[first_new..], now, armed, stop, &mut events) {
+            Verdict::Continue => {}
+            Verdict::Abort(f) => {
+                fault = Some(f);
+                let held = dev.hand.present_positions().map_err(hand)?;
+                dev.hand.set_targets(held).map_err(hand)?;
+                break;
+            }
+            Verdict::React(r) if reaction.is_none() => {
+                reaction = Some(r);
+                dev.arm.stop().map_err(arm)?;
+                dev.arm
+                    .move_linear([p.forward_mm, 0.0, 0.0], p.forward_speed_mm_s)
+                    .map_err(arm)?;
+                let torque = (p.torque_limit + p.torque_step).min(1.0);
+                dev.hand.set_torque_limit(torque).map_err(hand)?;
+                events.push(event(
+                    now,
+                    "/command/arm",
+                    json!({"move_linear_mm": [p.forward_mm, 0.0, 0.0], "speed_mm_s": p.forward_speed_mm_s}),
+                ));
+                events.push(event(now, "/command/hand", json!({"torque_limit": torque})));
+            }
+            Verdict::React(_) => {}
+        }
+    }
+    dev.arm.stop().map_err(arm)?;
+    events.push(event(
+        dev.clock.now_s(),
+        "/command/arm",
+        json!({"stop": true}),
+    ));
+    Ok(RailRecord {
+        recording: rec,
+        armed_s: Some(t0 + SETTLE_S),
+        reaction,
+        fault,
+        ended_s: dev.clock.now_s(),
+        events,
+    })
+}
+
+fn hand<E: tmo_hal::Error>(e: E) -> ScenarioError {
+    ScenarioError::Device {
+        device: "hand",
+        kind: e.kind(),
+        message: e.to_string(),
+    }
+}
+
+fn arm<E: tmo_hal::Error>(e: E) -> ScenarioError {
+    ScenarioError::Device {
+        device: "arm",
+        kind: e.kind(),
+        message: e.to_string(),
+    }
+}
