@@ -226,3 +226,43 @@ fn ctrl_c_keeps_finished_trials_and_the_batch_resumes() {
     let csv = std::fs::read_to_string(out.join("outcomes.csv")).unwrap();
     assert_eq!(csv.lines().count(), 101);
 }
+
+#[test]
+fn a_rail_catch_batch_runs_on_the_simulator() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    ok(&tmo(
+        d,
+        &[
+            "sim", "collect", "--rig", "rail", "--trials", "12", "--seed", "2", "--out", "rail",
+        ],
+    ));
+    ok(&tmo(
+        d,
+        &[
+            "train",
+            "rail",
+            "--classifier",
+            "logreg",
+            "--C",
+            "1",
+            "--n-slip",
+            "5",
+            "--out",
+            "rail.json",
+        ],
+    ));
+    std::fs::write(
+        d.join("rail.toml"),
+        "kind = \"rail_catch\"\nmodels = [\"rail.json\"]\nstrategies = [\"1x1\", \"2x1\"]\nrepetitions = 4\nseed = 3\n",
+    )
+    .unwrap();
+    let stdout = ok(&tmo(d, &["run", "rail.toml", "--out", "b"]));
+    assert!(stdout.contains("8 trials (8 run"), "{stdout}");
+    let csv = std::fs::read_to_string(d.join("b/outcomes.csv")).unwrap();
+    assert_eq!(csv.lines().count(), 9);
+    assert!(csv.contains("true_positive"), "{csv}");
+    let trial = tmo::trial::read_trial(&d.join("b/trial-00000.mcap")).unwrap();
+    assert_eq!(trial.meta.kind, "rail_catch");
+    assert!(trial.meta.parameters.contains_key("retract_speed_mm_s"));
+}

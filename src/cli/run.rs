@@ -70,8 +70,8 @@ pub fn run(args: RunArgs) -> Result<()> {
         plan.repetitions = n;
     }
     anyhow::ensure!(
-        plan.kind == Kind::HandRelease,
-        "{}: {} protocols cannot run yet (only hand_release so far)",
+        matches!(plan.kind, Kind::HandRelease | Kind::RailCatch),
+        "{}: {} protocols cannot run yet (only hand_release and rail_catch so far)",
         args.protocol.display(),
         plan.kind
     );

@@ -14,13 +14,14 @@ use rand_chacha::ChaCha8Rng;
 use tmo_hal::sim::{SimConfig, SimRig};
 
 use super::hand_release::{run_release, ReleaseParams};
+use super::rail_catch::{run_rail, RailParams};
 use super::Online;
 use crate::collect::{hand_release_rig, trial_seed, CollectError};
 use crate::online::strategy::Strategy;
 use crate::outcome::{score_catch, CatchOutcome, CatchSpec, Verdict};
 use crate::protocol::{Kind, KindParams, Mode, Plan};
 use crate::scenario::{Devices, ScenarioError};
-use crate::sim_presets::PresetOptions;
+use crate::sim_presets::{self, Preset, PresetOptions};
 use crate::slip::labels::OnsetSpec;
 use crate::slip::model::ModelFile;
 use crate::trial::{Trial, TrialMeta, TRIAL_FORMAT_VERSION};
@@ -78,7 +79,7 @@ pub fn expand(plan: &Plan) -> Vec<PlannedTrial> {
 
 #[derive(Debug, thiserror::Error)]
 pub enum BatchError {
-    #[error("{0} protocols cannot run yet (only hand_release; see issue 4)")]
+    #[error("{0} protocols cannot run yet (only hand_release and rail_catch; see issue 4)")]
     Unsupported(Kind),
     #[error(transparent)]
     Sim(#[from] CollectError),
@@ -108,39 +109,12 @@ pub fn run_sim_trial(
     started_unix_s: u64,
     stop: &std::sync::atomic::AtomicBool,
 ) -> Result<Trial, BatchError> {
-    let KindParams::HandRelease(p) = &plan.params else {
-        return Err(BatchError::Unsupported(plan.kind));
-    };
     let base = SimConfig {
         seed: planned.seed,
         ..SimConfig::default()
     };
-    let options = PresetOptions {
-        object: Some(planned.object.clone()),
-        grasp_deg: planned.grasp_deg,
-        ..Default::default()
-    };
-    // "Closed until stable": the simulator knows the grasp that holds each object; the
-    // safety factor varies from trial to trial as a hand-set grasp would.
     let mut rng = ChaCha8Rng::seed_from_u64(planned.seed);
     rng.set_stream(7);
-    let safety: f64 = rng.gen_range(1.2..1.8);
-    let (config, closure, _) = hand_release_rig(&base, &options, safety)?;
-    let rig = SimRig::new(config.clone())?;
-    let mut devices = Devices::of_sim(&rig);
-    let release_speed_per_s = p.release_speed_of_max * config.servo.max_speed_per_s;
-    let params = ReleaseParams {
-        closure,
-        close_speed_per_s: 0.05,
-        lift_mm: p.lift_mm,
-        lift_speed_mm_s: 40.0,
-        hold_s: p.hold_s,
-        release_speed_per_s,
-        regrasp: p.regrasp,
-        observe_s: 1.5,
-        max_duration_s: p.max_duration_s,
-        watch: Default::default(),
-    };
     let online = match (plan.mode, planned.model, planned.strategy) {
         (Mode::Online, Some(m), Some(strategy)) => Some(Online {
             model: &models[m].0,
@@ -148,14 +122,72 @@ pub fn run_sim_trial(
         }),
         _ => None,
     };
-    let record = run_release(&mut devices, &params, online, stop)?;
     let mut parameters = std::collections::BTreeMap::new();
     let mut put = |k: &str, v: String| {
         parameters.insert(k.to_string(), v);
     };
-    put("grip_safety", format!("{safety:.4}"));
-    put("closure", format!("{closure:.4}"));
-    put("release_speed_per_s", format!("{release_speed_per_s:.5}"));
+    let (config, rig, record) = match &plan.params {
+        KindParams::HandRelease(p) => {
+            let options = PresetOptions {
+                object: Some(planned.object.clone()),
+                grasp_deg: planned.grasp_deg,
+                ..Default::default()
+            };
+            // "Closed until stable": the simulator knows the grasp that holds each object;
+            // the safety factor varies from trial to trial as a hand-set grasp would.
+            let safety: f64 = rng.gen_range(1.2..1.8);
+            let (config, closure, _) = hand_release_rig(&base, &options, safety)?;
+            let rig = SimRig::new(config.clone())?;
+            let mut devices = Devices::of_sim(&rig);
+            let release_speed_per_s = p.release_speed_of_max * config.servo.max_speed_per_s;
+            let params = ReleaseParams {
+                closure,
+                close_speed_per_s: 0.05,
+                lift_mm: p.lift_mm,
+                lift_speed_mm_s: 40.0,
+                hold_s: p.hold_s,
+                release_speed_per_s,
+                regrasp: p.regrasp,
+                observe_s: 1.5,
+                max_duration_s: p.max_duration_s,
+                watch: Default::default(),
+            };
+            put("grip_safety", format!("{safety:.4}"));
+            put("closure", format!("{closure:.4}"));
+            put("release_speed_per_s", format!("{release_speed_per_s:.5}"));
+            let record = run_release(&mut devices, &params, online, stop)?;
+            (config, rig, record)
+        }
+        KindParams::RailCatch(p) => {
+            let [lo, hi] = p.retract_speed_mm_s;
+            let speed = if hi > lo { rng.gen_range(lo..hi) } else { lo };
+            let options = PresetOptions {
+                object: Some(planned.object.clone()),
+                retract_speed_mm_s: speed,
+                ..Default::default()
+            };
+            let (config, _) = sim_presets::build(Preset::Rail, &options, base.clone())
+                .map_err(CollectError::from)?;
+            let rig = SimRig::new(config.clone())?;
+            let mut devices = Devices::of_sim(&rig);
+            let params = RailParams {
+                retract_speed_mm_s: speed,
+                retract_mm: 10.0,
+                forward_mm: p.forward_mm,
+                forward_speed_mm_s: 20.0,
+                torque_limit: 0.8,
+                torque_step: p.torque_step,
+                observe_s: 1.5,
+                // slip comes after about 1.2 mm of retraction
+                max_duration_s: (3.0 / speed + 1.5).min(p.max_duration_s),
+                watch: Default::default(),
+            };
+            put("retract_speed_mm_s", format!("{speed:.4}"));
+            let record = run_rail(&mut devices, &params, online, stop)?;
+            (config, rig, record)
+        }
+        _ => return Err(BatchError::Unsupported(plan.kind)),
+    };
     put("repetition", planned.repetition.to_string());
     if let Some(s) = planned.strategy {
         put("strategy", s.to_string());
@@ -192,14 +224,14 @@ pub fn run_sim_trial(
             format_version: TRIAL_FORMAT_VERSION,
             trial_id: planned.trial_id.clone(),
             kind: match plan.mode {
-                Mode::Online => "hand_release".into(),
-                Mode::Collect => "hand_release_collect".into(),
+                Mode::Online => plan.kind.to_string(),
+                Mode::Collect => format!("{}_collect", plan.kind),
             },
             backend: "sim".into(),
             seed: planned.seed,
             object: planned.object.clone(),
             grasp_deg: planned.grasp_deg,
-            sensors: devices.sensors.len() as u8,
+            sensors: rig.tactile_sensors().len() as u8,
             pins: config.tactip.pins,
             tmo_version,
             git_revision,

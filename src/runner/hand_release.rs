@@ -10,10 +10,9 @@ use std::sync::atomic::AtomicBool;
 use tmo_hal::{Arm, Clock, Hand, MarkerTracker, TactileSensor};
 
 use super::monitor::{FrameMonitor, Verdict, WatchLimits};
-use super::{event, Fault, Online};
+use super::{event, Online, RunRecord};
 use crate::online::classify::Reaction;
 use crate::scenario::{Devices, Recording, ScenarioError};
-use crate::trial::TrialEvent;
 use serde_json::json;
 
 /// Control period, s (1 kHz).
@@ -37,18 +36,6 @@ pub struct ReleaseParams {
     pub watch: WatchLimits,
 }
 
-#[derive(Debug, Clone, PartialEq)]
-pub struct ReleaseRecord {
-    pub recording: Recording,
-    /// When the release (and the detector) started.
-    pub armed_s: Option<f64>,
-    pub reaction: Option<Reaction>,
-    pub fault: Option<Fault>,
-    pub ended_s: f64,
-    /// Phases, commands, classifier outputs and detector events, for the trial log.
-    pub events: Vec<TrialEvent>,
-}
-
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
 #[serde(rename_all = "snake_case")]
 enum Phase {
@@ -65,7 +52,7 @@ pub fn run_release<C, H, A, M, S>(
     p: &ReleaseParams,
     online: Option<Online<'_>>,
     stop: &AtomicBool,
-) -> Result<ReleaseRecord, ScenarioError>
+) -> Result<RunRecord, ScenarioError>
 where
     C: Clock,
     H: Hand,
@@ -169,7 +156,7 @@ where
         "/command/arm",
         json!({"stop": true}),
     ));
-    Ok(ReleaseRecord {
+    Ok(RunRecord {
         recording: rec,
         armed_s,
         reaction,
@@ -203,6 +190,7 @@ mod tests {
     use tmo_hal::{ErrorKind, ErrorType, HandPositions, MarkerSample, PinFrame, Pose};
 
     use super::*;
+    use crate::runner::Fault;
     use crate::slip::dataset::{LabelSpec, Scope};
     use crate::slip::features::FeatureSpec;
     use crate::slip::model::{Classifier, ClassifierKind, ModelFile, SensorModel, MODEL_FORMAT};
@@ -366,7 +354,7 @@ mod tests {
 
     /// Runs a release with sensors that start slipping at the given times; returns the
     /// record and every target the hand was sent.
-    fn run(scripts: [Script; 3], strategy: &str) -> (ReleaseRecord, Vec<HandPositions>) {
+    fn run(scripts: [Script; 3], strategy: &str) -> (RunRecord, Vec<HandPositions>) {
         let clock = SharedClock::default();
         let sent = Arc::new(Mutex::new(Vec::new()));
         let mut hand = MockHand::new();

@@ -33,6 +33,19 @@ pub struct Online<'m> {
     pub strategy: Strategy,
 }
 
+/// What one trial of any runner recorded.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RunRecord {
+    pub recording: crate::scenario::Recording,
+    /// When the detector was armed.
+    pub armed_s: Option<f64>,
+    pub reaction: Option<crate::online::classify::Reaction>,
+    pub fault: Option<Fault>,
+    pub ended_s: f64,
+    /// Phases, commands, classifier outputs and detector events, for the trial log.
+    pub events: Vec<TrialEvent>,
+}
+
 /// A runner message for the trial log.
 pub fn event(time_s: f64, topic: &str, data: serde_json::Value) -> TrialEvent {
     TrialEvent {

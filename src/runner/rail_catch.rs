@@ -9,10 +9,9 @@ use serde_json::json;
 use tmo_hal::{Arm, Clock, Hand, MarkerTracker, TactileSensor};
 
 use super::monitor::{FrameMonitor, Verdict, WatchLimits};
-use super::{event, Fault, Online};
+use super::{event, Fault, Online, RunRecord};
 use crate::online::classify::Reaction;
 use crate::scenario::{Devices, Recording, ScenarioError};
-use crate::trial::TrialEvent;
 
 /// Control period, s (1 kHz).
 const TICK_S: f64 = 0.001;
@@ -33,22 +32,12 @@ pub struct RailParams {
     pub watch: WatchLimits,
 }
 
-#[derive(Debug, Clone, PartialEq)]
-pub struct RailRecord {
-    pub recording: Recording,
-    pub armed_s: Option<f64>,
-    pub reaction: Option<Reaction>,
-    pub fault: Option<Fault>,
-    pub ended_s: f64,
-    pub events: Vec<TrialEvent>,
-}
-
 pub fn run_rail<C, H, A, M, S>(
     dev: &mut Devices<C, H, A, M, S>,
     p: &RailParams,
     online: Option<Online<'_>>,
     stop: &AtomicBool,
-) -> Result<RailRecord, ScenarioError>
+) -> Result<RunRecord, ScenarioError>
 where
     C: Clock,
     H: Hand,
@@ -117,7 +106,7 @@ where
         "/command/arm",
         json!({"stop": true}),
     ));
-    Ok(RailRecord {
+    Ok(RunRecord {
         recording: rec,
         armed_s: Some(t0 + SETTLE_S),
         reaction,
