@@ -19,7 +19,8 @@ pub enum ScenarioError {
     NoContact { deformation_px: f64 },
 }
 
-fn device<E: tmo_hal::Error>(device: &'static str) -> impl Fn(E) -> ScenarioError {
+/// Maps a device error into a [`ScenarioError`] naming the device.
+pub(crate) fn device<E: tmo_hal::Error>(device: &'static str) -> impl Fn(E) -> ScenarioError {
     move |e| ScenarioError::Device {
         device,
         kind: e.kind(),

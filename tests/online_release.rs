@@ -35,12 +35,17 @@ fn model() -> ModelFile {
             collect_trial(&spec, &format!("t{i}"), 0).unwrap()
         })
         .collect();
+    logreg_on(&trials)
+}
+
+/// A global logistic-regression model (n_slip 5, d 0.4) trained on `trials`.
+fn logreg_on(trials: &[tmo::trial::Trial]) -> ModelFile {
     let labels = LabelSpec {
         n_slip: 5,
         onset: OnsetSpec::default(),
     };
     let features = FeatureSpec::new(30);
-    let data = Dataset::from_trials(&trials, &features, &labels);
+    let data = Dataset::from_trials(trials, &features, &labels);
     ModelFile::train(
         &data,
         &TrainSpec {
@@ -135,27 +140,7 @@ fn rail_model() -> ModelFile {
             collect_trial(&spec, &format!("r{i}"), 0).unwrap()
         })
         .collect();
-    let labels = LabelSpec {
-        n_slip: 5,
-        onset: OnsetSpec::default(),
-    };
-    let features = FeatureSpec::new(30);
-    let data = Dataset::from_trials(&trials, &features, &labels);
-    ModelFile::train(
-        &data,
-        &TrainSpec {
-            kind: ClassifierKind::Logreg,
-            hyper: Hyperparameters { c: 1.0, gamma: 0.0 },
-            scope: Scope::Global,
-            features,
-            labels,
-            downsample: 0.4,
-            seed: 1,
-        },
-        vec![],
-        None,
-    )
-    .unwrap()
+    logreg_on(&trials)
 }
 
 fn rail(speed: f64, seed: u64, online: Option<Online<'_>>) -> (Verdict, bool) {

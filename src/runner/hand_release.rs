@@ -12,7 +12,7 @@ use tmo_hal::{Arm, Clock, Hand, MarkerTracker, TactileSensor};
 use super::monitor::{FrameMonitor, Verdict, WatchLimits};
 use super::{event, Online, RunRecord};
 use crate::online::classify::Reaction;
-use crate::scenario::{Devices, Recording, ScenarioError};
+use crate::scenario::{device, Devices, Recording, ScenarioError};
 use serde_json::json;
 
 /// Control period, s (1 kHz).
@@ -62,7 +62,7 @@ where
 {
     let t0 = dev.clock.now_s();
     let mut monitor = FrameMonitor::new(dev.sensors.len(), online, p.watch, t0);
-    let start = dev.hand.present_positions().map_err(hand)?;
+    let start = dev.hand.present_positions().map_err(device("hand"))?;
     let mut rec = Recording::default();
     let (mut phase, mut phase_t0) = (Phase::Closing, t0);
     let mut armed_s = None;
@@ -87,7 +87,7 @@ where
                 let q = |i: usize| (start[i] + p.close_speed_per_s * elapsed).min(p.closure);
                 dev.hand
                     .set_targets([q(0), q(1), q(2), start[3]])
-                    .map_err(hand)?;
+                    .map_err(device("hand"))?;
                 if q(0) >= p.closure {
                     (phase, phase_t0) = (Phase::Settling, now);
                     events.push(event(now, "/phase", json!({"phase": phase})));
@@ -96,7 +96,7 @@ where
             Phase::Settling if elapsed >= 0.3 => {
                 dev.arm
                     .move_linear([0.0, 0.0, p.lift_mm], p.lift_speed_mm_s)
-                    .map_err(arm)?;
+                    .map_err(device("arm"))?;
                 events.push(event(
                     now,
                     "/command/arm",
@@ -117,7 +117,9 @@ where
             }
             Phase::Releasing => {
                 let q = (p.closure - p.release_speed_per_s * elapsed).max(0.0);
-                dev.hand.set_targets([q, q, q, start[3]]).map_err(hand)?;
+                dev.hand
+                    .set_targets([q, q, q, start[3]])
+                    .map_err(device("hand"))?;
             }
             _ => {}
         }
@@ -131,15 +133,17 @@ where
             Verdict::Abort(f) => {
                 // Make safe: hold where the fingers are; the arm stops below.
                 fault = Some(f);
-                let held = dev.hand.present_positions().map_err(hand)?;
-                dev.hand.set_targets(held).map_err(hand)?;
+                let held = dev.hand.present_positions().map_err(device("hand"))?;
+                dev.hand.set_targets(held).map_err(device("hand"))?;
                 events.push(event(now, "/command/hand", json!({ "targets": held })));
                 break;
             }
             Verdict::React(r) => {
                 reaction = Some(r);
                 let q = (p.closure + p.regrasp).min(1.0);
-                dev.hand.set_targets([q, q, q, start[3]]).map_err(hand)?;
+                dev.hand
+                    .set_targets([q, q, q, start[3]])
+                    .map_err(device("hand"))?;
                 phase = Phase::Reacted;
                 events.push(event(
                     now,
@@ -150,7 +154,7 @@ where
             }
         }
     }
-    dev.arm.stop().map_err(arm)?;
+    dev.arm.stop().map_err(device("arm"))?;
     events.push(event(
         dev.clock.now_s(),
         "/command/arm",
@@ -164,22 +168,6 @@ where
         ended_s: dev.clock.now_s(),
         events,
     })
-}
-
-fn hand<E: tmo_hal::Error>(e: E) -> ScenarioError {
-    ScenarioError::Device {
-        device: "hand",
-        kind: e.kind(),
-        message: e.to_string(),
-    }
-}
-
-fn arm<E: tmo_hal::Error>(e: E) -> ScenarioError {
-    ScenarioError::Device {
-        device: "arm",
-        kind: e.kind(),
-        message: e.to_string(),
-    }
 }
 
 #[cfg(test)]

@@ -11,7 +11,7 @@ use tmo_hal::{Arm, Clock, Hand, MarkerTracker, TactileSensor};
 use super::monitor::{FrameMonitor, Verdict, WatchLimits};
 use super::{event, Fault, Online, RunRecord};
 use crate::online::classify::Reaction;
-use crate::scenario::{Devices, Recording, ScenarioError};
+use crate::scenario::{device, Devices, Recording, ScenarioError};
 
 /// Control period, s (1 kHz).
 const TICK_S: f64 = 0.001;
@@ -49,7 +49,9 @@ where
     let mut monitor = FrameMonitor::new(dev.sensors.len(), online, p.watch, t0);
     let mut rec = Recording::default();
     let mut events = Vec::new();
-    dev.hand.set_torque_limit(p.torque_limit).map_err(hand)?;
+    dev.hand
+        .set_torque_limit(p.torque_limit)
+        .map_err(device("hand"))?;
     events.push(event(
         t0,
         "/command/hand",
@@ -57,7 +59,7 @@ where
     ));
     dev.arm
         .move_linear([-p.retract_mm, 0.0, 0.0], p.retract_speed_mm_s)
-        .map_err(arm)?;
+        .map_err(device("arm"))?;
     events.push(event(
         t0,
         "/command/arm",
@@ -78,18 +80,18 @@ where
             Verdict::Continue => {}
             Verdict::Abort(f) => {
                 fault = Some(f);
-                let held = dev.hand.present_positions().map_err(hand)?;
-                dev.hand.set_targets(held).map_err(hand)?;
+                let held = dev.hand.present_positions().map_err(device("hand"))?;
+                dev.hand.set_targets(held).map_err(device("hand"))?;
                 break;
             }
             Verdict::React(r) if reaction.is_none() => {
                 reaction = Some(r);
-                dev.arm.stop().map_err(arm)?;
+                dev.arm.stop().map_err(device("arm"))?;
                 dev.arm
                     .move_linear([p.forward_mm, 0.0, 0.0], p.forward_speed_mm_s)
-                    .map_err(arm)?;
+                    .map_err(device("arm"))?;
                 let torque = (p.torque_limit + p.torque_step).min(1.0);
-                dev.hand.set_torque_limit(torque).map_err(hand)?;
+                dev.hand.set_torque_limit(torque).map_err(device("hand"))?;
                 events.push(event(
                     now,
                     "/command/arm",
@@ -100,7 +102,7 @@ where
             Verdict::React(_) => {}
         }
     }
-    dev.arm.stop().map_err(arm)?;
+    dev.arm.stop().map_err(device("arm"))?;
     events.push(event(
         dev.clock.now_s(),
         "/command/arm",
@@ -114,20 +116,4 @@ where
         ended_s: dev.clock.now_s(),
         events,
     })
-}
-
-fn hand<E: tmo_hal::Error>(e: E) -> ScenarioError {
-    ScenarioError::Device {
-        device: "hand",
-        kind: e.kind(),
-        message: e.to_string(),
-    }
-}
-
-fn arm<E: tmo_hal::Error>(e: E) -> ScenarioError {
-    ScenarioError::Device {
-        device: "arm",
-        kind: e.kind(),
-        message: e.to_string(),
-    }
 }
