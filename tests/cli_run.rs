@@ -188,8 +188,9 @@ fn ctrl_c_keeps_finished_trials_and_the_batch_resumes() {
     while (!out.exists() || sorted_logs(&out).len() < 3) && started.elapsed().as_secs() < 60 {
         std::thread::sleep(std::time::Duration::from_millis(2));
     }
-    let status = std::process::Command::new("kill")
-        .args(["-INT", &child.id().to_string()])
+    // the shell's own `kill`, so no procps package is needed
+    let status = std::process::Command::new("sh")
+        .args(["-c", &format!("kill -INT {}", child.id())])
         .status()
         .unwrap();
     assert!(status.success());
