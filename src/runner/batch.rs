@@ -15,6 +15,7 @@ use tmo_hal::sim::{SimConfig, SimRig};
 
 use super::hand_release::{run_release, ReleaseParams};
 use super::rail_catch::{run_rail, RailParams};
+use super::safety::{SafeArm, SafeHand, SafetyLimits};
 use super::Online;
 use crate::collect::{hand_release_rig, trial_seed, CollectError};
 use crate::online::strategy::Strategy;
@@ -101,6 +102,26 @@ pub fn catch_spec(plan: &Plan) -> CatchSpec {
     }
 }
 
+/// The simulated rig's devices behind the safety limits, as the runner always drives them.
+fn safe_sim_devices(
+    rig: &SimRig,
+) -> Devices<
+    tmo_hal::sim::SimClock,
+    SafeHand<tmo_hal::sim::SimHand>,
+    SafeArm<tmo_hal::sim::SimArm>,
+    tmo_hal::sim::SimMarkerTracker,
+    tmo_hal::sim::SimTactileSensor,
+> {
+    let limits = SafetyLimits::default();
+    Devices {
+        clock: rig.clock(),
+        hand: SafeHand::new(rig.hand(), limits),
+        arm: SafeArm::new(rig.arm(), limits),
+        markers: rig.marker_tracker(),
+        sensors: rig.tactile_sensors(),
+    }
+}
+
 /// Runs one planned trial on the simulator and returns its log.
 pub fn run_sim_trial(
     plan: &Plan,
@@ -138,7 +159,7 @@ pub fn run_sim_trial(
             let safety: f64 = rng.gen_range(1.2..1.8);
             let (config, closure, _) = hand_release_rig(&base, &options, safety)?;
             let rig = SimRig::new(config.clone())?;
-            let mut devices = Devices::of_sim(&rig);
+            let mut devices = safe_sim_devices(&rig);
             let release_speed_per_s = p.release_speed_of_max * config.servo.max_speed_per_s;
             let params = ReleaseParams {
                 closure,
@@ -169,7 +190,7 @@ pub fn run_sim_trial(
             let (config, _) = sim_presets::build(Preset::Rail, &options, base.clone())
                 .map_err(CollectError::from)?;
             let rig = SimRig::new(config.clone())?;
-            let mut devices = Devices::of_sim(&rig);
+            let mut devices = safe_sim_devices(&rig);
             let params = RailParams {
                 retract_speed_mm_s: speed,
                 retract_mm: 10.0,

@@ -174,62 +174,15 @@ where
 mod tests {
     use std::sync::{Arc, Mutex};
 
-    use mockall::mock;
-    use tmo_hal::{ErrorKind, ErrorType, HandPositions, MarkerSample, PinFrame, Pose};
+    use tmo_hal::{HandPositions, PinFrame};
 
     use super::*;
+    use crate::runner::mocks::{MockArm, MockHand, MockMarkers, MockSensor};
     use crate::runner::Fault;
     use crate::slip::dataset::{LabelSpec, Scope};
     use crate::slip::features::FeatureSpec;
     use crate::slip::model::{Classifier, ClassifierKind, ModelFile, SensorModel, MODEL_FORMAT};
     use crate::slip::threshold::ThresholdModel;
-
-    #[derive(Debug, thiserror::Error)]
-    #[error("mock device failure")]
-    struct MockError;
-
-    impl tmo_hal::Error for MockError {
-        fn kind(&self) -> ErrorKind {
-            ErrorKind::Other
-        }
-    }
-
-    mock! {
-        Hand {}
-        impl ErrorType for Hand { type Error = MockError; }
-        impl tmo_hal::Hand for Hand {
-            fn set_targets(&mut self, targets: HandPositions) -> Result<(), MockError>;
-            fn set_torque_limit(&mut self, fraction: f64) -> Result<(), MockError>;
-            fn present_positions(&mut self) -> Result<HandPositions, MockError>;
-        }
-    }
-
-    mock! {
-        Arm {}
-        impl ErrorType for Arm { type Error = MockError; }
-        impl tmo_hal::Arm for Arm {
-            fn tcp_pose(&mut self) -> Result<Pose, MockError>;
-            fn move_linear(&mut self, offset_mm: [f64; 3], speed_mm_s: f64) -> Result<(), MockError>;
-            fn move_velocity(&mut self, velocity_mm_s: [f64; 3]) -> Result<(), MockError>;
-            fn stop(&mut self) -> Result<(), MockError>;
-        }
-    }
-
-    mock! {
-        Markers {}
-        impl ErrorType for Markers { type Error = MockError; }
-        impl tmo_hal::MarkerTracker for Markers {
-            fn next_sample(&mut self) -> Result<Option<MarkerSample>, MockError>;
-        }
-    }
-
-    mock! {
-        Sensor {}
-        impl ErrorType for Sensor { type Error = MockError; }
-        impl tmo_hal::TactileSensor for Sensor {
-            fn next_frame(&mut self) -> Result<Option<PinFrame>, MockError>;
-        }
-    }
 
     /// A virtual clock the mocks can read.
     #[derive(Clone, Default)]

@@ -3,8 +3,11 @@
 
 pub mod batch;
 pub mod hand_release;
+#[cfg(test)]
+pub(crate) mod mocks;
 pub mod monitor;
 pub mod rail_catch;
+pub mod safety;
 
 use crate::online::strategy::Strategy;
 use crate::slip::model::ModelFile;

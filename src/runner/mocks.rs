@@ -1,0 +1,51 @@
+//! mockall mocks of the HAL traits, for the runners' unit tests.
+
+use mockall::mock;
+use tmo_hal::{ErrorKind, ErrorType, HandPositions, MarkerSample, PinFrame, Pose};
+
+#[derive(Debug, thiserror::Error)]
+#[error("mock device failure")]
+pub struct MockError;
+
+impl tmo_hal::Error for MockError {
+    fn kind(&self) -> ErrorKind {
+        ErrorKind::Other
+    }
+}
+
+mock! {
+    pub Hand {}
+    impl ErrorType for Hand { type Error = MockError; }
+    impl tmo_hal::Hand for Hand {
+        fn set_targets(&mut self, targets: HandPositions) -> Result<(), MockError>;
+        fn set_torque_limit(&mut self, fraction: f64) -> Result<(), MockError>;
+        fn present_positions(&mut self) -> Result<HandPositions, MockError>;
+    }
+}
+
+mock! {
+    pub Arm {}
+    impl ErrorType for Arm { type Error = MockError; }
+    impl tmo_hal::Arm for Arm {
+        fn tcp_pose(&mut self) -> Result<Pose, MockError>;
+        fn move_linear(&mut self, offset_mm: [f64; 3], speed_mm_s: f64) -> Result<(), MockError>;
+        fn move_velocity(&mut self, velocity_mm_s: [f64; 3]) -> Result<(), MockError>;
+        fn stop(&mut self) -> Result<(), MockError>;
+    }
+}
+
+mock! {
+    pub Markers {}
+    impl ErrorType for Markers { type Error = MockError; }
+    impl tmo_hal::MarkerTracker for Markers {
+        fn next_sample(&mut self) -> Result<Option<MarkerSample>, MockError>;
+    }
+}
+
+mock! {
+    pub Sensor {}
+    impl ErrorType for Sensor { type Error = MockError; }
+    impl tmo_hal::TactileSensor for Sensor {
+        fn next_frame(&mut self) -> Result<Option<PinFrame>, MockError>;
+    }
+}
