@@ -208,3 +208,56 @@ fn a_trained_detector_catches_the_rail_object() {
     }
     assert!(caught >= 4, "caught {caught} of 5");
 }
+
+/// Rice pour on the crisps can: unanswered it falls; with the detector, the hand tightens
+/// as the mass grows and holds it.
+#[test]
+fn responses_keep_a_filling_can_in_the_hand() {
+    use tmo::runner::rice_pour::{run_pour, PourParams};
+    use tmo::sim_presets::{build, Preset};
+    let model = model();
+    let pour = |online: Option<Online<'_>>| {
+        let options = PresetOptions {
+            object: Some("crisps_can".into()),
+            pour_rate_g_per_s: 40.0,
+            ..Default::default()
+        };
+        let base = SimConfig {
+            seed: 31,
+            ..SimConfig::default()
+        };
+        let (config, _) = build(Preset::Pour, &options, base).unwrap();
+        let rig = SimRig::new(config).unwrap();
+        let params = PourParams {
+            regrasp: 0.02,
+            max_closure: 0.95,
+            duration_s: 0.5 + 400.0 / 40.0 + 1.0,
+            watch: Default::default(),
+        };
+        let record = run_pour(
+            &mut Devices::of_sim(&rig),
+            &params,
+            online,
+            &std::sync::atomic::AtomicBool::new(false),
+        )
+        .unwrap();
+        let o = score_catch(&record.recording.markers, None, &CatchSpec::default());
+        let responses = record
+            .events
+            .iter()
+            .filter(|e| e.topic == "/detector")
+            .count();
+        eprintln!(
+            "online {}: dropped {}, responses {responses}",
+            online.is_some(),
+            o.dropped
+        );
+        (o.dropped, responses)
+    };
+    assert_eq!(pour(None), (true, 0));
+    let (dropped, responses) = pour(Some(Online {
+        model: &model,
+        strategy: "2x2".parse().unwrap(),
+    }));
+    assert!(!dropped && responses >= 1, "responses {responses}");
+}

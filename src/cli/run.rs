@@ -70,8 +70,11 @@ pub fn run(args: RunArgs) -> Result<()> {
         plan.repetitions = n;
     }
     anyhow::ensure!(
-        matches!(plan.kind, Kind::HandRelease | Kind::RailCatch),
-        "{}: {} protocols cannot run yet (only hand_release and rail_catch so far)",
+        matches!(
+            plan.kind,
+            Kind::HandRelease | Kind::RailCatch | Kind::RicePour
+        ),
+        "{}: {} protocols cannot run yet (hand_release, rail_catch and rice_pour so far)",
         args.protocol.display(),
         plan.kind
     );
@@ -180,7 +183,11 @@ pub fn run(args: RunArgs) -> Result<()> {
         rows.len(),
         started.elapsed().as_secs_f64()
     );
-    print_table(&rows);
+    if plan.kind == Kind::RicePour {
+        print_pour_table(&rows);
+    } else {
+        print_table(&rows);
+    }
     let aborted = rows.iter().filter(|r| r.fault.is_some()).count();
     if aborted > 0 {
         println!("{aborted} trial(s) aborted by a sensor fault (see the fault column)");
@@ -225,6 +232,29 @@ fn print_table(rows: &[OutcomeRow]) {
             count(tmo::outcome::Verdict::TruePositive),
             count(tmo::outcome::Verdict::FalsePositive),
             count(tmo::outcome::Verdict::FalseNegative),
+        );
+    }
+}
+
+/// object | trials | responses | dropped, as the paper's rice-pour results.
+fn print_pour_table(rows: &[OutcomeRow]) {
+    let mut cells: BTreeMap<(String, String), Vec<&OutcomeRow>> = BTreeMap::new();
+    for r in rows {
+        cells
+            .entry((r.object.clone(), r.strategy.clone()))
+            .or_default()
+            .push(r);
+    }
+    println!(
+        "{:<16} {:<9} {:>6} {:>10} {:>8}",
+        "object", "strategy", "trials", "responses", "dropped"
+    );
+    for ((object, strategy), rs) in cells {
+        println!(
+            "{object:<16} {strategy:<9} {:>6} {:>10} {:>8}",
+            rs.len(),
+            rs.iter().map(|r| r.responses).sum::<usize>(),
+            rs.iter().filter(|r| r.dropped).count()
         );
     }
 }

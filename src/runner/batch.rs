@@ -15,6 +15,7 @@ use tmo_hal::sim::{SimConfig, SimRig};
 
 use super::hand_release::{run_release, ReleaseParams};
 use super::rail_catch::{run_rail, RailParams};
+use super::rice_pour::{run_pour, PourParams};
 use super::safety::{SafeArm, SafeHand, SafetyLimits};
 use super::Online;
 use crate::collect::{hand_release_rig, trial_seed, CollectError};
@@ -80,7 +81,7 @@ pub fn expand(plan: &Plan) -> Vec<PlannedTrial> {
 
 #[derive(Debug, thiserror::Error)]
 pub enum BatchError {
-    #[error("{0} protocols cannot run yet (only hand_release and rail_catch; see issue 4)")]
+    #[error("{0} protocols cannot run yet (see issue 4)")]
     Unsupported(Kind),
     #[error(transparent)]
     Sim(#[from] CollectError),
@@ -207,6 +208,30 @@ pub fn run_sim_trial(
             let record = run_rail(&mut devices, &params, online, stop)?;
             (config, rig, record)
         }
+        KindParams::RicePour(p) => {
+            let options = PresetOptions {
+                object: Some(planned.object.clone()),
+                grasp_deg: planned.grasp_deg,
+                pour_rate_g_per_s: p.pour_rate_g_per_s,
+                ..Default::default()
+            };
+            // the preset holds the object with 1.2x the friction it needs: a light grasp
+            let (config, _) = sim_presets::build(Preset::Pour, &options, base.clone())
+                .map_err(CollectError::from)?;
+            let rig = SimRig::new(config.clone())?;
+            let mut devices = safe_sim_devices(&rig);
+            let params = PourParams {
+                regrasp: p.regrasp,
+                max_closure: SafetyLimits::default().max_grip,
+                // the pour starts 0.5 s in; watch 1 s after it ends
+                duration_s: (0.5 + p.total_g / p.pour_rate_g_per_s + 1.0).min(p.max_duration_s),
+                watch: Default::default(),
+            };
+            put("pour_rate_g_per_s", format!("{:.3}", p.pour_rate_g_per_s));
+            put("total_g", format!("{:.1}", p.total_g));
+            let record = run_pour(&mut devices, &params, online, stop)?;
+            (config, rig, record)
+        }
         _ => return Err(BatchError::Unsupported(plan.kind)),
     };
     put("repetition", planned.repetition.to_string());
@@ -284,6 +309,8 @@ pub struct OutcomeRow {
     pub slip_distance_mm: Option<f64>,
     /// Why the trial was aborted, if it was (JSON).
     pub fault: Option<String>,
+    /// Reactions of the hand (the detector's events in the log).
+    pub responses: usize,
 }
 
 pub fn score_trial(trial: &Trial, spec: &CatchSpec) -> OutcomeRow {
@@ -303,6 +330,11 @@ pub fn score_trial(trial: &Trial, spec: &CatchSpec) -> OutcomeRow {
         dropped: o.dropped,
         slip_distance_mm: o.slip_distance_mm,
         fault: param("fault"),
+        responses: trial
+            .events
+            .iter()
+            .filter(|e| e.topic == "/detector")
+            .count(),
     }
 }
 

@@ -7,6 +7,7 @@ pub mod hand_release;
 pub(crate) mod mocks;
 pub mod monitor;
 pub mod rail_catch;
+pub mod rice_pour;
 pub mod safety;
 
 use crate::online::strategy::Strategy;

@@ -59,6 +59,13 @@ impl<'m> FrameMonitor<'m> {
         }
     }
 
+    /// Forgets the detector's runs, so the next reaction needs fresh evidence.
+    pub fn rearm(&mut self) {
+        if let Some(d) = self.detector.as_mut() {
+            d.reset();
+        }
+    }
+
     /// Takes the frames that arrived by `now`. A fault (or `stop`) wins over a reaction;
     /// only `armed` frames count towards a reaction. Classifier outputs and the reaction go
     /// to `events`.
