@@ -267,3 +267,22 @@ fn a_rail_catch_batch_runs_on_the_simulator() {
     assert_eq!(trial.meta.kind, "rail_catch");
     assert!(trial.meta.parameters.contains_key("retract_speed_mm_s"));
 }
+
+#[test]
+fn a_rice_pour_batch_counts_responses() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    setup(d);
+    std::fs::write(
+        d.join("pour.toml"),
+        "kind = \"rice_pour\"\nmodels = [\"global.json\"]\nrepetitions = 2\n[rice_pour]\ntotal_g = 300\n",
+    )
+    .unwrap();
+    let stdout = ok(&tmo(d, &["run", "pour.toml", "--out", "p"]));
+    assert!(
+        stdout.contains("responses") && stdout.contains("crisps_can"),
+        "{stdout}"
+    );
+    let csv = std::fs::read_to_string(d.join("p/outcomes.csv")).unwrap();
+    assert_eq!(csv.lines().count(), 3, "{csv}");
+}
