@@ -15,9 +15,6 @@ use crate::online::classify::Reaction;
 use crate::scenario::{device, Devices, Recording, ScenarioError};
 use serde_json::json;
 
-/// Control period, s (1 kHz).
-const TICK_S: f64 = 0.001;
-
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ReleaseParams {
     /// Starting grasp, fraction of the closing range.
@@ -123,19 +120,14 @@ where
             }
             _ => {}
         }
-        dev.clock.sleep(TICK_S);
-        let first_new = rec.frames.len();
-        dev.poll(&mut rec)?;
-        let now = dev.clock.now_s();
+        let (first_new, now) = dev.tick(&mut rec)?;
         let armed = phase == Phase::Releasing;
         match monitor.feed(&rec.frames[first_new..], now, armed, stop, &mut events) {
             Verdict::Continue => {}
             Verdict::Abort(f) => {
-                // Make safe: hold where the fingers are; the arm stops below.
+                // Make safe: the fingers hold; the arm stops below.
                 fault = Some(f);
-                let held = dev.hand.present_positions().map_err(device("hand"))?;
-                dev.hand.set_targets(held).map_err(device("hand"))?;
-                events.push(event(now, "/command/hand", json!({ "targets": held })));
+                dev.hold_hand(now, &mut events)?;
                 break;
             }
             Verdict::React(r) => {

@@ -10,7 +10,11 @@ pub mod rail_catch;
 pub mod rice_pour;
 pub mod safety;
 
+use serde_json::json;
+use tmo_hal::{Arm, Clock, Hand, MarkerTracker, TactileSensor};
+
 use crate::online::strategy::Strategy;
+use crate::scenario::{device, Devices, Recording, ScenarioError};
 use crate::slip::model::ModelFile;
 use crate::trial::TrialEvent;
 
@@ -48,6 +52,38 @@ pub struct RunRecord {
     pub ended_s: f64,
     /// Phases, commands, classifier outputs and detector events, for the trial log.
     pub events: Vec<TrialEvent>,
+}
+
+/// Control period of every runner, s (1 kHz).
+const TICK_S: f64 = 0.001;
+/// How long a runner waits before arming its detector: the classifier needs a previous
+/// frame from every sensor.
+const SETTLE_S: f64 = 0.2;
+
+impl<C, H, A, M, S> Devices<C, H, A, M, S>
+where
+    C: Clock,
+    H: Hand,
+    A: Arm,
+    M: MarkerTracker,
+    S: TactileSensor,
+{
+    /// One control tick: waits, then collects what arrived. Returns the index in
+    /// `rec.frames` of the first new frame, and the time.
+    fn tick(&mut self, rec: &mut Recording) -> Result<(usize, f64), ScenarioError> {
+        self.clock.sleep(TICK_S);
+        let first_new = rec.frames.len();
+        self.poll(rec)?;
+        Ok((first_new, self.clock.now_s()))
+    }
+
+    /// After a fault: the fingers hold where they are (the caller stops the arm).
+    fn hold_hand(&mut self, now: f64, events: &mut Vec<TrialEvent>) -> Result<(), ScenarioError> {
+        let held = self.hand.present_positions().map_err(device("hand"))?;
+        self.hand.set_targets(held).map_err(device("hand"))?;
+        events.push(event(now, "/command/hand", json!({ "targets": held })));
+        Ok(())
+    }
 }
 
 /// A runner message for the trial log.

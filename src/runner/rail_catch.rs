@@ -9,14 +9,9 @@ use serde_json::json;
 use tmo_hal::{Arm, Clock, Hand, MarkerTracker, TactileSensor};
 
 use super::monitor::{FrameMonitor, Verdict, WatchLimits};
-use super::{event, Fault, Online, RunRecord};
+use super::{event, Fault, Online, RunRecord, SETTLE_S};
 use crate::online::classify::Reaction;
 use crate::scenario::{device, Devices, Recording, ScenarioError};
-
-/// Control period, s (1 kHz).
-const TICK_S: f64 = 0.001;
-/// Frames before arming: the classifier needs a previous frame per sensor.
-const SETTLE_S: f64 = 0.2;
 
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct RailParams {
@@ -71,17 +66,14 @@ where
         if now - t0 >= p.max_duration_s || reaction.is_some_and(|r| now >= r.time_s + p.observe_s) {
             break;
         }
-        dev.clock.sleep(TICK_S);
-        let first_new = rec.frames.len();
-        dev.poll(&mut rec)?;
-        let now = dev.clock.now_s();
+        let (first_new, now) = dev.tick(&mut rec)?;
         let armed = reaction.is_none() && now - t0 >= SETTLE_S;
         match monitor.feed(&rec.frames[first_new..], now, armed, stop, &mut events) {
             Verdict::Continue => {}
             Verdict::Abort(f) => {
+                // Make safe: the fingers hold; the arm stops below.
                 fault = Some(f);
-                let held = dev.hand.present_positions().map_err(device("hand"))?;
-                dev.hand.set_targets(held).map_err(device("hand"))?;
+                dev.hold_hand(now, &mut events)?;
                 break;
             }
             Verdict::React(r) if reaction.is_none() => {

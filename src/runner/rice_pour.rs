@@ -8,14 +8,9 @@ use serde_json::json;
 use tmo_hal::{Arm, Clock, Hand, MarkerTracker, TactileSensor};
 
 use super::monitor::{FrameMonitor, Verdict, WatchLimits};
-use super::{event, Online, RunRecord};
+use super::{event, Online, RunRecord, SETTLE_S};
 use crate::online::classify::Reaction;
 use crate::scenario::{device, Devices, Recording, ScenarioError};
-
-/// Control period, s (1 kHz).
-const TICK_S: f64 = 0.001;
-/// Frames before arming: the classifier needs a previous frame per sensor.
-const SETTLE_S: f64 = 0.2;
 
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct PourParams {
@@ -49,17 +44,14 @@ where
     let mut events = vec![event(t0, "/command/hand", json!({ "targets": targets }))];
     let (mut first, mut fault): (Option<Reaction>, _) = (None, None);
     while dev.clock.now_s() - t0 < p.duration_s {
-        dev.clock.sleep(TICK_S);
-        let first_new = rec.frames.len();
-        dev.poll(&mut rec)?;
-        let now = dev.clock.now_s();
+        let (first_new, now) = dev.tick(&mut rec)?;
         let armed = now - t0 >= SETTLE_S;
         match monitor.feed(&rec.frames[first_new..], now, armed, stop, &mut events) {
             Verdict::Continue => {}
             Verdict::Abort(f) => {
+                // Make safe: the fingers hold; the arm stops below.
                 fault = Some(f);
-                let held = dev.hand.present_positions().map_err(device("hand"))?;
-                dev.hand.set_targets(held).map_err(device("hand"))?;
+                dev.hold_hand(now, &mut events)?;
                 break;
             }
             Verdict::React(r) => {

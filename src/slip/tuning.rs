@@ -63,7 +63,12 @@ pub fn cross_validated_f1(
         });
     }
     trials.shuffle(&mut ChaCha8Rng::seed_from_u64(spec.seed ^ 0x5eed));
-    let fold_of = |t: u32| trials.iter().position(|x| *x == t).unwrap_or(0) % spec.folds;
+    // fold of each trial index, looked up per row
+    let mut fold_by_trial = vec![0; data.trial.iter().max().map_or(0, |t| *t as usize + 1)];
+    for (position, t) in trials.iter().enumerate() {
+        fold_by_trial[*t as usize] = position % spec.folds;
+    }
+    let fold_of = |t: u32| fold_by_trial[t as usize];
     // Folds fit in parallel: the solver's own parallel kernel rows leave a core idle
     // during its sequential working-set steps.
     let scores: Vec<Result<f64, TuneError>> = (0..spec.folds)
