@@ -4,6 +4,9 @@
 
 use tmo_hal::{Arm, Clock, ErrorKind, Hand, MarkerSample, MarkerTracker, PinFrame, TactileSensor};
 
+use crate::online::contact::ContactGauge;
+use crate::slip::features::FeatureSpec;
+
 /// Control period of the scripts, s (1 kHz, like the runner's loop).
 const TICK_S: f64 = 0.001;
 
@@ -94,21 +97,6 @@ pub struct Recording {
     pub markers: Vec<MarkerSample>,
 }
 
-/// Mean distance of the pins from where they were at `reference` (the paper's `d(t)`), px.
-pub fn deformation_px(reference: &PinFrame, frame: &PinFrame) -> f64 {
-    let n = reference.pins.len().min(frame.pins.len());
-    if n == 0 {
-        return 0.0;
-    }
-    let sum: f64 = reference
-        .pins
-        .iter()
-        .zip(&frame.pins)
-        .map(|(a, b)| ((b[0] - a[0]) as f64).hypot((b[1] - a[1]) as f64))
-        .sum();
-    sum / n as f64
-}
-
 impl<C, H, A, M, S> Devices<C, H, A, M, S>
 where
     C: Clock,
@@ -148,7 +136,11 @@ where
         // GraspLiftRelease: when the current phase began, and which phase it is (0 closing,
         // 1 settling, 2 lifting and holding, 3 releasing).
         let (mut phase, mut phase_t0) = (0u8, phase_start);
-        let mut reference: Vec<Option<PinFrame>> = vec![None; self.sensors.len()];
+        let mut gauge = ContactGauge::new(
+            self.sensors.len(),
+            FeatureSpec::new(0).max_pin_step_px as f64,
+        );
+        let mut seen = 0;
         if let Script::Retract {
             speed_mm_s,
             distance_mm,
@@ -214,16 +206,12 @@ where
                     close_speed_per_s,
                     lift_speed_mm_s,
                 } if !lifting => {
-                    // d(t) of the most deformed sensor against its first (contact-free) frame.
-                    let n = rec.frames.len();
-                    let mut deepest: f64 = 0.0;
-                    for f in &rec.frames[n.saturating_sub(8)..] {
-                        let r = &mut reference[f.sensor as usize];
-                        match r {
-                            None => *r = Some(f.clone()),
-                            Some(r0) => deepest = deepest.max(deformation_px(r0, f)),
-                        }
+                    // d(t) of the least deformed sensor: every finger touches.
+                    for f in &rec.frames[seen..] {
+                        gauge.observe(f);
                     }
+                    seen = rec.frames.len();
+                    let deepest = gauge.least_deformed().unwrap_or(0.0);
                     if deepest >= goal {
                         let held = self.hand.present_positions().map_err(device("hand"))?;
                         self.hand.set_targets(held).map_err(device("hand"))?;
@@ -253,26 +241,5 @@ where
         }
         self.arm.stop().map_err(device("arm"))?;
         Ok(rec)
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    fn frame(pins: Vec<[f32; 2]>) -> PinFrame {
-        PinFrame {
-            sensor: 0,
-            seq: 0,
-            time_s: 0.0,
-            pins,
-        }
-    }
-
-    #[test]
-    fn deformation_is_mean_pin_distance() {
-        let a = frame(vec![[0.0, 0.0], [10.0, 10.0]]);
-        let b = frame(vec![[3.0, 4.0], [10.0, 10.0]]);
-        assert!((deformation_px(&a, &b) - 2.5).abs() < 1e-12);
     }
 }

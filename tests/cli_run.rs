@@ -286,3 +286,66 @@ fn a_rice_pour_batch_counts_responses() {
     let csv = std::fs::read_to_string(d.join("p/outcomes.csv")).unwrap();
     assert_eq!(csv.lines().count(), 3, "{csv}");
 }
+
+/// The paper's first-time lift pipeline: calibrate g_min, then lift with slip detection and
+/// score overgrasp against the calibration.
+#[test]
+fn a_calibration_then_a_first_time_lift_batch() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    setup(d);
+    let masses = "masses_g = [0, 450]\n";
+    std::fs::write(
+        d.join("cal.toml"),
+        format!("kind = \"calibrate_lift\"\nrepetitions = 2\n[calibrate_lift]\n{masses}"),
+    )
+    .unwrap();
+    let stdout = ok(&tmo(d, &["run", "cal.toml", "--out", "cal"]));
+    assert!(stdout.contains("g_min.json"), "{stdout}");
+    let table: tmo::runner::score::GMinTable =
+        serde_json::from_str(&std::fs::read_to_string(d.join("cal/g_min.json")).unwrap()).unwrap();
+    assert_eq!(table.entries.len(), 2, "{table:?}");
+    let past = |m: f64| table.min_past_contact("crisps_can_empty", m).unwrap();
+    assert!(past(450.0) > past(0.0) + 0.01, "{table:?}");
+    // scoring the log re-judges every attempt and agrees with the runner's own verdict
+    let rows: Vec<serde_json::Value> =
+        serde_json::from_str(&std::fs::read_to_string(d.join("cal/outcomes.json")).unwrap())
+            .unwrap();
+    for (i, row) in rows.iter().enumerate() {
+        let trial = tmo::trial::read_trial(&d.join(format!("cal/trial-{i:05}.mcap"))).unwrap();
+        let calibrated = trial
+            .events
+            .iter()
+            .find(|e| e.topic == "/phase" && e.data["phase"] == "calibrated")
+            .expect("every sweep found its g_min");
+        assert_eq!(row["g_min"], calibrated.data["g_min"], "{row}");
+    }
+
+    std::fs::write(
+        d.join("lift.toml"),
+        format!(
+            "kind = \"first_time_lift\"\nmodels = [\"global.json\"]\nrepetitions = 3\n[first_time_lift]\n{masses}calibration = \"cal/g_min.json\"\n"
+        ),
+    )
+    .unwrap();
+    let stdout = ok(&tmo(d, &["run", "lift.toml", "--out", "lift"]));
+    assert!(stdout.contains("overgrasp"), "{stdout}");
+    let rows: Vec<serde_json::Value> =
+        serde_json::from_str(&std::fs::read_to_string(d.join("lift/outcomes.json")).unwrap())
+            .unwrap();
+    assert_eq!(rows.len(), 6);
+    let heavy: Vec<_> = rows.iter().filter(|r| r["mass_g"] == 450.0).collect();
+    assert!(rows.iter().all(|r| r["success"] == true), "{rows:?}");
+    // the heavy can slips off the contact grasp, so the hand tightened and overgrasp is known
+    assert!(
+        heavy.iter().all(|r| r["slips"].as_u64().unwrap() >= 1),
+        "{heavy:?}"
+    );
+    assert!(
+        heavy.iter().all(|r| r["overgrasp"].is_number()),
+        "{heavy:?}"
+    );
+    let trial = tmo::trial::read_trial(&d.join("lift/trial-00005.mcap")).unwrap();
+    assert_eq!(trial.meta.kind, "first_time_lift");
+    assert_eq!(trial.meta.parameters["extra_mass_g"], "450.0");
+}

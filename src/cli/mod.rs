@@ -1,6 +1,7 @@
 //! Subcommands: argument types and the glue from them to the library.
 
 pub mod run;
+pub mod run_tables;
 pub mod sim;
 pub mod slip;
 pub mod sweep;

@@ -1,13 +1,17 @@
 //! `tmo run PROTOCOL.toml`: a batch of trials, their logs and their outcome table.
 
-use std::collections::BTreeMap;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result};
+use tmo::protocol::KindParams;
 use tmo::protocol::{self, Kind};
-use tmo::runner::batch::{self, OutcomeRow};
+use tmo::runner::batch;
+use tmo::runner::score::{self, CalibrationRow, GMinTable, LiftRow, OutcomeRow};
+use tmo::runner::sim_trial::run_sim_trial;
 use tmo::slip::model::ModelFile;
 use tmo::trial::{read_trial, sha256_hex, write_trial};
+
+use super::run_tables as tables;
 
 /// Exit code of a batch stopped by Ctrl-C (128 + SIGINT, as shells report it).
 pub const EXIT_INTERRUPTED: i32 = 130;
@@ -69,15 +73,17 @@ pub fn run(args: RunArgs) -> Result<()> {
         anyhow::ensure!(n >= 1, "--repeat must be at least 1");
         plan.repetitions = n;
     }
-    anyhow::ensure!(
-        matches!(
-            plan.kind,
-            Kind::HandRelease | Kind::RailCatch | Kind::RicePour
-        ),
-        "{}: {} protocols cannot run yet (hand_release, rail_catch and rice_pour so far)",
-        args.protocol.display(),
-        plan.kind
-    );
+    let g_min = match &plan.params {
+        KindParams::FirstTimeLift(p) => p
+            .calibration
+            .as_deref()
+            .map(GMinTable::load)
+            .transpose()
+            .with_context(|| {
+            format!("{}: first_time_lift.calibration", args.protocol.display())
+        })?,
+        _ => None,
+    };
     let mut models = Vec::new();
     for path in &plan.models {
         let bytes =
@@ -123,6 +129,7 @@ pub fn run(args: RunArgs) -> Result<()> {
         .context("cannot install the Ctrl-C handler")?;
 
     let spec = batch::catch_spec(&plan);
+    let onset_mm = plan.outcome.onset_threshold_mm;
     let bar = indicatif::ProgressBar::new(trials.len() as u64);
     bar.set_style(
         indicatif::ProgressStyle::with_template(
@@ -132,7 +139,7 @@ pub fn run(args: RunArgs) -> Result<()> {
         .progress_chars("=> "),
     );
     let started = std::time::Instant::now();
-    let mut rows: Vec<OutcomeRow> = Vec::new();
+    let mut rows = Rows::default();
     let (mut ran, mut kept) = (0, 0);
     for t in &trials {
         let path = batch::trial_path(&out, t);
@@ -144,7 +151,7 @@ pub fn run(args: RunArgs) -> Result<()> {
             let unix = std::time::SystemTime::now()
                 .duration_since(std::time::UNIX_EPOCH)
                 .map_or(0, |d| d.as_secs());
-            let trial = batch::run_sim_trial(&plan, t, &models, unix, &stop)
+            let trial = run_sim_trial(&plan, t, &models, unix, &stop)
                 .with_context(|| format!("trial {}", t.trial_id))?;
             if stop.load(std::sync::atomic::Ordering::Relaxed) {
                 bar.finish_and_clear();
@@ -162,99 +169,109 @@ pub fn run(args: RunArgs) -> Result<()> {
             ran += 1;
         }
         let trial = read_trial(&path)?;
-        let row = batch::score_trial(&trial, &spec);
-        bar.set_message(format!("{}: {:?}", t.trial_id, row.verdict));
-        rows.push(row);
+        let message = match &plan.params {
+            KindParams::FirstTimeLift(_) => {
+                let row = score::score_first_time_lift(&trial, onset_mm, g_min.as_ref());
+                let m = if row.success { "lifted" } else { "not lifted" };
+                rows.lift.push(row);
+                m.to_string()
+            }
+            KindParams::CalibrateLift(p) => {
+                let row = score::score_calibration(&trial, onset_mm, p.max_slide_mm);
+                let m = row
+                    .g_min
+                    .map_or("no g_min".into(), |g| format!("g_min {g:.3}"));
+                rows.calibration.push(row);
+                m
+            }
+            _ => {
+                let row = score::score_trial(&trial, &spec);
+                let m = format!("{:?}", row.verdict);
+                rows.catch.push(row);
+                m
+            }
+        };
+        bar.set_message(format!("{}: {message}", t.trial_id));
         bar.inc(1);
     }
     bar.finish_and_clear();
 
     let csv_path = out.join("outcomes.csv");
-    let mut w = csv::Writer::from_writer(Vec::new());
-    for r in &rows {
-        w.serialize(r)?;
-    }
-    write_atomic(&csv_path, &w.into_inner()?)?;
     let json_path = out.join("outcomes.json");
-    write_atomic(&json_path, serde_json::to_string_pretty(&rows)?.as_bytes())?;
-
+    rows.write(&csv_path, &json_path)?;
     println!(
         "{} trials ({ran} run, {kept} already there) in {:.1} s",
-        rows.len(),
+        trials.len(),
         started.elapsed().as_secs_f64()
     );
-    if plan.kind == Kind::RicePour {
-        print_pour_table(&rows);
-    } else {
-        print_table(&rows);
+    match plan.kind {
+        Kind::RicePour => tables::pour(&rows.catch),
+        Kind::RailCatch => tables::rail(&rows.catch),
+        Kind::HandRelease => tables::hand(&rows.catch),
+        Kind::FirstTimeLift => tables::lift(&rows.lift, g_min.is_some()),
+        Kind::CalibrateLift => tables::calibration(&rows.calibration),
     }
-    let aborted = rows.iter().filter(|r| r.fault.is_some()).count();
-    if aborted > 0 {
-        println!("{aborted} trial(s) aborted by a sensor fault (see the fault column)");
+    let mut outputs = vec![
+        csv_path.display().to_string(),
+        json_path.display().to_string(),
+    ];
+    if plan.kind == Kind::CalibrateLift {
+        let table = GMinTable::from_rows(&rows.calibration);
+        let path = out.join("g_min.json");
+        write_atomic(&path, serde_json::to_string_pretty(&table)?.as_bytes())?;
+        outputs.push(format!(
+            "{} (for first_time_lift.calibration)",
+            path.display()
+        ));
+    }
+    outputs.push(out.join("batch.json").display().to_string());
+    if rows.aborted > 0 {
+        println!(
+            "{} trial(s) aborted by a fault (see the fault column)",
+            rows.aborted
+        );
     }
     println!(
-        "wrote {} trial logs, {}, {} and {}",
+        "wrote trial logs to {}, and {}",
         out.display(),
-        csv_path.display(),
-        json_path.display(),
-        out.join("batch.json").display()
+        outputs.join(", ")
     );
     Ok(())
 }
 
-/// scope | strategy | grasp | TP | FP | FN | D (mm), as the paper's Table II.
-fn print_table(rows: &[OutcomeRow]) {
-    let mut cells: BTreeMap<(String, String, String), Vec<&OutcomeRow>> = BTreeMap::new();
-    for r in rows {
-        cells
-            .entry((
-                r.scope.clone(),
-                r.strategy.clone(),
-                format!("{}", r.grasp_deg),
-            ))
-            .or_default()
-            .push(r);
-    }
-    println!(
-        "{:<8} {:<9} {:>6} {:>4} {:>4} {:>4} {:>7}",
-        "scope", "strategy", "grasp", "TP", "FP", "FN", "D (mm)"
-    );
-    for ((scope, strategy, grasp), rs) in cells {
-        let count = |v: tmo::outcome::Verdict| rs.iter().filter(|r| r.verdict == v).count();
-        let d: Vec<f64> = rs.iter().filter_map(|r| r.slip_distance_mm).collect();
-        let mean_d = if d.is_empty() {
-            "-".to_string()
-        } else {
-            format!("{:.1}", d.iter().sum::<f64>() / d.len() as f64)
-        };
-        println!(
-            "{scope:<8} {strategy:<9} {grasp:>6} {:>4} {:>4} {:>4} {mean_d:>7}",
-            count(tmo::outcome::Verdict::TruePositive),
-            count(tmo::outcome::Verdict::FalsePositive),
-            count(tmo::outcome::Verdict::FalseNegative),
-        );
-    }
+/// A batch's scored trials; one kind of row per protocol kind.
+#[derive(Default)]
+struct Rows {
+    catch: Vec<OutcomeRow>,
+    lift: Vec<LiftRow>,
+    calibration: Vec<CalibrationRow>,
+    aborted: usize,
 }
 
-/// object | trials | responses | dropped, as the paper's rice-pour results.
-fn print_pour_table(rows: &[OutcomeRow]) {
-    let mut cells: BTreeMap<(String, String), Vec<&OutcomeRow>> = BTreeMap::new();
+fn write_rows<T: serde::Serialize>(rows: &[T], csv_path: &Path, json_path: &Path) -> Result<()> {
+    let mut w = csv::Writer::from_writer(Vec::new());
     for r in rows {
-        cells
-            .entry((r.object.clone(), r.strategy.clone()))
-            .or_default()
-            .push(r);
+        w.serialize(r)?;
     }
-    println!(
-        "{:<16} {:<9} {:>6} {:>10} {:>8}",
-        "object", "strategy", "trials", "responses", "dropped"
-    );
-    for ((object, strategy), rs) in cells {
-        println!(
-            "{object:<16} {strategy:<9} {:>6} {:>10} {:>8}",
-            rs.len(),
-            rs.iter().map(|r| r.responses).sum::<usize>(),
-            rs.iter().filter(|r| r.dropped).count()
-        );
+    write_atomic(csv_path, &w.into_inner()?)?;
+    write_atomic(json_path, serde_json::to_string_pretty(rows)?.as_bytes())
+}
+
+impl Rows {
+    fn write(&mut self, csv_path: &Path, json_path: &Path) -> Result<()> {
+        self.aborted = self.catch.iter().filter(|r| r.fault.is_some()).count()
+            + self.lift.iter().filter(|r| r.fault.is_some()).count()
+            + self
+                .calibration
+                .iter()
+                .filter(|r| r.fault.is_some())
+                .count();
+        if !self.lift.is_empty() {
+            write_rows(&self.lift, csv_path, json_path)
+        } else if !self.calibration.is_empty() {
+            write_rows(&self.calibration, csv_path, json_path)
+        } else {
+            write_rows(&self.catch, csv_path, json_path)
+        }
     }
 }

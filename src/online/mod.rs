@@ -2,4 +2,5 @@
 //! `NFr x NSen` strategy into the hand's reaction (SPEC.md, "Online strategy").
 
 pub mod classify;
+pub mod contact;
 pub mod strategy;

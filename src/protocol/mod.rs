@@ -129,9 +129,19 @@ pub struct Plan {
 }
 
 impl Plan {
-    /// Trials in the batch: objects x grasps x models x strategies x repetitions.
+    /// Masses added to the object, one grid level each (`[0]` for kinds without masses).
+    pub fn masses_g(&self) -> Vec<f64> {
+        match &self.params {
+            KindParams::FirstTimeLift(p) => p.masses_g.clone(),
+            KindParams::CalibrateLift(p) => p.masses_g.clone(),
+            _ => vec![0.0],
+        }
+    }
+
+    /// Trials in the batch: objects x masses x grasps x models x strategies x repetitions.
     pub fn trial_count(&self) -> usize {
         self.objects.len()
+            * self.masses_g().len()
             * self.grasps_deg.len()
             * self.models.len().max(1)
             * self.strategies.len().max(1)
@@ -366,7 +376,7 @@ pub fn validate(
             ));
         }
     }
-    let params = match file.kind {
+    let mut params = match file.kind {
         Kind::RailCatch => KindParams::RailCatch(file.rail_catch.clone().unwrap_or_default()),
         Kind::HandRelease => KindParams::HandRelease(file.hand_release.clone().unwrap_or_default()),
         Kind::RicePour => KindParams::RicePour(file.rice_pour.clone().unwrap_or_default()),
@@ -380,6 +390,21 @@ pub fn validate(
     params
         .check()
         .map_err(|(section, f, m)| err(&format!("{section}.{f}"), m))?;
+    if let KindParams::FirstTimeLift(p) = &mut params {
+        if let Some(c) = p.calibration.as_mut() {
+            let resolved = base.join(&*c);
+            if !resolved.is_file() {
+                return Err(err(
+                    "first_time_lift.calibration",
+                    format!(
+                        "calibration table {} not found; expected the g_min.json a calibrate_lift batch writes",
+                        resolved.display()
+                    ),
+                ));
+            }
+            *c = resolved;
+        }
+    }
     if let (KindParams::HandRelease(p), Mode::Online) = (&params, file.mode) {
         if p.lift_mm <= file.outcome.drop_limit_mm {
             return Err(err(

@@ -144,32 +144,39 @@ impl Default for RicePour {
 #[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct FirstTimeLift {
-    /// Mean pin displacement that counts as contact, px.
+    /// Mean pin displacement that counts as contact, px (on every sensor).
     pub deformation_px: f64,
+    /// Closing speed while looking for contact, fraction of the servos' maximum speed.
+    pub approach_speed_of_max: f64,
     pub lift_speed_mm_s: f64,
     pub lift_height_mm: f64,
+    /// Hold at the top before the lift is judged and the object lowered, s.
+    pub hold_s: f64,
     /// On slip: close by this fraction of the range, then pause.
     pub close_step: f64,
     pub pause_s: f64,
-    /// Masses added to the object, g (one grid level each).
+    /// Masses added to the object, g (one grid level each). The paper's crisps can, empty
+    /// (50 g) and filled, weighs 50, 100, 150, 200, 300, 400 and 500 g in all.
     pub masses_g: Vec<f64>,
-    /// The calibration batch's g_min table (from `calibrate_lift`), for overgrasp.
+    /// The g_min table a `calibrate_lift` batch wrote (`g_min.json`), for overgrasp;
+    /// relative to the protocol file.
     pub calibration: Option<std::path::PathBuf>,
-    pub max_duration_s: f64,
 }
 
 impl Default for FirstTimeLift {
     fn default() -> Self {
         Self {
             deformation_px: 0.5,
+            // "slowly closing the hand" in the paper; 1 % of full speed is ours
+            approach_speed_of_max: 0.01,
             lift_speed_mm_s: 17.0,
             lift_height_mm: 50.0,
+            hold_s: 1.0,
             close_step: 0.01,
             pause_s: 0.1,
-            // seven levels over the paper's 50..500 g
-            masses_g: vec![50.0, 100.0, 150.0, 200.0, 300.0, 400.0, 500.0],
+            // the paper's seven totals, 50..500 g, on the empty can (50 g)
+            masses_g: vec![0.0, 50.0, 100.0, 150.0, 250.0, 350.0, 450.0],
             calibration: None,
-            max_duration_s: 60.0,
         }
     }
 }
@@ -179,10 +186,14 @@ impl Default for FirstTimeLift {
 #[serde(deny_unknown_fields, default)]
 pub struct Calibration {
     pub deformation_px: f64,
+    pub approach_speed_of_max: f64,
     /// Closure step between attempts past contact, fraction of the range.
     pub step: f64,
     pub lift_speed_mm_s: f64,
     pub lift_height_mm: f64,
+    pub hold_s: f64,
+    /// An attempt lifts the object if the hand slid up it by at most this, mm.
+    pub max_slide_mm: f64,
     pub masses_g: Vec<f64>,
 }
 
@@ -191,9 +202,13 @@ impl Default for Calibration {
         let lift = FirstTimeLift::default();
         Self {
             deformation_px: lift.deformation_px,
+            approach_speed_of_max: lift.approach_speed_of_max,
             step: 0.005,
             lift_speed_mm_s: lift.lift_speed_mm_s,
             lift_height_mm: lift.lift_height_mm,
+            hold_s: lift.hold_s,
+            // ours: twice the marker tracker's noise, well below a slide
+            max_slide_mm: 2.0,
             masses_g: lift.masses_g,
         }
     }
@@ -240,14 +255,30 @@ impl KindParams {
                 in_range(s, "lift_speed_mm_s", p.lift_speed_mm_s, 0.1, 250.0)?;
                 in_range(s, "lift_height_mm", p.lift_height_mm, 1.0, 300.0)?;
                 in_range(s, "close_step", p.close_step, 1e-4, 0.2)?;
+                in_range(
+                    s,
+                    "approach_speed_of_max",
+                    p.approach_speed_of_max,
+                    1e-4,
+                    0.5,
+                )?;
+                in_range(s, "hold_s", p.hold_s, 0.0, 60.0)?;
                 in_range(s, "pause_s", p.pause_s, 0.0, 10.0)?;
-                in_range(s, "max_duration_s", p.max_duration_s, 1.0, 600.0)?;
                 masses(s, &p.masses_g)
             }
             KindParams::CalibrateLift(p) => {
                 let s = "calibrate_lift";
                 in_range(s, "deformation_px", p.deformation_px, 0.01, 20.0)?;
                 in_range(s, "step", p.step, 1e-4, 0.2)?;
+                in_range(
+                    s,
+                    "approach_speed_of_max",
+                    p.approach_speed_of_max,
+                    1e-4,
+                    0.5,
+                )?;
+                in_range(s, "hold_s", p.hold_s, 0.0, 60.0)?;
+                in_range(s, "max_slide_mm", p.max_slide_mm, 0.1, 100.0)?;
                 in_range(s, "lift_speed_mm_s", p.lift_speed_mm_s, 0.1, 250.0)?;
                 in_range(s, "lift_height_mm", p.lift_height_mm, 1.0, 300.0)?;
                 masses(s, &p.masses_g)
@@ -268,7 +299,7 @@ pub fn default_objects(kind: Kind) -> Vec<String> {
             "banana",
         ],
         Kind::RicePour => &["crisps_can"],
-        Kind::FirstTimeLift | Kind::CalibrateLift => &["crisps_can"],
+        Kind::FirstTimeLift | Kind::CalibrateLift => &["crisps_can_empty"],
     };
     names.iter().map(|s| s.to_string()).collect()
 }

@@ -95,7 +95,7 @@ fn collect_mode_needs_no_model() {
     assert_eq!(plan.trial_count(), 4);
 }
 
-/// Every example in `protocols/` is valid once the models it names exist.
+/// Every example in `protocols/` is valid once the models and tables it names exist.
 #[test]
 fn the_example_protocols_are_valid() {
     let examples = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("protocols");
@@ -109,7 +109,11 @@ fn the_example_protocols_are_valid() {
         let text = std::fs::read_to_string(&path).unwrap();
         let file = ProtocolFile::parse(&path, &text).unwrap();
         std::fs::create_dir_all(dir.path().join("protocols")).unwrap();
-        for m in &file.models {
+        let tables = file
+            .first_time_lift
+            .iter()
+            .filter_map(|p| p.calibration.clone());
+        for m in file.models.iter().cloned().chain(tables) {
             let model = dir.path().join("protocols").join(m);
             std::fs::create_dir_all(model.parent().unwrap()).unwrap();
             std::fs::write(model, "{}").unwrap();
@@ -121,4 +125,19 @@ fn the_example_protocols_are_valid() {
         seen += 1;
     }
     assert_eq!(seen, 7);
+}
+
+#[test]
+fn first_time_lift_grids_over_masses_and_names_a_missing_calibration_table() {
+    let lift = "kind = \"first_time_lift\"\nmodels = [\"m.json\"]\nrepetitions = 2\n";
+    let plan = check(lift).unwrap();
+    assert_eq!(plan.masses_g().len(), 7);
+    assert_eq!(plan.trial_count(), 7 * 2, "crisps can x 7 masses x 1x1 x 2");
+    let e = check(&format!(
+        "{lift}\n[first_time_lift]\ncalibration = \"g_min.json\"\n"
+    ))
+    .unwrap_err();
+    assert_eq!(e.field, "first_time_lift.calibration", "{e}");
+    assert_eq!(e.line, 6, "{e}");
+    assert!(e.message.contains("calibrate_lift"), "{e}");
 }

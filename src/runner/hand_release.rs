@@ -169,28 +169,10 @@ mod tests {
     use tmo_hal::{HandPositions, PinFrame};
 
     use super::*;
-    use crate::runner::mocks::{MockArm, MockHand, MockMarkers, MockSensor};
+    use crate::runner::mocks::{
+        threshold_model, MockArm, MockHand, MockMarkers, MockSensor, SharedClock, PINS,
+    };
     use crate::runner::Fault;
-    use crate::slip::dataset::{LabelSpec, Scope};
-    use crate::slip::features::FeatureSpec;
-    use crate::slip::model::{Classifier, ClassifierKind, ModelFile, SensorModel, MODEL_FORMAT};
-    use crate::slip::threshold::ThresholdModel;
-
-    /// A virtual clock the mocks can read.
-    #[derive(Clone, Default)]
-    struct SharedClock(Arc<Mutex<f64>>);
-
-    impl Clock for SharedClock {
-        fn now_s(&self) -> f64 {
-            *self.0.lock().unwrap()
-        }
-        fn sleep_until(&mut self, time_s: f64) {
-            let mut t = self.0.lock().unwrap();
-            *t = t.max(time_s);
-        }
-    }
-
-    const PINS: usize = 4;
 
     /// What a mock sensor does: from `slip_from_s` all pins move 2 px per frame (slip for
     /// a threshold of 0.5 px/frame); from `silent_from_s` it sends nothing; from
@@ -237,35 +219,6 @@ mod tests {
             }))
         });
         s
-    }
-
-    fn threshold_model() -> ModelFile {
-        ModelFile {
-            format: MODEL_FORMAT.into(),
-            version: crate::slip::model::MODEL_FORMAT_VERSION,
-            classifier: ClassifierKind::Threshold,
-            hyperparameters: Default::default(),
-            features: FeatureSpec::new(PINS),
-            labels: LabelSpec {
-                n_slip: 5,
-                onset: Default::default(),
-            },
-            downsample: 1.0,
-            seed: 0,
-            scope: Scope::Global,
-            sensors: vec![0, 1, 2],
-            models: vec![SensorModel {
-                sensor: None,
-                scaler: None,
-                classifier: Classifier::Threshold(ThresholdModel { threshold: 0.5 }),
-                training_rows: 0,
-                training_scores: Default::default(),
-            }],
-            training_trials: vec![],
-            search: None,
-            tmo_version: String::new(),
-            git_revision: String::new(),
-        }
     }
 
     const CLOSURE: f64 = 0.4;

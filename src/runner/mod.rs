@@ -2,13 +2,17 @@
 //! backends (issue 4, in progress).
 
 pub mod batch;
+pub mod calibrate;
 pub mod hand_release;
+pub mod lift;
 #[cfg(test)]
 pub(crate) mod mocks;
 pub mod monitor;
 pub mod rail_catch;
 pub mod rice_pour;
 pub mod safety;
+pub mod score;
+pub mod sim_trial;
 
 use serde_json::json;
 use tmo_hal::{Arm, Clock, Hand, MarkerTracker, TactileSensor};
@@ -32,6 +36,10 @@ pub enum Fault {
     },
     /// The operator stopped the batch (Ctrl-C).
     Interrupted,
+    /// The fingers closed as far as allowed without the pins showing contact.
+    NoContact {
+        deformation_px: f64,
+    },
 }
 
 /// The model and strategy of an online trial.

@@ -13,6 +13,8 @@
 //!
 //! A trial with no onset and no reaction is a `NoSlip` trial (nothing to catch).
 
+pub mod lift;
+
 use tmo_hal::MarkerSample;
 
 use crate::slip::labels::{slip_onset, OnsetSpec};

@@ -1,0 +1,267 @@
+//! Runs a planned trial on the simulated rig: the rig each protocol kind needs, the
+//! runner behind the safety limits, and the trial log with its provenance.
+
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use tmo_hal::sim::{HandSetup, ObjectStart, RigSetup, SimConfig, SimRig};
+
+use super::batch::{BatchError, PlannedTrial};
+use super::calibrate::{run_calibration, CalibrationParams};
+use super::hand_release::{run_release, ReleaseParams};
+use super::lift::{run_first_time_lift, LiftParams};
+use super::rail_catch::{run_rail, RailParams};
+use super::rice_pour::{run_pour, PourParams};
+use super::safety::{SafeArm, SafeHand, SafetyLimits};
+use super::Online;
+use crate::collect::{hand_release_rig, CollectError};
+use crate::protocol::{KindParams, Mode, Plan};
+use crate::scenario::Devices;
+use crate::sim_presets::{self, Preset, PresetOptions};
+use crate::slip::model::ModelFile;
+use crate::trial::{Trial, TrialMeta, TRIAL_FORMAT_VERSION};
+
+/// The object standing on the table between fingers open `gap` short of contact.
+fn on_table_rig(
+    base: &SimConfig,
+    planned: &PlannedTrial,
+    gap: f64,
+) -> Result<SimConfig, BatchError> {
+    let contact = sim_presets::contact_closure(base, &planned.object)?;
+    let mut config = base.clone();
+    config.rig = RigSetup::Hand(HandSetup {
+        object: planned.object.clone(),
+        extra_mass_g: planned.extra_mass_g,
+        grasp_deg: planned.grasp_deg,
+        initial_closure: (contact - gap).max(0.0),
+        start: ObjectStart::OnTable,
+        ..Default::default()
+    });
+    Ok(config)
+}
+
+/// The simulated rig's devices behind the safety limits, as the runner always drives them.
+fn safe_sim_devices(
+    rig: &SimRig,
+) -> Devices<
+    tmo_hal::sim::SimClock,
+    SafeHand<tmo_hal::sim::SimHand>,
+    SafeArm<tmo_hal::sim::SimArm>,
+    tmo_hal::sim::SimMarkerTracker,
+    tmo_hal::sim::SimTactileSensor,
+> {
+    let limits = SafetyLimits::default();
+    Devices {
+        clock: rig.clock(),
+        hand: SafeHand::new(rig.hand(), limits),
+        arm: SafeArm::new(rig.arm(), limits),
+        markers: rig.marker_tracker(),
+        sensors: rig.tactile_sensors(),
+    }
+}
+
+/// Runs one planned trial on the simulator and returns its log.
+pub fn run_sim_trial(
+    plan: &Plan,
+    planned: &PlannedTrial,
+    models: &[(ModelFile, String)],
+    started_unix_s: u64,
+    stop: &std::sync::atomic::AtomicBool,
+) -> Result<Trial, BatchError> {
+    let base = SimConfig {
+        seed: planned.seed,
+        ..SimConfig::default()
+    };
+    let mut rng = ChaCha8Rng::seed_from_u64(planned.seed);
+    rng.set_stream(7);
+    let online = match (plan.mode, planned.model, planned.strategy) {
+        (Mode::Online, Some(m), Some(strategy)) => Some(Online {
+            model: &models[m].0,
+            strategy,
+        }),
+        _ => None,
+    };
+    let mut parameters = std::collections::BTreeMap::new();
+    let mut put = |k: &str, v: String| {
+        parameters.insert(k.to_string(), v);
+    };
+    let (config, rig, record) = match &plan.params {
+        KindParams::HandRelease(p) => {
+            let options = PresetOptions {
+                object: Some(planned.object.clone()),
+                grasp_deg: planned.grasp_deg,
+                ..Default::default()
+            };
+            // "Closed until stable": the simulator knows the grasp that holds each object;
+            // the safety factor varies from trial to trial as a hand-set grasp would.
+            let safety: f64 = rng.gen_range(1.2..1.8);
+            let (config, closure, _) = hand_release_rig(&base, &options, safety)?;
+            let rig = SimRig::new(config.clone())?;
+            let mut devices = safe_sim_devices(&rig);
+            let release_speed_per_s = p.release_speed_of_max * config.servo.max_speed_per_s;
+            let params = ReleaseParams {
+                closure,
+                close_speed_per_s: 0.05,
+                lift_mm: p.lift_mm,
+                lift_speed_mm_s: 40.0,
+                hold_s: p.hold_s,
+                release_speed_per_s,
+                regrasp: p.regrasp,
+                observe_s: 1.5,
+                max_duration_s: p.max_duration_s,
+                watch: Default::default(),
+            };
+            put("grip_safety", format!("{safety:.4}"));
+            put("closure", format!("{closure:.4}"));
+            put("release_speed_per_s", format!("{release_speed_per_s:.5}"));
+            let record = run_release(&mut devices, &params, online, stop)?;
+            (config, rig, record)
+        }
+        KindParams::RailCatch(p) => {
+            let [lo, hi] = p.retract_speed_mm_s;
+            let speed = if hi > lo { rng.gen_range(lo..hi) } else { lo };
+            let options = PresetOptions {
+                object: Some(planned.object.clone()),
+                retract_speed_mm_s: speed,
+                ..Default::default()
+            };
+            let (config, _) = sim_presets::build(Preset::Rail, &options, base.clone())
+                .map_err(CollectError::from)?;
+            let rig = SimRig::new(config.clone())?;
+            let mut devices = safe_sim_devices(&rig);
+            let params = RailParams {
+                retract_speed_mm_s: speed,
+                retract_mm: 10.0,
+                forward_mm: p.forward_mm,
+                forward_speed_mm_s: 20.0,
+                torque_limit: 0.8,
+                torque_step: p.torque_step,
+                observe_s: 1.5,
+                // slip comes after about 1.2 mm of retraction
+                max_duration_s: (3.0 / speed + 1.5).min(p.max_duration_s),
+                watch: Default::default(),
+            };
+            put("retract_speed_mm_s", format!("{speed:.4}"));
+            let record = run_rail(&mut devices, &params, online, stop)?;
+            (config, rig, record)
+        }
+        KindParams::RicePour(p) => {
+            let options = PresetOptions {
+                object: Some(planned.object.clone()),
+                grasp_deg: planned.grasp_deg,
+                pour_rate_g_per_s: p.pour_rate_g_per_s,
+                ..Default::default()
+            };
+            // the preset holds the object with 1.2x the friction it needs: a light grasp
+            let (config, _) = sim_presets::build(Preset::Pour, &options, base.clone())
+                .map_err(CollectError::from)?;
+            let rig = SimRig::new(config.clone())?;
+            let mut devices = safe_sim_devices(&rig);
+            let params = PourParams {
+                regrasp: p.regrasp,
+                max_closure: SafetyLimits::default().max_grip,
+                // the pour starts 0.5 s in; watch 1 s after it ends
+                duration_s: (0.5 + p.total_g / p.pour_rate_g_per_s + 1.0).min(p.max_duration_s),
+                watch: Default::default(),
+            };
+            put("pour_rate_g_per_s", format!("{:.3}", p.pour_rate_g_per_s));
+            put("total_g", format!("{:.1}", p.total_g));
+            let record = run_pour(&mut devices, &params, online, stop)?;
+            (config, rig, record)
+        }
+        KindParams::FirstTimeLift(p) => {
+            let config = on_table_rig(&base, planned, 0.04)?;
+            let rig = SimRig::new(config.clone())?;
+            let mut devices = safe_sim_devices(&rig);
+            let params = LiftParams {
+                deformation_px: p.deformation_px,
+                approach_speed_per_s: p.approach_speed_of_max * config.servo.max_speed_per_s,
+                max_closure: SafetyLimits::default().max_grip,
+                lift_mm: p.lift_height_mm,
+                lift_speed_mm_s: p.lift_speed_mm_s,
+                close_step: p.close_step,
+                pause_s: p.pause_s,
+                hold_s: p.hold_s,
+                watch: Default::default(),
+            };
+            put("extra_mass_g", format!("{:.1}", planned.extra_mass_g));
+            let record = run_first_time_lift(&mut devices, &params, online, stop)?;
+            (config, rig, record)
+        }
+        KindParams::CalibrateLift(p) => {
+            let config = on_table_rig(&base, planned, 0.04)?;
+            let rig = SimRig::new(config.clone())?;
+            let mut devices = safe_sim_devices(&rig);
+            let params = CalibrationParams {
+                deformation_px: p.deformation_px,
+                approach_speed_per_s: p.approach_speed_of_max * config.servo.max_speed_per_s,
+                max_closure: SafetyLimits::default().max_grip,
+                step: p.step,
+                lift_mm: p.lift_height_mm,
+                lift_speed_mm_s: p.lift_speed_mm_s,
+                hold_s: p.hold_s,
+                max_slide_mm: p.max_slide_mm,
+                watch: Default::default(),
+            };
+            put("extra_mass_g", format!("{:.1}", planned.extra_mass_g));
+            let record = run_calibration(&mut devices, &params, stop)?;
+            (config, rig, record)
+        }
+    };
+    put("repetition", planned.repetition.to_string());
+    if let Some(s) = planned.strategy {
+        put("strategy", s.to_string());
+    }
+    if let Some(m) = planned.model {
+        put("model", plan.models[m].display().to_string());
+        put("scope", format!("{:?}", models[m].0.scope).to_lowercase());
+    }
+    if let Some(a) = record.armed_s {
+        put("armed_s", format!("{a:.4}"));
+    }
+    if let Some(f) = record.fault {
+        put("fault", serde_json::to_string(&f).unwrap_or_default());
+    }
+    if let Some(r) = record.reaction {
+        put("reaction_s", format!("{:.4}", r.time_s));
+        put("reaction_sensor", r.sensor.to_string());
+        put("reaction_seq", r.seq.to_string());
+    }
+    // Ground truth for diagnostics only; scoring never reads it.
+    let events = rig.probe().events();
+    put(
+        "sim_truth_slip_onsets_s",
+        events
+            .slip_onsets_s
+            .iter()
+            .map(|t| format!("{t:.4}"))
+            .collect::<Vec<_>>()
+            .join(","),
+    );
+    let (tmo_version, git_revision) = TrialMeta::code_version();
+    Ok(Trial {
+        meta: TrialMeta {
+            format_version: TRIAL_FORMAT_VERSION,
+            trial_id: planned.trial_id.clone(),
+            kind: match plan.mode {
+                Mode::Online => plan.kind.to_string(),
+                Mode::Collect => format!("{}_collect", plan.kind),
+            },
+            backend: "sim".into(),
+            seed: planned.seed,
+            object: planned.object.clone(),
+            grasp_deg: planned.grasp_deg,
+            sensors: rig.tactile_sensors().len() as u8,
+            pins: config.tactip.pins,
+            tmo_version,
+            git_revision,
+            protocol: Some(plan.source.display().to_string()),
+            protocol_sha256: Some(plan.source_sha256.clone()),
+            model_sha256: planned.model.map(|m| models[m].1.clone()),
+            started_unix_s,
+            parameters,
+        },
+        frames: record.recording.frames,
+        markers: record.recording.markers,
+        events: record.events,
+    })
+}
