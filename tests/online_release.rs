@@ -165,6 +165,7 @@ fn rail(speed: f64, seed: u64, online: Option<Online<'_>>) -> (Verdict, bool) {
         forward_speed_mm_s: 20.0,
         torque_limit: 0.8,
         torque_step: 0.05,
+        max_torque: 1.0,
         observe_s: 1.5,
         max_duration_s: 3.0 / speed + 1.5,
         watch: WatchLimits::default(),

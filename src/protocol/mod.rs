@@ -11,7 +11,9 @@ use std::path::{Path, PathBuf};
 use serde::Deserialize;
 
 use crate::online::strategy::Strategy;
-pub use params::{Calibration, FirstTimeLift, HandRelease, Outcome, RailCatch, RicePour};
+pub use params::{
+    Calibration, FirstTimeLift, HandRelease, Outcome, RailCatch, RicePour, SafetyLimits,
+};
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize, serde::Serialize)]
 #[serde(rename_all = "snake_case")]
@@ -73,6 +75,9 @@ pub struct ProtocolFile {
     pub strategies: Vec<String>,
     #[serde(default)]
     pub outcome: Outcome,
+    /// Limits checked before any command is sent; the defaults suit the T-MO on a UR5.
+    #[serde(default)]
+    pub safety: SafetyLimits,
     pub rail_catch: Option<RailCatch>,
     pub hand_release: Option<HandRelease>,
     pub rice_pour: Option<RicePour>,
@@ -125,6 +130,7 @@ pub struct Plan {
     pub models: Vec<PathBuf>,
     pub strategies: Vec<Strategy>,
     pub outcome: Outcome,
+    pub safety: SafetyLimits,
     pub params: KindParams,
 }
 
@@ -390,6 +396,19 @@ pub fn validate(
     params
         .check()
         .map_err(|(section, f, m)| err(&format!("{section}.{f}"), m))?;
+    file.safety
+        .check()
+        .map_err(|(section, f, m)| err(&format!("{section}.{f}"), m))?;
+    // What the protocol asks of the arm must be within the limits, or every trial would be
+    // refused mid-way.
+    for (field, value, limit, limit_field) in params.demands(&file.safety) {
+        if value > limit {
+            return Err(err(
+                field,
+                format!("expected at most {limit_field} ({limit}), got {value}"),
+            ));
+        }
+    }
     if let KindParams::FirstTimeLift(p) = &mut params {
         if let Some(c) = p.calibration.as_mut() {
             let resolved = base.join(&*c);
@@ -429,6 +448,7 @@ pub fn validate(
         models,
         strategies,
         outcome: file.outcome,
+        safety: file.safety,
         params,
     })
 }

@@ -62,6 +62,43 @@ impl Outcome {
     }
 }
 
+/// Limits the runner checks before any command reaches a device (`[safety]`).
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize, Serialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct SafetyLimits {
+    /// Largest finger target, fraction of the closing range.
+    pub max_grip: f64,
+    /// Largest finger torque limit, fraction of the maximum.
+    pub max_torque: f64,
+    /// Fastest arm motion, mm/s.
+    pub max_arm_speed_mm_s: f64,
+    /// Furthest the TCP may be from where it started, per axis, mm.
+    pub workspace_mm: [f64; 3],
+}
+
+impl Default for SafetyLimits {
+    fn default() -> Self {
+        Self {
+            max_grip: 0.95,
+            max_torque: 1.0,
+            max_arm_speed_mm_s: 100.0,
+            workspace_mm: [50.0, 50.0, 250.0],
+        }
+    }
+}
+
+impl SafetyLimits {
+    pub fn check(&self) -> Check {
+        let s = "safety";
+        in_range(s, "max_grip", self.max_grip, 0.05, 1.0)?;
+        in_range(s, "max_torque", self.max_torque, 0.05, 1.0)?;
+        in_range(s, "max_arm_speed_mm_s", self.max_arm_speed_mm_s, 1.0, 250.0)?;
+        self.workspace_mm
+            .iter()
+            .try_for_each(|w| in_range(s, "workspace_mm", *w, 1.0, 1000.0))
+    }
+}
+
 /// Single finger on the slip rail.
 #[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
 #[serde(deny_unknown_fields, default)]
@@ -70,6 +107,9 @@ pub struct RailCatch {
     pub retract_speed_mm_s: [f64; 2],
     /// On slip: arm moves this far forward, mm.
     pub forward_mm: f64,
+    /// Finger torque limit at the start, fraction of the maximum: what presses the object
+    /// against the rail.
+    pub initial_torque: f64,
     /// On slip: finger torque limit rises by this fraction of its maximum.
     pub torque_step: f64,
     /// Trial length limit, s.
@@ -81,6 +121,8 @@ impl Default for RailCatch {
         Self {
             retract_speed_mm_s: [0.1, 5.0],
             forward_mm: 1.5,
+            // ours: the paper does not give it
+            initial_torque: 0.8,
             // "rises a little" in the paper; 5 % is ours
             torque_step: 0.05,
             max_duration_s: 30.0,
@@ -223,6 +265,55 @@ fn masses(section: &'static str, m: &[f64]) -> Check {
 }
 
 impl KindParams {
+    /// Motions and forces the protocol asks for, against the safety limit each must respect:
+    /// `(field, value, limit, limit's field)`.
+    pub fn demands(&self, l: &SafetyLimits) -> Vec<(&'static str, f64, f64, &'static str)> {
+        let (speed, reach) = ("safety.max_arm_speed_mm_s", "safety.workspace_mm");
+        let (v, z) = (l.max_arm_speed_mm_s, l.workspace_mm[2]);
+        match self {
+            KindParams::RailCatch(p) => vec![
+                (
+                    "rail_catch.retract_speed_mm_s",
+                    p.retract_speed_mm_s[1],
+                    v,
+                    speed,
+                ),
+                (
+                    "rail_catch.forward_mm",
+                    p.forward_mm,
+                    l.workspace_mm[0],
+                    reach,
+                ),
+                (
+                    "rail_catch.initial_torque",
+                    p.initial_torque,
+                    l.max_torque,
+                    "safety.max_torque",
+                ),
+            ],
+            KindParams::HandRelease(p) => vec![("hand_release.lift_mm", p.lift_mm, z, reach)],
+            KindParams::RicePour(_) => vec![],
+            KindParams::FirstTimeLift(p) => vec![
+                (
+                    "first_time_lift.lift_speed_mm_s",
+                    p.lift_speed_mm_s,
+                    v,
+                    speed,
+                ),
+                ("first_time_lift.lift_height_mm", p.lift_height_mm, z, reach),
+            ],
+            KindParams::CalibrateLift(p) => vec![
+                (
+                    "calibrate_lift.lift_speed_mm_s",
+                    p.lift_speed_mm_s,
+                    v,
+                    speed,
+                ),
+                ("calibrate_lift.lift_height_mm", p.lift_height_mm, z, reach),
+            ],
+        }
+    }
+
     pub fn check(&self) -> Check {
         match self {
             KindParams::RailCatch(p) => {
@@ -231,6 +322,7 @@ impl KindParams {
                 in_range(s, "retract_speed_mm_s", lo, 0.01, 50.0)?;
                 in_range(s, "retract_speed_mm_s", hi, lo, 50.0)?;
                 in_range(s, "forward_mm", p.forward_mm, 0.0, 10.0)?;
+                in_range(s, "initial_torque", p.initial_torque, 0.05, 1.0)?;
                 in_range(s, "torque_step", p.torque_step, 0.0, 0.5)?;
                 in_range(s, "max_duration_s", p.max_duration_s, 1.0, 600.0)
             }

@@ -141,3 +141,30 @@ fn first_time_lift_grids_over_masses_and_names_a_missing_calibration_table() {
     assert_eq!(e.line, 6, "{e}");
     assert!(e.message.contains("calibrate_lift"), "{e}");
 }
+
+#[test]
+fn safety_limits_come_from_the_protocol_and_bound_what_it_asks() {
+    let plan = check(&format!("{MINIMAL}[safety]\nmax_grip = 0.8\n")).unwrap();
+    assert_eq!(plan.safety.max_grip, 0.8);
+    assert_eq!(
+        plan.safety.max_arm_speed_mm_s, 100.0,
+        "the rest keep their defaults"
+    );
+    let e = check(&format!("{MINIMAL}[safety]\nmax_grip = 1.5\n")).unwrap_err();
+    assert_eq!(e.field, "safety.max_grip", "{e}");
+    let e = check(&format!("{MINIMAL}[safety]\nmax_grp = 0.5\n")).unwrap_err();
+    assert!(e.message.contains("max_grp"), "{e}");
+    // a lift higher than the workspace allows would be refused mid-trial: refuse it now
+    let e = check(&format!(
+        "{MINIMAL}[hand_release]\nlift_mm = 200\n[safety]\nworkspace_mm = [50, 50, 150]\n"
+    ))
+    .unwrap_err();
+    assert_eq!(e.field, "hand_release.lift_mm", "{e}");
+    assert!(e.message.contains("safety.workspace_mm"), "{e}");
+    let rail = "kind = \"rail_catch\"\nmodels = [\"m.json\"]\nstrategies = [\"1x1\"]\n";
+    let e = check(&format!(
+        "{rail}[rail_catch]\ninitial_torque = 0.9\n[safety]\nmax_torque = 0.7\n"
+    ))
+    .unwrap_err();
+    assert_eq!(e.field, "rail_catch.initial_torque", "{e}");
+}

@@ -22,6 +22,8 @@ pub struct RailParams {
     /// Finger torque limit at the start, fraction of the maximum.
     pub torque_limit: f64,
     pub torque_step: f64,
+    /// The torque limit never rises past this.
+    pub max_torque: f64,
     pub observe_s: f64,
     pub max_duration_s: f64,
     pub watch: WatchLimits,
@@ -82,7 +84,7 @@ where
                 dev.arm
                     .move_linear([p.forward_mm, 0.0, 0.0], p.forward_speed_mm_s)
                     .map_err(device("arm"))?;
-                let torque = (p.torque_limit + p.torque_step).min(1.0);
+                let torque = (p.torque_limit + p.torque_step).min(p.max_torque);
                 dev.hand.set_torque_limit(torque).map_err(device("hand"))?;
                 events.push(event(
                     now,

@@ -4,28 +4,8 @@
 
 use tmo_hal::{Arm, ErrorKind, ErrorType, Hand, HandPositions, Pose};
 
-#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
-pub struct SafetyLimits {
-    /// Largest finger target, fraction of the closing range.
-    pub max_grip: f64,
-    /// Largest finger torque limit, fraction of the maximum.
-    pub max_torque: f64,
-    /// Fastest arm motion, mm/s.
-    pub max_arm_speed_mm_s: f64,
-    /// Furthest the TCP may be from where it started, per axis, mm.
-    pub workspace_mm: [f64; 3],
-}
-
-impl Default for SafetyLimits {
-    fn default() -> Self {
-        Self {
-            max_grip: 0.95,
-            max_torque: 1.0,
-            max_arm_speed_mm_s: 100.0,
-            workspace_mm: [50.0, 50.0, 250.0],
-        }
-    }
-}
+/// The limits come from the protocol's `[safety]` section (defaults there).
+pub use crate::protocol::SafetyLimits;
 
 #[derive(Debug, thiserror::Error)]
 pub enum SafetyError<E: std::error::Error + 'static> {

@@ -42,6 +42,7 @@ fn on_table_rig(
 /// The simulated rig's devices behind the safety limits, as the runner always drives them.
 fn safe_sim_devices(
     rig: &SimRig,
+    limits: &SafetyLimits,
 ) -> Devices<
     tmo_hal::sim::SimClock,
     SafeHand<tmo_hal::sim::SimHand>,
@@ -49,7 +50,7 @@ fn safe_sim_devices(
     tmo_hal::sim::SimMarkerTracker,
     tmo_hal::sim::SimTactileSensor,
 > {
-    let limits = SafetyLimits::default();
+    let limits = *limits;
     Devices {
         clock: rig.clock(),
         hand: SafeHand::new(rig.hand(), limits),
@@ -96,7 +97,7 @@ pub fn run_sim_trial(
             let safety: f64 = rng.gen_range(1.2..1.8);
             let (config, closure, _) = hand_release_rig(&base, &options, safety)?;
             let rig = SimRig::new(config.clone())?;
-            let mut devices = safe_sim_devices(&rig);
+            let mut devices = safe_sim_devices(&rig, &plan.safety);
             let release_speed_per_s = p.release_speed_of_max * config.servo.max_speed_per_s;
             let params = ReleaseParams {
                 closure,
@@ -127,14 +128,15 @@ pub fn run_sim_trial(
             let (config, _) = sim_presets::build(Preset::Rail, &options, base.clone())
                 .map_err(CollectError::from)?;
             let rig = SimRig::new(config.clone())?;
-            let mut devices = safe_sim_devices(&rig);
+            let mut devices = safe_sim_devices(&rig, &plan.safety);
             let params = RailParams {
                 retract_speed_mm_s: speed,
                 retract_mm: 10.0,
                 forward_mm: p.forward_mm,
                 forward_speed_mm_s: 20.0,
-                torque_limit: 0.8,
+                torque_limit: p.initial_torque,
                 torque_step: p.torque_step,
+                max_torque: plan.safety.max_torque,
                 observe_s: 1.5,
                 // slip comes after about 1.2 mm of retraction
                 max_duration_s: (3.0 / speed + 1.5).min(p.max_duration_s),
@@ -155,10 +157,10 @@ pub fn run_sim_trial(
             let (config, _) = sim_presets::build(Preset::Pour, &options, base.clone())
                 .map_err(CollectError::from)?;
             let rig = SimRig::new(config.clone())?;
-            let mut devices = safe_sim_devices(&rig);
+            let mut devices = safe_sim_devices(&rig, &plan.safety);
             let params = PourParams {
                 regrasp: p.regrasp,
-                max_closure: SafetyLimits::default().max_grip,
+                max_closure: plan.safety.max_grip,
                 // the pour starts 0.5 s in; watch 1 s after it ends
                 duration_s: (0.5 + p.total_g / p.pour_rate_g_per_s + 1.0).min(p.max_duration_s),
                 watch: Default::default(),
@@ -171,11 +173,11 @@ pub fn run_sim_trial(
         KindParams::FirstTimeLift(p) => {
             let config = on_table_rig(&base, planned, 0.04)?;
             let rig = SimRig::new(config.clone())?;
-            let mut devices = safe_sim_devices(&rig);
+            let mut devices = safe_sim_devices(&rig, &plan.safety);
             let params = LiftParams {
                 deformation_px: p.deformation_px,
                 approach_speed_per_s: p.approach_speed_of_max * config.servo.max_speed_per_s,
-                max_closure: SafetyLimits::default().max_grip,
+                max_closure: plan.safety.max_grip,
                 lift_mm: p.lift_height_mm,
                 lift_speed_mm_s: p.lift_speed_mm_s,
                 close_step: p.close_step,
@@ -190,11 +192,11 @@ pub fn run_sim_trial(
         KindParams::CalibrateLift(p) => {
             let config = on_table_rig(&base, planned, 0.04)?;
             let rig = SimRig::new(config.clone())?;
-            let mut devices = safe_sim_devices(&rig);
+            let mut devices = safe_sim_devices(&rig, &plan.safety);
             let params = CalibrationParams {
                 deformation_px: p.deformation_px,
                 approach_speed_per_s: p.approach_speed_of_max * config.servo.max_speed_per_s,
-                max_closure: SafetyLimits::default().max_grip,
+                max_closure: plan.safety.max_grip,
                 step: p.step,
                 lift_mm: p.lift_height_mm,
                 lift_speed_mm_s: p.lift_speed_mm_s,
