@@ -94,14 +94,14 @@ pub fn pour(rows: &[OutcomeRow]) {
 /// object | mass | trials | success | slips | lag | overgrasp, as the paper's Fig. 10.
 pub fn lift(rows: &[LiftRow], calibrated: bool) {
     println!(
-        "{:<12} {:>7} {:>6} {:>8} {:>6} {:>9} {:>10}",
+        "{:<16} {:>7} {:>6} {:>8} {:>6} {:>9} {:>10}",
         "object", "added g", "trials", "success", "slips", "lag (mm)", "overgrasp"
     );
     for ((object, mass), rs) in group(rows, |r| (r.object.clone(), r.mass_g.to_bits())) {
         let mass = f64::from_bits(mass);
         let o = mean(rs.iter().filter_map(|r| r.overgrasp));
         println!(
-            "{object:<12} {mass:>7} {:>6} {:>8} {:>6} {:>9} {:>10}",
+            "{object:<16} {mass:>7} {:>6} {:>8} {:>6} {:>9} {:>10}",
             rs.len(),
             rs.iter().filter(|r| r.success).count(),
             show(mean(rs.iter().map(|r| r.slips as f64)), 1),
@@ -117,14 +117,14 @@ pub fn lift(rows: &[LiftRow], calibrated: bool) {
 /// object | mass | trials | found | g_cont | g_min | g_min - g_cont.
 pub fn calibration(rows: &[CalibrationRow]) {
     println!(
-        "{:<12} {:>7} {:>6} {:>6} {:>7} {:>7} {:>9}",
+        "{:<16} {:>7} {:>6} {:>6} {:>7} {:>7} {:>9}",
         "object", "added g", "trials", "found", "g_cont", "g_min", "past cont"
     );
     for ((object, mass), rs) in group(rows, |r| (r.object.clone(), r.mass_g.to_bits())) {
         let mass = f64::from_bits(mass);
         let found: Vec<_> = rs.iter().filter(|r| r.g_min.is_some()).collect();
         println!(
-            "{object:<12} {mass:>7} {:>6} {:>6} {:>7} {:>7} {:>9}",
+            "{object:<16} {mass:>7} {:>6} {:>6} {:>7} {:>7} {:>9}",
             rs.len(),
             found.len(),
             show(mean(rs.iter().filter_map(|r| r.g_cont)), 3),
