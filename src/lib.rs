@@ -5,7 +5,9 @@
 pub mod collect;
 pub mod online;
 pub mod outcome;
+pub mod plots;
 pub mod protocol;
+pub mod report;
 pub mod runner;
 pub mod scenario;
 pub mod sim_presets;

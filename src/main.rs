@@ -33,8 +33,10 @@ enum Command {
     Train(TrainArgs),
     /// Scores a model on recorded trials (never down-sampled).
     Evaluate(EvaluateArgs),
-    /// Runs a protocol's batch of trials (only hand_release on the simulator so far).
+    /// Runs a protocol's batch of trials on the simulator.
     Run(cli::run::RunArgs),
+    /// The paper's tables (and figures) from recorded batches, sweeps and evaluations.
+    Report(cli::report::ReportArgs),
     /// Trains and scores every cell of a classifier x n_slip x down-sampling grid (paper Fig. 5).
     Sweep(SweepArgs),
 }
@@ -57,5 +59,6 @@ fn run(cli: Cli) -> Result<()> {
         Command::Evaluate(args) => cli::slip::evaluate(args),
         Command::Sweep(args) => cli::sweep::sweep(args),
         Command::Run(args) => cli::run::run(args),
+        Command::Report(args) => cli::report::report(args),
     }
 }

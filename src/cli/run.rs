@@ -43,17 +43,6 @@ pub struct RunArgs {
     resume: bool,
 }
 
-#[derive(serde::Serialize)]
-struct Manifest<'a> {
-    protocol: String,
-    protocol_sha256: &'a str,
-    kind: Kind,
-    seed: u64,
-    repetitions: u32,
-    backend: &'static str,
-    trials: Vec<&'a str>,
-}
-
 fn write_atomic(path: &std::path::Path, bytes: &[u8]) -> Result<()> {
     let tmp = path.with_extension("writing");
     std::fs::write(&tmp, bytes).with_context(|| format!("cannot write {}", tmp.display()))?;
@@ -108,14 +97,15 @@ pub fn run(args: RunArgs) -> Result<()> {
         out.display()
     );
     std::fs::create_dir_all(&out).with_context(|| format!("cannot create {}", out.display()))?;
-    let manifest = Manifest {
+    let manifest = batch::Manifest {
         protocol: plan.source.display().to_string(),
-        protocol_sha256: &plan.source_sha256,
+        protocol_sha256: plan.source_sha256.clone(),
         kind: plan.kind,
+        mode: plan.mode,
         seed: plan.seed,
         repetitions: plan.repetitions,
-        backend: "sim",
-        trials: trials.iter().map(|t| t.trial_id.as_str()).collect(),
+        backend: "sim".into(),
+        trials: trials.iter().map(|t| t.trial_id.clone()).collect(),
     };
     write_atomic(
         &out.join("batch.json"),

@@ -88,6 +88,9 @@ pub struct EvaluateArgs {
     /// Trial logs (.mcap) or directories of them.
     #[arg(required = true)]
     trials: Vec<PathBuf>,
+    /// Also write the scores as JSON (for `tmo report`).
+    #[arg(long)]
+    out: Option<PathBuf>,
 }
 
 pub fn label_spec(args: &LabelArgs) -> Result<LabelSpec> {
@@ -247,7 +250,7 @@ pub fn train(args: TrainArgs) -> Result<()> {
 
 pub fn evaluate(args: EvaluateArgs) -> Result<()> {
     let model = ModelFile::load(&args.model)?;
-    let (ds, _, features) = load_dataset(&args.trials, &model.labels)?;
+    let (ds, refs, features) = load_dataset(&args.trials, &model.labels)?;
     anyhow::ensure!(
         features == model.features,
         "{}: the trials have {} pins, the model expects {}",
@@ -265,6 +268,28 @@ pub fn evaluate(args: EvaluateArgs) -> Result<()> {
     print_scores("overall", &overall);
     for (s, scores) in &per_sensor {
         print_scores(&format!("sensor {s}"), scores);
+    }
+    if let Some(out) = &args.out {
+        let bytes = std::fs::read(&args.model)
+            .with_context(|| format!("cannot read {}", args.model.display()))?;
+        let evaluation = tmo::slip::evaluation::Evaluation {
+            format: tmo::slip::evaluation::EVALUATION_FORMAT.into(),
+            model: args.model.display().to_string(),
+            model_sha256: tmo::trial::sha256_hex(&bytes),
+            classifier: model.classifier.name().to_string(),
+            scope: model.scope,
+            n_slip: model.labels.n_slip,
+            trials: refs.len(),
+            rows: ds.len(),
+            overall,
+            per_sensor: per_sensor
+                .into_iter()
+                .map(|(sensor, scores)| tmo::slip::evaluation::SensorScores { sensor, scores })
+                .collect(),
+        };
+        std::fs::write(out, serde_json::to_string_pretty(&evaluation)?)
+            .with_context(|| format!("cannot write {}", out.display()))?;
+        println!("wrote {}", out.display());
     }
     Ok(())
 }

@@ -343,5 +343,14 @@ pub fn sweep(args: SweepArgs) -> Result<()> {
         }
     }
     println!("wrote {} and {}", args.out.display(), meta_path.display());
+    // The paper's Fig. 5, through the same code as `tmo report --plots`.
+    let plot_dir = args
+        .out
+        .parent()
+        .filter(|p| !p.as_os_str().is_empty())
+        .unwrap_or(std::path::Path::new("."));
+    let figures = tmo::plots::offline::sweep_heatmaps(&rows, plot_dir)?;
+    let names: Vec<String> = figures.iter().map(|p| p.display().to_string()).collect();
+    println!("wrote {}", names.join(", "));
     Ok(())
 }

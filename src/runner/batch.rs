@@ -10,9 +10,24 @@ use std::path::{Path, PathBuf};
 use crate::collect::{trial_seed, CollectError};
 use crate::online::strategy::Strategy;
 use crate::outcome::CatchSpec;
-use crate::protocol::Plan;
+use crate::protocol::{Kind, Mode, Plan};
 use crate::scenario::ScenarioError;
 use crate::slip::labels::OnsetSpec;
+
+/// `batch.json`: what a batch directory holds and how it was made.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct Manifest {
+    pub protocol: String,
+    pub protocol_sha256: String,
+    pub kind: Kind,
+    /// Absent in batches written before modes were recorded: those were online.
+    #[serde(default)]
+    pub mode: Mode,
+    pub seed: u64,
+    pub repetitions: u32,
+    pub backend: String,
+    pub trials: Vec<String>,
+}
 
 /// One trial of the grid.
 #[derive(Debug, Clone, PartialEq)]

@@ -10,7 +10,7 @@ use crate::runner::calibrate::lifted;
 use crate::trial::Trial;
 
 /// One line of a batch's outcome table, computed from a trial log alone.
-#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct OutcomeRow {
     pub trial_id: String,
     pub object: String,
@@ -76,7 +76,7 @@ fn number(v: &serde_json::Value, key: &str) -> Option<f64> {
 }
 
 /// One first-time lift, as the paper's Fig. 10 needs it.
-#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct LiftRow {
     pub trial_id: String,
     pub object: String,
@@ -98,7 +98,7 @@ pub struct LiftRow {
 }
 
 /// One calibration sweep: the smallest closure that lifted the object.
-#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct CalibrationRow {
     pub trial_id: String,
     pub object: String,

@@ -3,6 +3,7 @@
 
 pub mod bayes;
 pub mod dataset;
+pub mod evaluation;
 pub mod features;
 pub mod labels;
 pub mod logreg;

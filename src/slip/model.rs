@@ -355,6 +355,14 @@ impl ModelFile {
     }
 
     /// Scores on `data` (every row, never down-sampled), overall and per sensor.
+    /// The threshold of a threshold model (its first, usually only, classifier).
+    pub fn threshold(&self) -> Option<f32> {
+        self.models.iter().find_map(|m| match &m.classifier {
+            Classifier::Threshold(t) => Some(t.threshold),
+            _ => None,
+        })
+    }
+
     pub fn evaluate(&self, data: &Dataset) -> Result<(Scores, Vec<(u8, Scores)>), ModelFileError> {
         score_models(&self.models, self.scope, data).map_err(|sensor| ModelFileError::NoSensor {
             path: "model".into(),

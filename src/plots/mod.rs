@@ -1,0 +1,156 @@
+//! The paper's figures with plotters, each as SVG and PNG. Text is drawn with a bundled
+//! DejaVu Sans (through plotters' `ab_glyph` feature) so a machine without system font
+//! libraries draws the same PNGs.
+//!
+//! Each figure is a function generic over the drawing backend; [`svg_and_png`] runs it on
+//! both. Data preparation is plain functions with unit tests; drawing is checked by eye (the
+//! issue note lists what was looked at) and by tests that the files are written.
+
+pub mod lift;
+pub mod offline;
+pub mod online;
+
+use std::path::{Path, PathBuf};
+
+use plotters::coord::Shift;
+use plotters::prelude::*;
+
+use crate::report::inputs::Inputs;
+
+#[derive(Debug, thiserror::Error)]
+pub enum PlotError {
+    #[error("cannot draw {path}: {message}")]
+    Draw { path: PathBuf, message: String },
+    #[error("cannot create {path}: {source}")]
+    Dir {
+        path: PathBuf,
+        source: std::io::Error,
+    },
+    #[error("{path}: {message}")]
+    Input { path: PathBuf, message: String },
+}
+
+/// What a figure function returns for backend `DB`.
+pub type DrawResult<DB> = Result<(), DrawingAreaErrorKind<<DB as DrawingBackend>::ErrorType>>;
+
+/// Font family every figure uses.
+pub const FONT: &str = "sans-serif";
+
+static FONT_ONCE: std::sync::Once = std::sync::Once::new();
+
+/// Registers the bundled font (once per process).
+pub fn register_font() {
+    FONT_ONCE.call_once(|| {
+        // The bytes are a valid TrueType font checked into the repository; a failure here
+        // would be a build defect, so it is reported by the figures' own errors instead.
+        let _ = plotters::style::register_font(
+            FONT,
+            FontStyle::Normal,
+            include_bytes!("../../assets/fonts/DejaVuSans.ttf"),
+        );
+    });
+}
+
+/// Figure size, px (also the SVG's user units).
+pub const SIZE: (u32, u32) = (900, 600);
+
+/// Draws `figure` to `stem.svg` and `stem.png`; returns both paths.
+#[macro_export]
+macro_rules! svg_and_png {
+    ($stem:expr, $size:expr, |$root:ident| $figure:expr) => {{
+        $crate::plots::register_font();
+        let svg = $stem.with_extension("svg");
+        let png = $stem.with_extension("png");
+        let err = |path: &std::path::Path, e: String| $crate::plots::PlotError::Draw {
+            path: path.to_path_buf(),
+            message: e,
+        };
+        {
+            let $root = plotters::prelude::SVGBackend::new(&svg, $size).into_drawing_area();
+            $figure.map_err(|e| err(&svg, e.to_string()))?;
+            $root.present().map_err(|e| err(&svg, e.to_string()))?;
+        }
+        {
+            let $root = plotters::prelude::BitMapBackend::new(&png, $size).into_drawing_area();
+            $figure.map_err(|e| err(&png, e.to_string()))?;
+            $root.present().map_err(|e| err(&png, e.to_string()))?;
+        }
+        vec![svg, png]
+    }};
+}
+
+/// A colour for value `t` in 0..1 on the viridis scale (perceptually even, readable in grey
+/// and by colour-blind readers), interpolated between its published anchor colours.
+pub fn viridis(t: f64) -> RGBColor {
+    const ANCHORS: [(u8, u8, u8); 9] = [
+        (68, 1, 84),
+        (71, 44, 122),
+        (59, 81, 139),
+        (44, 113, 142),
+        (33, 144, 141),
+        (39, 173, 129),
+        (92, 200, 99),
+        (170, 220, 50),
+        (253, 231, 37),
+    ];
+    let t = if t.is_finite() {
+        t.clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    let x = t * (ANCHORS.len() - 1) as f64;
+    let i = (x.floor() as usize).min(ANCHORS.len() - 2);
+    let f = x - i as f64;
+    let mix = |a: u8, b: u8| (a as f64 + (b as f64 - a as f64) * f).round() as u8;
+    let (a, b) = (ANCHORS[i], ANCHORS[i + 1]);
+    RGBColor(mix(a.0, b.0), mix(a.1, b.1), mix(a.2, b.2))
+}
+
+/// The three outcome colours (TP green, FP orange, FN red), as in the paper's bar charts.
+pub const TP_COLOUR: RGBColor = RGBColor(46, 139, 87);
+pub const FP_COLOUR: RGBColor = RGBColor(230, 145, 56);
+pub const FN_COLOUR: RGBColor = RGBColor(200, 40, 40);
+
+/// A safe file name part.
+pub fn slug(s: &str) -> String {
+    s.chars()
+        .map(|c| if c.is_ascii_alphanumeric() { c } else { '_' })
+        .collect()
+}
+
+/// Every figure the inputs support, into `dir`.
+pub fn draw_all(inputs: &Inputs, dir: &Path) -> Result<Vec<PathBuf>, PlotError> {
+    std::fs::create_dir_all(dir).map_err(|source| PlotError::Dir {
+        path: dir.to_path_buf(),
+        source,
+    })?;
+    let mut out = Vec::new();
+    for s in &inputs.sweeps {
+        out.extend(offline::sweep_heatmaps(&s.rows, dir)?);
+    }
+    if !inputs.trial_dirs.is_empty() {
+        let threshold = inputs.models.iter().find_map(|(_, m)| m.threshold());
+        out.extend(offline::trial_figures(&inputs.trial_dirs, threshold, dir)?);
+    }
+    out.extend(online::hand_figures(inputs, dir)?);
+    out.extend(lift::lift_figures(inputs, dir)?);
+    Ok(out)
+}
+
+/// Helper for figures: a blank white canvas.
+pub fn clear<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>) -> DrawResult<DB> {
+    root.fill(&WHITE)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn viridis_runs_from_purple_to_yellow() {
+        assert_eq!(viridis(0.0), RGBColor(68, 1, 84));
+        assert_eq!(viridis(1.0), RGBColor(253, 231, 37));
+        assert_eq!(viridis(f64::NAN), viridis(0.0));
+        assert_eq!(viridis(0.5), RGBColor(33, 144, 141));
+    }
+}

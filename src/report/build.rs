@@ -1,0 +1,363 @@
+//! The paper's tables from loaded inputs. Trials a fault aborted are left out of the rates
+//! (they say nothing about the detector) and counted in the table's title.
+
+use std::collections::BTreeMap;
+
+use super::inputs::Inputs;
+use super::{Cell, Table};
+use crate::online::strategy::Strategy;
+use crate::outcome::Verdict;
+use crate::protocol::Kind;
+use crate::runner::score::OutcomeRow;
+use crate::slip::dataset::Scope;
+
+fn group<'r, R, K: Ord>(rows: &[&'r R], key: impl Fn(&R) -> K) -> BTreeMap<K, Vec<&'r R>> {
+    let mut cells: BTreeMap<K, Vec<&R>> = BTreeMap::new();
+    for r in rows {
+        cells.entry(key(r)).or_default().push(*r);
+    }
+    cells
+}
+
+fn rate(rows: &[&OutcomeRow], keep: impl Fn(&OutcomeRow) -> bool) -> Cell {
+    Cell::Rate {
+        count: rows.iter().filter(|r| keep(r)).count() as u64,
+        trials: rows.len() as u64,
+    }
+}
+
+fn verdict(v: Verdict) -> impl Fn(&OutcomeRow) -> bool {
+    move |r| r.verdict == v
+}
+
+fn distances(rows: &[&OutcomeRow]) -> Vec<f64> {
+    rows.iter().filter_map(|r| r.slip_distance_mm).collect()
+}
+
+/// Splits off aborted trials; the title notes how many.
+fn completed<'r>(rows: Vec<&'r OutcomeRow>, title: &str) -> (Vec<&'r OutcomeRow>, String) {
+    let total = rows.len();
+    let kept: Vec<_> = rows.into_iter().filter(|r| r.fault.is_none()).collect();
+    let aborted = total - kept.len();
+    let title = if aborted > 0 {
+        format!("{title} ({aborted} aborted trial(s) left out)")
+    } else {
+        title.to_string()
+    };
+    (kept, title)
+}
+
+/// Every table the inputs support, in the paper's order.
+pub fn tables(inputs: &Inputs) -> Vec<Table> {
+    let mut out = Vec::new();
+    out.extend(offline_sweep(inputs));
+    out.extend(offline_evaluations(inputs));
+    out.extend(rail(inputs));
+    out.extend(hand_online(inputs));
+    out.extend(per_object(inputs));
+    out.extend(rice_pour(inputs));
+    out.extend(calibration(inputs));
+    out.extend(first_time_lift(inputs));
+    out
+}
+
+/// Best cell per classifier of each sweep (paper Fig. 5 in numbers).
+pub fn offline_sweep(inputs: &Inputs) -> Option<Table> {
+    if inputs.sweeps.is_empty() {
+        return None;
+    }
+    let mut t = Table::new(
+        "offline_sweep",
+        "Offline: test macro F1 over the down-sampling x n_slip grid",
+        &[
+            "sweep",
+            "classifier",
+            "cells",
+            "best macro F1",
+            "at d",
+            "at n_slip",
+            "mean macro F1",
+        ],
+    );
+    for s in &inputs.sweeps {
+        let by: BTreeMap<&str, Vec<_>> = s.rows.iter().fold(BTreeMap::new(), |mut m, r| {
+            m.entry(r.classifier.as_str())
+                .or_insert_with(Vec::new)
+                .push(r);
+            m
+        });
+        for (classifier, rows) in by {
+            let best = rows
+                .iter()
+                .max_by(|a, b| a.macro_f1.total_cmp(&b.macro_f1))
+                .expect("a group has rows");
+            let mean = rows.iter().map(|r| r.macro_f1).sum::<f64>() / rows.len() as f64;
+            t.push(vec![
+                Cell::text(s.path.display().to_string()),
+                Cell::text(classifier),
+                Cell::Count(rows.len() as u64),
+                Cell::number(Some(best.macro_f1), 3),
+                Cell::text(best.downsample.clone()),
+                Cell::Count(best.n_slip as u64),
+                Cell::number(Some(mean), 3),
+            ]);
+        }
+    }
+    Some(t)
+}
+
+/// Macro F1 per classifier and scope; per sensor for local models.
+pub fn offline_evaluations(inputs: &Inputs) -> Option<Table> {
+    if inputs.evaluations.is_empty() {
+        return None;
+    }
+    let mut t = Table::new(
+        "offline_models",
+        "Offline: models on test trials",
+        &[
+            "model",
+            "classifier",
+            "scope",
+            "sensor",
+            "macro F1",
+            "slip precision",
+            "slip recall",
+            "frames",
+        ],
+    );
+    for (_, e) in &inputs.evaluations {
+        let scope = format!("{:?}", e.scope).to_lowercase();
+        let row = |sensor: String, s: &crate::slip::metrics::Scores| {
+            vec![
+                Cell::text(e.model.clone()),
+                Cell::text(e.classifier.clone()),
+                Cell::text(scope.clone()),
+                Cell::text(sensor),
+                Cell::number(Some(s.macro_f1), 3),
+                Cell::number(Some(s.slip.precision), 3),
+                Cell::number(Some(s.slip.recall), 3),
+                Cell::Count(s.slip.support + s.static_.support),
+            ]
+        };
+        t.push(row("all".into(), &e.overall));
+        if e.scope == Scope::Local {
+            for s in &e.per_sensor {
+                t.push(row(s.sensor.to_string(), &s.scores));
+            }
+        }
+    }
+    Some(t)
+}
+
+/// N frames | trials | caught | FP | dropped | d (mm), as the paper's rail results.
+pub fn rail(inputs: &Inputs) -> Option<Table> {
+    let rows = inputs.catch_rows(Kind::RailCatch);
+    if rows.is_empty() {
+        return None;
+    }
+    let (rows, title) = completed(rows, "Slip rail: catching a sliding object");
+    let mut t = Table::new(
+        "rail_catch",
+        &title,
+        &["N frames", "trials", "caught", "FP", "dropped", "d (mm)"],
+    );
+    let frames = |r: &OutcomeRow| r.strategy.parse::<Strategy>().map_or(0, |s| s.frames);
+    for (n, rs) in group(&rows, frames) {
+        t.push(vec![
+            Cell::Count(u64::from(n)),
+            Cell::Count(rs.len() as u64),
+            rate(&rs, verdict(Verdict::TruePositive)),
+            rate(&rs, verdict(Verdict::FalsePositive)),
+            rate(&rs, |r| r.dropped),
+            Cell::mean_sd(&distances(&rs), 1),
+        ]);
+    }
+    Some(t)
+}
+
+fn catch_row(label: [String; 3], rs: &[&OutcomeRow]) -> Vec<Cell> {
+    let [a, b, c] = label;
+    vec![
+        Cell::text(a),
+        Cell::text(b),
+        Cell::text(c),
+        rate(rs, verdict(Verdict::TruePositive)),
+        rate(rs, verdict(Verdict::FalsePositive)),
+        rate(rs, verdict(Verdict::FalseNegative)),
+        Cell::mean_sd(&distances(rs), 1),
+    ]
+}
+
+/// scope | strategy | grasp | TP | FP | FN | D (mm), with per-scope and overall rows.
+pub fn hand_online(inputs: &Inputs) -> Option<Table> {
+    let rows = inputs.catch_rows(Kind::HandRelease);
+    if rows.is_empty() {
+        return None;
+    }
+    let (rows, title) = completed(rows, "Whole hand: online release and regrasp");
+    let mut t = Table::new(
+        "hand_online",
+        &title,
+        &[
+            "scope",
+            "strategy",
+            "grasp (deg)",
+            "TP",
+            "FP",
+            "FN",
+            "D (mm)",
+        ],
+    );
+    let cells = group(&rows, |r| {
+        (r.scope.clone(), r.strategy.clone(), r.grasp_deg.to_bits())
+    });
+    for ((scope, strategy, grasp), rs) in &cells {
+        let grasp = f64::from_bits(*grasp).to_string();
+        t.push(catch_row([scope.clone(), strategy.clone(), grasp], rs));
+    }
+    for (scope, rs) in group(&rows, |r| r.scope.clone()) {
+        t.push(catch_row([scope, "all".into(), "all".into()], &rs));
+    }
+    t.push(catch_row(["all".into(), "all".into(), "all".into()], &rows));
+    Some(t)
+}
+
+/// object | strategy | TP | FP | FN (whole-hand trials, all scopes and grasps).
+pub fn per_object(inputs: &Inputs) -> Option<Table> {
+    let rows = inputs.catch_rows(Kind::HandRelease);
+    if rows.is_empty() {
+        return None;
+    }
+    let (rows, title) = completed(rows, "Whole hand: per object");
+    let mut t = Table::new(
+        "hand_objects",
+        &title,
+        &["object", "strategy", "TP", "FP", "FN"],
+    );
+    for ((object, strategy), rs) in group(&rows, |r| (r.object.clone(), r.strategy.clone())) {
+        t.push(vec![
+            Cell::text(object),
+            Cell::text(strategy),
+            rate(&rs, verdict(Verdict::TruePositive)),
+            rate(&rs, verdict(Verdict::FalsePositive)),
+            rate(&rs, verdict(Verdict::FalseNegative)),
+        ]);
+    }
+    Some(t)
+}
+
+/// object | strategy | trials | responses | dropped.
+pub fn rice_pour(inputs: &Inputs) -> Option<Table> {
+    let rows = inputs.catch_rows(Kind::RicePour);
+    if rows.is_empty() {
+        return None;
+    }
+    let (rows, title) = completed(rows, "Grasp destabilisation: rice pour");
+    let mut t = Table::new(
+        "rice_pour",
+        &title,
+        &["object", "strategy", "trials", "responses", "dropped"],
+    );
+    for ((object, strategy), rs) in group(&rows, |r| (r.object.clone(), r.strategy.clone())) {
+        let responses: Vec<f64> = rs.iter().map(|r| r.responses as f64).collect();
+        t.push(vec![
+            Cell::text(object),
+            Cell::text(strategy),
+            Cell::Count(rs.len() as u64),
+            Cell::mean_sd(&responses, 1),
+            rate(&rs, |r| r.dropped),
+        ]);
+    }
+    Some(t)
+}
+
+/// object | added mass | trials | found | g_cont | g_min | g_min - g_cont.
+pub fn calibration(inputs: &Inputs) -> Option<Table> {
+    let rows = inputs.calibration_rows();
+    if rows.is_empty() {
+        return None;
+    }
+    let mut t = Table::new(
+        "calibrate_lift",
+        "First-time lift: calibration of g_min",
+        &[
+            "object",
+            "added mass (g)",
+            "trials",
+            "g_min found",
+            "g_cont",
+            "g_min",
+            "g_min - g_cont",
+        ],
+    );
+    for ((object, mass), rs) in group(&rows, |r| (r.object.clone(), r.mass_g.to_bits())) {
+        let cont: Vec<f64> = rs.iter().filter_map(|r| r.g_cont).collect();
+        let min: Vec<f64> = rs.iter().filter_map(|r| r.g_min).collect();
+        let past: Vec<f64> = rs
+            .iter()
+            .filter_map(|r| Some(r.g_min? - r.g_cont?))
+            .collect();
+        t.push(vec![
+            Cell::text(object),
+            Cell::number(Some(f64::from_bits(mass)), 0),
+            Cell::Count(rs.len() as u64),
+            Cell::Rate {
+                count: min.len() as u64,
+                trials: rs.len() as u64,
+            },
+            Cell::mean_sd(&cont, 3),
+            Cell::mean_sd(&min, 3),
+            Cell::mean_sd(&past, 3),
+        ]);
+    }
+    Some(t)
+}
+
+/// object | added mass | trials | success | slips | lag | overgrasp, as the paper's Fig. 10.
+pub fn first_time_lift(inputs: &Inputs) -> Option<Table> {
+    let rows = inputs.lift_rows();
+    if rows.is_empty() {
+        return None;
+    }
+    let total = rows.len();
+    let rows: Vec<_> = rows.into_iter().filter(|r| r.fault.is_none()).collect();
+    let title = match total - rows.len() {
+        0 => "First-time lift".to_string(),
+        n => format!("First-time lift ({n} aborted trial(s) left out)"),
+    };
+    let mut t = Table::new(
+        "first_time_lift",
+        &title,
+        &[
+            "object",
+            "added mass (g)",
+            "trials",
+            "success",
+            "slips",
+            "lag (mm)",
+            "overgrasp (%)",
+        ],
+    );
+    for ((object, mass), rs) in group(&rows, |r| (r.object.clone(), r.mass_g.to_bits())) {
+        let slips: Vec<f64> = rs.iter().map(|r| r.slips as f64).collect();
+        let lag: Vec<f64> = rs.iter().filter_map(|r| r.lag_mm).collect();
+        let over: Vec<f64> = rs
+            .iter()
+            .filter_map(|r| r.overgrasp)
+            .map(|o| 100.0 * o)
+            .collect();
+        t.push(vec![
+            Cell::text(object),
+            Cell::number(Some(f64::from_bits(mass)), 0),
+            Cell::Count(rs.len() as u64),
+            Cell::Rate {
+                count: rs.iter().filter(|r| r.success).count() as u64,
+                trials: rs.len() as u64,
+            },
+            Cell::mean_sd(&slips, 1),
+            Cell::mean_sd(&lag, 1),
+            Cell::mean_sd(&over, 0),
+        ]);
+    }
+    Some(t)
+}

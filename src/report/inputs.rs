@@ -1,0 +1,197 @@
+//! What `tmo report` reads: batch directories (`batch.json` + `outcomes.json`, as `tmo run`
+//! writes them), sweep results (`sweep.csv`, or a directory holding one), evaluation
+//! files (`tmo evaluate --out`), directories of collected trials (for the offline figures)
+//! and model files (a threshold model's threshold is drawn on the speed histogram).
+
+use std::path::{Path, PathBuf};
+
+use crate::protocol::{Kind, Mode};
+use crate::runner::batch::Manifest;
+use crate::runner::score::{CalibrationRow, LiftRow, OutcomeRow};
+use crate::slip::evaluation::{Evaluation, EVALUATION_FORMAT};
+use crate::slip::model::{ModelFile, MODEL_FORMAT};
+use crate::slip::sweep::SweepRow;
+
+#[derive(Debug, thiserror::Error)]
+pub enum InputError {
+    #[error("{path}: cannot read: {message}")]
+    Read { path: PathBuf, message: String },
+    #[error("{path}: {message}")]
+    Format { path: PathBuf, message: String },
+    #[error(
+        "{0}: expected a batch directory (with batch.json), a sweep (sweep.csv or a directory holding one), a directory of trial logs (.mcap), an evaluation (.json from `tmo evaluate --out`) or a model (.json from `tmo train`)"
+    )]
+    Unknown(PathBuf),
+}
+
+/// The scored trials of a batch, one row type per protocol kind.
+#[derive(Debug, Clone, PartialEq)]
+pub enum BatchRows {
+    Catch(Vec<OutcomeRow>),
+    Lift(Vec<LiftRow>),
+    Calibration(Vec<CalibrationRow>),
+}
+
+#[derive(Debug, Clone, PartialEq)]
+pub struct Batch {
+    pub dir: PathBuf,
+    pub manifest: Manifest,
+    pub rows: BatchRows,
+}
+
+#[derive(Debug, Clone, PartialEq)]
+pub struct Sweep {
+    pub path: PathBuf,
+    pub rows: Vec<SweepRow>,
+}
+
+#[derive(Debug, Default, Clone, PartialEq)]
+pub struct Inputs {
+    pub batches: Vec<Batch>,
+    pub sweeps: Vec<Sweep>,
+    pub evaluations: Vec<(PathBuf, Evaluation)>,
+    /// Directories of collected trials (their logs are read only for figures).
+    pub trial_dirs: Vec<PathBuf>,
+    pub models: Vec<(PathBuf, ModelFile)>,
+}
+
+impl Inputs {
+    /// Every batch of `kind` in `mode`, in the order given.
+    pub fn batches_of(&self, kind: Kind, mode: Mode) -> impl Iterator<Item = &Batch> {
+        self.batches
+            .iter()
+            .filter(move |b| b.manifest.kind == kind && b.manifest.mode == mode)
+    }
+
+    /// The catch rows of every online batch of `kind`.
+    pub fn catch_rows(&self, kind: Kind) -> Vec<&OutcomeRow> {
+        self.batches_of(kind, Mode::Online)
+            .flat_map(|b| match &b.rows {
+                BatchRows::Catch(r) => r.iter().collect(),
+                _ => Vec::new(),
+            })
+            .collect()
+    }
+
+    pub fn lift_rows(&self) -> Vec<&LiftRow> {
+        self.batches
+            .iter()
+            .flat_map(|b| match &b.rows {
+                BatchRows::Lift(r) => r.iter().collect(),
+                _ => Vec::new(),
+            })
+            .collect()
+    }
+
+    pub fn calibration_rows(&self) -> Vec<&CalibrationRow> {
+        self.batches
+            .iter()
+            .flat_map(|b| match &b.rows {
+                BatchRows::Calibration(r) => r.iter().collect(),
+                _ => Vec::new(),
+            })
+            .collect()
+    }
+}
+
+fn read(path: &Path) -> Result<String, InputError> {
+    std::fs::read_to_string(path).map_err(|e| InputError::Read {
+        path: path.to_path_buf(),
+        message: e.to_string(),
+    })
+}
+
+fn json<T: serde::de::DeserializeOwned>(path: &Path) -> Result<T, InputError> {
+    serde_json::from_str(&read(path)?).map_err(|e| InputError::Format {
+        path: path.to_path_buf(),
+        message: format!("line {}, column {}: {e}", e.line(), e.column()),
+    })
+}
+
+fn load_batch(dir: &Path) -> Result<Batch, InputError> {
+    let manifest: Manifest = json(&dir.join("batch.json"))?;
+    let outcomes = dir.join("outcomes.json");
+    if !outcomes.is_file() {
+        return Err(InputError::Format {
+            path: dir.to_path_buf(),
+            message: "no outcomes.json: the batch has not finished (run `tmo run --resume`)".into(),
+        });
+    }
+    let rows = match manifest.kind {
+        Kind::FirstTimeLift => BatchRows::Lift(json(&outcomes)?),
+        Kind::CalibrateLift => BatchRows::Calibration(json(&outcomes)?),
+        _ => BatchRows::Catch(json(&outcomes)?),
+    };
+    Ok(Batch {
+        dir: dir.to_path_buf(),
+        manifest,
+        rows,
+    })
+}
+
+fn load_sweep(path: &Path) -> Result<Sweep, InputError> {
+    let text = read(path)?;
+    let rows = csv::Reader::from_reader(text.as_bytes())
+        .deserialize()
+        .enumerate()
+        .map(|(i, r)| {
+            r.map_err(|e| InputError::Format {
+                path: path.to_path_buf(),
+                message: format!("row {}: expected a `tmo sweep` row: {e}", i + 1),
+            })
+        })
+        .collect::<Result<_, _>>()?;
+    Ok(Sweep {
+        path: path.to_path_buf(),
+        rows,
+    })
+}
+
+fn has_trial_logs(dir: &Path) -> bool {
+    std::fs::read_dir(dir).is_ok_and(|entries| {
+        entries
+            .flatten()
+            .any(|e| e.path().extension().is_some_and(|x| x == "mcap"))
+    })
+}
+
+/// Reads every input; the first that cannot be read is the error.
+pub fn load(paths: &[PathBuf]) -> Result<Inputs, InputError> {
+    let mut inputs = Inputs::default();
+    for p in paths {
+        if p.is_dir() {
+            if p.join("batch.json").is_file() {
+                inputs.batches.push(load_batch(p)?);
+            } else if p.join("sweep.csv").is_file() {
+                inputs.sweeps.push(load_sweep(&p.join("sweep.csv"))?);
+            } else if has_trial_logs(p) {
+                inputs.trial_dirs.push(p.clone());
+            } else {
+                return Err(InputError::Unknown(p.clone()));
+            }
+        } else if p.extension().is_some_and(|e| e == "csv") {
+            inputs.sweeps.push(load_sweep(p)?);
+        } else if p.extension().is_some_and(|e| e == "json") {
+            let value: serde_json::Value = json(p)?;
+            match value.get("format").and_then(|f| f.as_str()) {
+                Some(EVALUATION_FORMAT) => inputs.evaluations.push((p.clone(), json(p)?)),
+                Some(MODEL_FORMAT) => {
+                    let model = ModelFile::load(p).map_err(|e| InputError::Format {
+                        path: p.clone(),
+                        message: e.to_string(),
+                    })?;
+                    inputs.models.push((p.clone(), model));
+                }
+                _ => return Err(InputError::Unknown(p.clone())),
+            }
+        } else if !p.exists() {
+            return Err(InputError::Read {
+                path: p.clone(),
+                message: "no such file or directory".into(),
+            });
+        } else {
+            return Err(InputError::Unknown(p.clone()));
+        }
+    }
+    Ok(inputs)
+}
