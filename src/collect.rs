@@ -171,7 +171,16 @@ pub fn collect_trial(
     Ok(Trial {
         meta,
         frames: recording.frames,
+        arrivals_s: recording.arrivals_s,
         markers: recording.markers,
-        events: Vec::new(),
+        // The script's phases, as a runner logs them: replay arms its detector from the
+        // release, as the online hand-release runner does.
+        events: recording
+            .phases
+            .iter()
+            .map(|&(t, phase)| {
+                crate::runner::event(t, "/phase", serde_json::json!({ "phase": phase }))
+            })
+            .collect(),
     })
 }

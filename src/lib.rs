@@ -7,6 +7,7 @@ pub mod online;
 pub mod outcome;
 pub mod plots;
 pub mod protocol;
+pub mod replay;
 pub mod report;
 pub mod runner;
 pub mod scenario;

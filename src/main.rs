@@ -1,4 +1,5 @@
-//! The `tmo` command line. Exit codes: 0 success, 2 error (bad input or a failed run).
+//! The `tmo` command line. Exit codes: 0 success, 2 error (bad input or a failed run),
+//! 3 finished but some inputs were skipped (`tmo replay`), 130 a batch stopped by Ctrl-C.
 
 mod cli;
 
@@ -37,13 +38,15 @@ enum Command {
     Run(cli::run::RunArgs),
     /// The paper's tables (and figures) from recorded batches, sweeps and evaluations.
     Report(cli::report::ReportArgs),
+    /// What models and strategies would have done on recorded trials (replay backend).
+    Replay(cli::replay::ReplayArgs),
     /// Trains and scores every cell of a classifier x n_slip x down-sampling grid (paper Fig. 5).
     Sweep(SweepArgs),
 }
 
 fn main() -> ExitCode {
     match run(Cli::parse()) {
-        Ok(()) => ExitCode::SUCCESS,
+        Ok(code) => ExitCode::from(code),
         Err(e) => {
             eprintln!("error: {e:#}");
             ExitCode::from(2)
@@ -51,14 +54,27 @@ fn main() -> ExitCode {
     }
 }
 
-fn run(cli: Cli) -> Result<()> {
+fn run(cli: Cli) -> Result<u8> {
+    if let Command::Replay(args) = cli.command {
+        let skipped = cli::replay::replay(args)?;
+        return Ok(if skipped {
+            cli::replay::EXIT_SKIPPED
+        } else {
+            0
+        });
+    }
+    if let Command::Run(args) = cli.command {
+        return cli::run::run(args);
+    }
     match cli.command {
         Command::Sim(command) => cli::sim::run(command),
         Command::Dataset(DatasetCommand::Export(args)) => cli::slip::dataset_export(args),
         Command::Train(args) => cli::slip::train(args),
         Command::Evaluate(args) => cli::slip::evaluate(args),
         Command::Sweep(args) => cli::sweep::sweep(args),
-        Command::Run(args) => cli::run::run(args),
+        Command::Run(_) => unreachable!("handled above"),
         Command::Report(args) => cli::report::report(args),
-    }
+        Command::Replay(_) => unreachable!("handled above"),
+    }?;
+    Ok(0)
 }

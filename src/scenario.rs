@@ -94,7 +94,11 @@ impl SimDevices {
 #[derive(Debug, Default, Clone, PartialEq)]
 pub struct Recording {
     pub frames: Vec<PinFrame>,
+    /// When each frame was polled, on the devices' clock, s.
+    pub arrivals_s: Vec<f64>,
     pub markers: Vec<MarkerSample>,
+    /// When each phase of a script began (scripts that have phases), s.
+    pub phases: Vec<(f64, &'static str)>,
 }
 
 impl<C, H, A, M, S> Devices<C, H, A, M, S>
@@ -106,9 +110,11 @@ where
     S: TactileSensor,
 {
     pub(crate) fn poll(&mut self, rec: &mut Recording) -> Result<(), ScenarioError> {
+        let now = self.clock.now_s();
         for s in self.sensors.iter_mut() {
             while let Some(f) = s.next_frame().map_err(device("tactile sensor"))? {
                 rec.frames.push(f);
+                rec.arrivals_s.push(now);
             }
         }
         while let Some(m) = self
@@ -179,8 +185,12 @@ where
                             self.hand
                                 .set_targets([q(0), q(1), q(2), start[3]])
                                 .map_err(device("hand"))?;
+                            if rec.phases.is_empty() {
+                                rec.phases.push((phase_start, "closing"));
+                            }
                             if q(0) >= closure {
                                 (phase, phase_t0) = (1, now);
+                                rec.phases.push((now, "settling"));
                             }
                         }
                         1 if elapsed >= 0.3 => {
@@ -188,9 +198,11 @@ where
                                 .move_linear([0.0, 0.0, lift_mm], lift_speed_mm_s)
                                 .map_err(device("arm"))?;
                             (phase, phase_t0) = (2, now);
+                            rec.phases.push((now, "lifting"));
                         }
                         2 if elapsed >= lift_mm / lift_speed_mm_s + 0.2 + hold_s => {
                             (phase, phase_t0) = (3, now);
+                            rec.phases.push((now, "releasing"));
                         }
                         3 => {
                             let q = (closure - release_speed_per_s * elapsed).max(0.0);

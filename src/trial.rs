@@ -59,7 +59,12 @@ impl TrialMeta {
 #[derive(Debug, Clone, PartialEq)]
 pub struct Trial {
     pub meta: TrialMeta,
+    /// In the order they reached the host (across sensors; by `seq` within one).
     pub frames: Vec<PinFrame>,
+    /// When each frame reached the host, on the runner's clock, s (the MCAP log time;
+    /// the frame's own `time_s` is its capture time). Replay delivers frames at these times
+    /// and in this order, so a detector sees them as the live one did.
+    pub arrivals_s: Vec<f64>,
     pub markers: Vec<MarkerSample>,
     /// What the runner did and decided (commands, phases, classifier outputs, detector
     /// events), each on its own channel named by `topic`.
@@ -74,6 +79,11 @@ pub struct TrialEvent {
     #[serde(skip)]
     pub topic: String,
     pub data: serde_json::Value,
+}
+
+/// Is `e` a reaction of the detector (as opposed to its being armed or disarmed)?
+pub fn is_reaction(e: &TrialEvent) -> bool {
+    e.topic == "/detector" && e.data.get("event").and_then(|v| v.as_str()) == Some("reaction")
 }
 
 /// Channels that are not runner events.
@@ -149,7 +159,8 @@ pub fn write_trial(path: &Path, trial: &Trial) -> Result<(), TrialError> {
             sensor_channels.insert(s, id);
         }
         let mut sequence = 0u32;
-        for f in &trial.frames {
+        for (k, f) in trial.frames.iter().enumerate() {
+            let arrival = trial.arrivals_s.get(k).copied().unwrap_or(f.time_s);
             let channel_id = *sensor_channels
                 .get(&f.sensor)
                 .ok_or_else(|| TrialError::Mcap {
@@ -163,7 +174,7 @@ pub fn write_trial(path: &Path, trial: &Trial) -> Result<(), TrialError> {
             let header = mcap::records::MessageHeader {
                 channel_id,
                 sequence,
-                log_time: nanos(f.time_s),
+                log_time: nanos(arrival),
                 publish_time: nanos(f.time_s),
             };
             w.write_to_known_channel(&header, &data)
@@ -287,20 +298,24 @@ pub fn read_trial(path: &Path) -> Result<Trial, TrialError> {
         if topic == "/marker" {
             markers.push(serde_json::from_slice::<MarkerSample>(&message.data).map_err(bad)?);
         } else if topic.starts_with("/tactile/") {
-            frames.push(serde_json::from_slice::<PinFrame>(&message.data).map_err(bad)?);
+            let f = serde_json::from_slice::<PinFrame>(&message.data).map_err(bad)?;
+            frames.push((message.log_time as f64 / 1e9, f));
         } else {
             let mut e: TrialEvent = serde_json::from_slice(&message.data).map_err(bad)?;
             e.topic = topic.to_string();
             events.push(e);
         }
     }
-    frames.sort_by(|a, b| a.time_s.total_cmp(&b.time_s).then(a.sensor.cmp(&b.sensor)));
+    // Stable: frames that arrived in one poll keep the order they were logged in.
+    frames.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let (arrivals_s, frames): (Vec<f64>, Vec<PinFrame>) = frames.into_iter().unzip();
     markers.sort_by(|a, b| a.time_s.total_cmp(&b.time_s));
     // stable: events of one instant keep the order they were logged in
     events.sort_by(|a, b| a.time_s.total_cmp(&b.time_s));
     Ok(Trial {
         meta,
         frames,
+        arrivals_s,
         markers,
         events,
     })
@@ -357,7 +372,7 @@ pub fn expand_trial_paths(paths: &[PathBuf]) -> Result<Vec<PathBuf>, TrialError>
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
 
     pub(crate) fn sample_trial() -> Trial {
@@ -401,6 +416,7 @@ mod tests {
                     pins: vec![[1.5, 2.0], [3.0, 4.0]],
                 },
             ],
+            arrivals_s: vec![0.011, 0.013, 0.028],
             markers: vec![MarkerSample {
                 time_s: 0.005,
                 object_mm: 300.1,

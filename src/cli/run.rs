@@ -41,6 +41,10 @@ pub struct RunArgs {
     /// Finish a batch: run only the trials whose logs are missing.
     #[arg(long)]
     resume: bool,
+    /// With `--backend replay`: the recorded trials (logs or batch directories) to replay
+    /// through the protocol's models and strategies.
+    #[arg(long, num_args = 1..)]
+    from: Vec<PathBuf>,
 }
 
 fn write_atomic(path: &std::path::Path, bytes: &[u8]) -> Result<()> {
@@ -49,12 +53,35 @@ fn write_atomic(path: &std::path::Path, bytes: &[u8]) -> Result<()> {
     std::fs::rename(&tmp, path).with_context(|| format!("cannot write {}", path.display()))
 }
 
-pub fn run(args: RunArgs) -> Result<()> {
+/// Runs the batch; the exit code (0, or 3 when a replay skipped damaged logs).
+pub fn run(args: RunArgs) -> Result<u8> {
     anyhow::ensure!(
-        args.backend == Backend::Sim,
-        "--backend replay and real are not implemented yet (issues 6 and 7); use --backend sim"
+        args.backend != Backend::Real,
+        "--backend real is not implemented yet (issue 7); use --backend sim or replay"
     );
     let mut plan = protocol::load(&args.protocol, 3)?;
+    if args.backend == Backend::Replay {
+        anyhow::ensure!(
+            !args.from.is_empty(),
+            "--backend replay needs --from TRIALS (recorded logs or batch directories)"
+        );
+        anyhow::ensure!(
+            !plan.models.is_empty(),
+            "{}: replay needs an online protocol with models",
+            args.protocol.display()
+        );
+        let skipped = super::replay::replay_with(
+            &args.from,
+            &plan.models,
+            &plan.strategies,
+            args.out.as_deref(),
+        )?;
+        return Ok(if skipped {
+            super::replay::EXIT_SKIPPED
+        } else {
+            0
+        });
+    }
     if let Some(seed) = args.seed {
         plan.seed = seed;
     }
@@ -226,7 +253,7 @@ pub fn run(args: RunArgs) -> Result<()> {
         out.display(),
         outputs.join(", ")
     );
-    Ok(())
+    Ok(0)
 }
 
 /// A batch's scored trials; one kind of row per protocol kind.

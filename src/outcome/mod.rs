@@ -119,6 +119,22 @@ pub fn score_catch(
     }
 }
 
+/// When the object had fallen more than the drop limit below its held height (the median
+/// relative height before `onset_s`), if it did.
+pub fn drop_time(track: &[MarkerSample], onset_s: f64, spec: &CatchSpec) -> Option<f64> {
+    let mut before: Vec<f64> = track
+        .iter()
+        .filter(|m| m.time_s < onset_s)
+        .map(relative_height)
+        .collect();
+    before.sort_by(f64::total_cmp);
+    let held = *before.get(before.len() / 2)?;
+    track
+        .iter()
+        .find(|m| m.time_s >= onset_s && relative_height(m) < held - spec.drop_limit_mm)
+        .map(|m| m.time_s)
+}
+
 /// Mean height over the last `rest_window_s` if the object was still there: the means of
 /// the window's two halves differ by less than the tolerance. (A spread test would trip on
 /// marker noise: the relative height carries both markers' noise, about 0.4 mm.)

@@ -75,7 +75,7 @@ impl LiftTrace {
             responses_s: t
                 .events
                 .iter()
-                .filter(|e| e.topic == "/detector")
+                .filter(|e| crate::trial::is_reaction(e))
                 .map(|e| e.time_s)
                 .collect(),
         })

@@ -311,7 +311,13 @@ mod tests {
         );
         assert_eq!(regrasps(&targets), 1, "exactly one regrasp");
         let topics = |t: &str| record.events.iter().filter(|e| e.topic == t).count();
-        assert_eq!(topics("/detector"), 1);
+        let detector: Vec<&serde_json::Value> = record
+            .events
+            .iter()
+            .filter(|e| e.topic == "/detector")
+            .map(|e| &e.data["event"])
+            .collect();
+        assert_eq!(detector, ["armed", "reaction", "disarmed"]);
         assert_eq!(
             topics("/phase"),
             5,

@@ -485,7 +485,7 @@ mod tests {
         let reactions: Vec<f64> = r
             .events
             .iter()
-            .filter(|e| e.topic == "/detector")
+            .filter(|e| e.topic == "/detector" && e.data["event"] == "reaction")
             .map(|e| e.time_s)
             .collect();
         assert_eq!(reactions.len(), 4, "{reactions:?}");

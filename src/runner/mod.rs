@@ -9,6 +9,7 @@ pub mod lift;
 pub(crate) mod mocks;
 pub mod monitor;
 pub mod rail_catch;
+pub mod replay;
 pub mod rice_pour;
 pub mod safety;
 pub mod score;
@@ -63,10 +64,10 @@ pub struct RunRecord {
 }
 
 /// Control period of every runner, s (1 kHz).
-const TICK_S: f64 = 0.001;
+pub const TICK_S: f64 = 0.001;
 /// How long a runner waits before arming its detector: the classifier needs a previous
 /// frame from every sensor.
-const SETTLE_S: f64 = 0.2;
+pub const SETTLE_S: f64 = 0.2;
 
 impl<C, H, A, M, S> Devices<C, H, A, M, S>
 where

@@ -45,6 +45,9 @@ pub struct FrameMonitor<'m> {
     last_frame_s: Vec<f64>,
     repeats: Vec<u32>,
     previous_pins: Vec<Option<Vec<[f32; 2]>>>,
+    /// Whether the last batch was fed armed: changes are logged, so replay arms exactly the
+    /// batches the live detector saw armed.
+    armed: bool,
 }
 
 impl<'m> FrameMonitor<'m> {
@@ -56,6 +59,7 @@ impl<'m> FrameMonitor<'m> {
             last_frame_s: vec![t0; sensors],
             repeats: vec![0; sensors],
             previous_pins: vec![None; sensors],
+            armed: false,
         }
     }
 
@@ -109,6 +113,11 @@ impl<'m> FrameMonitor<'m> {
         if let Some(f) = fault {
             events.push(event(now, "/fault", json!(f)));
             return Verdict::Abort(f);
+        }
+        if armed != self.armed {
+            self.armed = armed;
+            let what = if armed { "armed" } else { "disarmed" };
+            events.push(event(now, "/detector", json!({ "event": what })));
         }
         let (Some(c), Some(d)) = (self.classifier.as_mut(), self.detector.as_mut()) else {
             return Verdict::Continue;

@@ -263,6 +263,7 @@ pub fn run_sim_trial(
             parameters,
         },
         frames: record.recording.frames,
+        arrivals_s: record.recording.arrivals_s,
         markers: record.recording.markers,
         events: record.events,
     })

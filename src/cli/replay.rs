@@ -1,0 +1,222 @@
+//! `tmo replay TRIALS... --model M... [--strategy 1x2,2x2] [--out DIR]`: what each model
+//! and strategy would have done on recorded trials.
+
+use std::collections::BTreeMap;
+use std::path::PathBuf;
+
+use anyhow::{Context, Result};
+use rayon::prelude::*;
+use tmo::online::strategy::Strategy;
+use tmo::outcome::CatchSpec;
+use tmo::replay::{evaluate, ModelRef, ReplayOutcome, ReplayVerdict};
+use tmo::report::{Cell, Table};
+use tmo::slip::model::ModelFile;
+use tmo::trial::{expand_trial_paths, read_trial, sha256_hex, Trial};
+
+/// Exit code when the replay finished but some trial logs could not be read.
+pub const EXIT_SKIPPED: u8 = 3;
+
+#[derive(clap::Args)]
+pub struct ReplayArgs {
+    /// Trial logs (.mcap) or directories of them (a batch directory works).
+    #[arg(required = true)]
+    trials: Vec<PathBuf>,
+    /// Model files to compare.
+    #[arg(long = "model", required = true, num_args = 1..)]
+    models: Vec<PathBuf>,
+    /// Strategies as NFrxNSen, comma-separated (default: the paper's six; those needing
+    /// more sensors than a trial has are left out for it).
+    #[arg(long, value_delimiter = ',', default_value = "1x1,2x1,1x2,2x2,1x3,2x3")]
+    strategy: Vec<String>,
+    /// Also write replay.csv (one line per trial, model and strategy) and replay.md here.
+    #[arg(long)]
+    out: Option<PathBuf>,
+}
+
+fn percentile(sorted: &[f64], q: f64) -> Option<f64> {
+    if sorted.is_empty() {
+        return None;
+    }
+    // nearest rank, as a reader would count it off a list
+    let rank = ((q * sorted.len() as f64).ceil() as usize).clamp(1, sorted.len());
+    Some(sorted[rank - 1])
+}
+
+fn table(rows: &[ReplayOutcome]) -> Table {
+    let mut t = Table::new(
+        "replay",
+        "Replay: what each model and strategy would have done",
+        &[
+            "model",
+            "strategy",
+            "trials",
+            "detected",
+            "FP",
+            "missed",
+            "undetermined",
+            "latency median (ms)",
+            "latency p90 (ms)",
+            "latency median (frames)",
+            "same as logged",
+        ],
+    );
+    let mut cells: BTreeMap<(String, String), Vec<&ReplayOutcome>> = BTreeMap::new();
+    for r in rows {
+        cells
+            .entry((r.model.clone(), r.strategy.clone()))
+            .or_default()
+            .push(r);
+    }
+    for ((model, strategy), rs) in cells {
+        let n = |v: ReplayVerdict| rs.iter().filter(|r| r.verdict == v).count() as u64;
+        let undetermined = n(ReplayVerdict::AfterLogged) + n(ReplayVerdict::Aborted);
+        let determined = rs.len() as u64 - undetermined;
+        let rate = |v| Cell::Rate {
+            count: n(v),
+            trials: determined,
+        };
+        let detected: Vec<&&ReplayOutcome> = rs
+            .iter()
+            .filter(|r| r.verdict == ReplayVerdict::Detected)
+            .collect();
+        let mut ms: Vec<f64> = detected
+            .iter()
+            .filter_map(|r| r.latency_s)
+            .map(|s| 1000.0 * s)
+            .collect();
+        ms.sort_by(f64::total_cmp);
+        let mut frames: Vec<f64> = detected
+            .iter()
+            .filter_map(|r| r.latency_frames)
+            .map(|f| f as f64)
+            .collect();
+        frames.sort_by(f64::total_cmp);
+        let compared: Vec<bool> = rs.iter().filter_map(|r| r.matches_logged).collect();
+        t.push(vec![
+            Cell::text(model),
+            Cell::text(strategy),
+            Cell::Count(rs.len() as u64),
+            rate(ReplayVerdict::Detected),
+            rate(ReplayVerdict::FalsePositive),
+            rate(ReplayVerdict::Missed),
+            Cell::Count(undetermined),
+            Cell::number(percentile(&ms, 0.5), 0),
+            Cell::number(percentile(&ms, 0.9), 0),
+            Cell::number(percentile(&frames, 0.5), 0),
+            if compared.is_empty() {
+                Cell::Empty
+            } else {
+                Cell::Rate {
+                    count: compared.iter().filter(|m| **m).count() as u64,
+                    trials: compared.len() as u64,
+                }
+            },
+        ]);
+    }
+    t
+}
+
+/// Returns whether some trial logs were skipped.
+pub fn replay(args: ReplayArgs) -> Result<bool> {
+    let strategies: Vec<Strategy> = args
+        .strategy
+        .iter()
+        .map(|s| s.parse().with_context(|| format!("--strategy {s}")))
+        .collect::<Result<_>>()?;
+    replay_with(&args.trials, &args.models, &strategies, args.out.as_deref())
+}
+
+/// The replay of `trials` through every model and strategy; whether some logs were skipped.
+pub fn replay_with(
+    trial_paths: &[PathBuf],
+    model_paths: &[PathBuf],
+    strategies: &[Strategy],
+    out: Option<&std::path::Path>,
+) -> Result<bool> {
+    let models: Vec<(String, String, ModelFile)> = model_paths
+        .iter()
+        .map(|p| {
+            let bytes = std::fs::read(p).with_context(|| format!("cannot read {}", p.display()))?;
+            Ok((
+                p.display().to_string(),
+                sha256_hex(&bytes),
+                ModelFile::load(p)?,
+            ))
+        })
+        .collect::<Result<_>>()?;
+    let paths = expand_trial_paths(trial_paths)?;
+    anyhow::ensure!(!paths.is_empty(), "no trial logs (.mcap) found");
+    // A damaged log is named and skipped; the rest of the set is still evaluated.
+    let mut trials: Vec<(String, Trial)> = Vec::new();
+    let mut skipped = 0;
+    for p in &paths {
+        match read_trial(p) {
+            Ok(t) => trials.push((p.display().to_string(), t)),
+            Err(e) => {
+                eprintln!("skipped {}: {e}", p.display());
+                skipped += 1;
+            }
+        }
+    }
+    let mut jobs = Vec::new();
+    for (ti, (_, t)) in trials.iter().enumerate() {
+        for (mi, _) in models.iter().enumerate() {
+            for s in strategies {
+                if s.check(u32::from(t.meta.sensors)).is_ok() {
+                    jobs.push((ti, mi, *s));
+                }
+            }
+        }
+    }
+    let spec = CatchSpec::default();
+    let bar = indicatif::ProgressBar::new(jobs.len() as u64);
+    bar.set_style(
+        indicatif::ProgressStyle::with_template(
+            "replay [{bar:30}] {pos}/{len}, {elapsed} (eta {eta})",
+        )
+        .expect("valid template")
+        .progress_chars("=> "),
+    );
+    let started = std::time::Instant::now();
+    let rows: Vec<ReplayOutcome> = jobs
+        .par_iter()
+        .map(|&(ti, mi, s)| {
+            let (path, trial) = &trials[ti];
+            let (name, sha256, file) = &models[mi];
+            let model = ModelRef { name, sha256, file };
+            let r =
+                evaluate(trial, path, model, s, &spec).with_context(|| format!("replaying {path}"));
+            bar.inc(1);
+            r
+        })
+        .collect::<Result<_>>()?;
+    bar.finish_and_clear();
+    let t = table(&rows);
+    println!(
+        "{} replays of {} trial(s) x {} model(s) x {} strateg(ies) in {:.1} s\n",
+        rows.len(),
+        trials.len(),
+        models.len(),
+        strategies.len(),
+        started.elapsed().as_secs_f64()
+    );
+    print!("{}", t.markdown());
+    if let Some(dir) = out {
+        std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
+        let mut w = csv::Writer::from_path(dir.join("replay.csv"))?;
+        for r in &rows {
+            w.serialize(r)?;
+        }
+        w.flush()?;
+        std::fs::write(dir.join("replay.md"), t.markdown())?;
+        println!(
+            "wrote {} and {}",
+            dir.join("replay.csv").display(),
+            dir.join("replay.md").display()
+        );
+    }
+    if skipped > 0 {
+        eprintln!("{skipped} trial log(s) skipped (see above); exit code {EXIT_SKIPPED}");
+    }
+    Ok(skipped > 0)
+}

@@ -1,0 +1,158 @@
+//! Replay: determinism against the live runner, damaged logs, and `tmo run --backend
+//! replay`.
+
+mod common;
+
+use std::path::Path;
+
+use common::*;
+
+/// A short online hand-release batch (two strategies) with a freshly trained model.
+fn batch(d: &Path) {
+    let run = |args: &[&str]| ok(&tmo(d, args));
+    run(&[
+        "sim", "collect", "--trials", "8", "--seed", "5", "--out", "train",
+    ]);
+    run(&[
+        "train",
+        "train",
+        "--classifier",
+        "logreg",
+        "--C",
+        "1",
+        "--n-slip",
+        "5",
+        "--out",
+        "global.json",
+    ]);
+    std::fs::write(
+        d.join("hand.toml"),
+        "kind = \"hand_release\"\nobjects = [\"crisps_can\", \"banana\"]\ngrasps_deg = [0, 180]\nmodels = [\"global.json\"]\nstrategies = [\"1x1\", \"2x2\"]\nrepetitions = 2\nseed = 6\n",
+    )
+    .unwrap();
+    run(&["run", "hand.toml", "--out", "b"]);
+}
+
+fn csv_rows(path: &Path) -> Vec<std::collections::HashMap<String, String>> {
+    csv::Reader::from_path(path)
+        .unwrap()
+        .deserialize()
+        .map(|r| r.unwrap())
+        .collect()
+}
+
+#[test]
+fn replaying_with_the_model_and_strategy_that_ran_reproduces_the_detector_exactly() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    batch(d);
+    let out = ok(&tmo(
+        d,
+        &[
+            "replay",
+            "b",
+            "--model",
+            "global.json",
+            "--strategy",
+            "1x1,2x2,1x3",
+            "--out",
+            "r",
+        ],
+    ));
+    assert!(out.contains("48 replays of 16 trial(s)"), "{out}");
+    let rows = csv_rows(&d.join("r/replay.csv"));
+    let compared: Vec<_> = rows
+        .iter()
+        .filter(|r| !r["matches_logged"].is_empty())
+        .collect();
+    assert_eq!(compared.len(), 16, "each trial once, with its own strategy");
+    assert!(
+        compared.iter().all(|r| r["matches_logged"] == "true"),
+        "{compared:?}"
+    );
+
+    // Event by event: every classification up to the reaction, and the reaction itself.
+    let model = tmo::slip::model::ModelFile::load(&d.join("global.json")).unwrap();
+    for i in 0..16 {
+        let trial = tmo::trial::read_trial(&d.join(format!("b/trial-{i:05}.mcap"))).unwrap();
+        let strategy = trial.meta.parameters["strategy"].parse().unwrap();
+        let (record, window) = tmo::replay::replay_trial(&trial, &model, strategy).unwrap();
+        assert_eq!(window, "logged");
+        let end = record.reaction.map_or(f64::INFINITY, |r| r.time_s);
+        // Classifications are logged at their frame's capture time and detector events at
+        // the poll, so a log read back orders them by time; compare them as sets.
+        let stream = |events: &[tmo::trial::TrialEvent]| -> Vec<String> {
+            let mut v: Vec<String> = events
+                .iter()
+                .filter(|e| match e.topic.as_str() {
+                    "/classifier" => e.time_s <= end,
+                    "/detector" => e.data["event"] != "disarmed",
+                    _ => false,
+                })
+                .map(|e| format!("{} {}", e.topic, e.data))
+                .collect();
+            v.sort();
+            v
+        };
+        let live = stream(&trial.events);
+        let replayed = stream(&record.events);
+        assert_eq!(replayed.len(), live.len(), "{}", trial.meta.trial_id);
+        assert!(
+            replayed == live,
+            "{}: replay differs from the log",
+            trial.meta.trial_id
+        );
+    }
+}
+
+#[test]
+fn damaged_logs_are_named_skipped_and_the_rest_evaluated() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    batch(d);
+    let log = |i: usize| d.join(format!("b/trial-{i:05}.mcap"));
+    let bytes = std::fs::read(log(3)).unwrap();
+    std::fs::write(log(3), &bytes[..bytes.len() / 2]).unwrap();
+    std::fs::write(log(7), b"not an mcap file at all").unwrap();
+    let o = tmo(
+        d,
+        &["replay", "b", "--model", "global.json", "--strategy", "2x2"],
+    );
+    assert_eq!(o.status.code(), Some(3), "{o:?}");
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        stderr.contains("skipped") && stderr.contains("trial-00003.mcap"),
+        "{stderr}"
+    );
+    assert!(stderr.contains("trial-00007.mcap"), "{stderr}");
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert!(stdout.contains("14 replays of 14 trial(s)"), "{stdout}");
+}
+
+#[test]
+fn run_with_the_replay_backend_uses_the_protocols_models_and_strategies() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    batch(d);
+    let out = ok(&tmo(
+        d,
+        &[
+            "run",
+            "hand.toml",
+            "--backend",
+            "replay",
+            "--from",
+            "b",
+            "--out",
+            "rb",
+        ],
+    ));
+    assert!(
+        out.contains("32 replays of 16 trial(s) x 1 model(s) x 2 strateg"),
+        "{out}"
+    );
+    let rows = csv_rows(&d.join("rb/replay.csv"));
+    assert_eq!(rows.len(), 32);
+    let e = fails(&tmo(d, &["run", "hand.toml", "--backend", "replay"]));
+    assert!(e.contains("--from"), "{e}");
+}
