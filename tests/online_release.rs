@@ -246,7 +246,7 @@ fn responses_keep_a_filling_can_in_the_hand() {
         let responses = record
             .events
             .iter()
-            .filter(|e| e.topic == "/detector")
+            .filter(|e| tmo::trial::is_reaction(e))
             .count();
         eprintln!(
             "online {}: dropped {}, responses {responses}",
