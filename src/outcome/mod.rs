@@ -135,6 +135,32 @@ pub fn drop_time(track: &[MarkerSample], onset_s: f64, spec: &CatchSpec) -> Opti
         .map(|m| m.time_s)
 }
 
+/// When the object, having slipped from `onset_s`, came to rest (on a support, or caught):
+/// the first sample from which the means of the two halves of the next `rest_window_s`
+/// differ by less than the rest tolerance.
+pub fn rest_after(track: &[MarkerSample], onset_s: f64, spec: &CatchSpec) -> Option<f64> {
+    let after: Vec<&MarkerSample> = track.iter().filter(|m| m.time_s >= onset_s).collect();
+    let mean =
+        |v: &[&&MarkerSample]| v.iter().map(|m| relative_height(m)).sum::<f64>() / v.len() as f64;
+    for (i, start) in after.iter().enumerate() {
+        let window: Vec<&&MarkerSample> = after[i..]
+            .iter()
+            .take_while(|m| m.time_s <= start.time_s + spec.rest_window_s)
+            .collect();
+        if window
+            .last()
+            .is_none_or(|m| m.time_s < start.time_s + 0.9 * spec.rest_window_s)
+        {
+            return None; // the track ends before a full window
+        }
+        let (a, b) = window.split_at(window.len() / 2);
+        if !a.is_empty() && !b.is_empty() && (mean(a) - mean(b)).abs() < spec.rest_tolerance_mm {
+            return Some(start.time_s);
+        }
+    }
+    None
+}
+
 /// Mean height over the last `rest_window_s` if the object was still there: the means of
 /// the window's two halves differ by less than the tolerance. (A spread test would trip on
 /// marker noise: the relative height carries both markers' noise, about 0.4 mm.)

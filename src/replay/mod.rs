@@ -12,7 +12,7 @@ use std::sync::atomic::AtomicBool;
 
 use crate::online::classify::Reaction;
 use crate::online::strategy::Strategy;
-use crate::outcome::{drop_time, CatchSpec};
+use crate::outcome::{drop_time, rest_after, CatchSpec};
 use crate::runner::monitor::WatchLimits;
 use crate::runner::replay::{run_replay, ArmedWindow, ReplayParams};
 use crate::runner::{Fault, Online, RunRecord, TICK_S};
@@ -30,7 +30,7 @@ pub enum ReplayVerdict {
     /// Reacted before the onset (by more than the marker's lag), or with no slip at all.
     FalsePositive,
     /// No reaction although the object slipped and nothing caught it in the recording, or a
-    /// reaction only once it had fallen past the drop limit.
+    /// reaction only once it had fallen past the drop limit or come to rest.
     Missed,
     /// Would have reacted (or not) only after the recorded hand's reaction: unknown.
     AfterLogged,
@@ -123,11 +123,17 @@ pub fn judge(
             -n
         }
     });
-    let dropped_s = onset.and_then(|o| drop_time(&trial.markers, o, spec));
+    // A reaction once the object had fallen past the drop limit, or had come to rest (on
+    // the table below a low lift), catches nothing.
+    let too_late_s = onset.and_then(|o| {
+        let d = drop_time(&trial.markers, o, spec);
+        let r = rest_after(&trial.markers, o, spec);
+        d.into_iter().chain(r).reduce(f64::min)
+    });
     let verdict = match (reaction, onset) {
         _ if fault.is_some() && reaction.is_none() => ReplayVerdict::Aborted,
         // reacting once the object is gone catches nothing
-        (Some(r), _) if dropped_s.is_some_and(|d| r.time_s > d) => ReplayVerdict::Missed,
+        (Some(r), _) if too_late_s.is_some_and(|d| r.time_s > d) => ReplayVerdict::Missed,
         (Some(r), _) if logged.is_some_and(|l| r.time_s > l + 1e-9) => ReplayVerdict::AfterLogged,
         (Some(r), Some(o)) if r.time_s < o - spec.marker_lag_s => ReplayVerdict::FalsePositive,
         (Some(_), Some(_)) => ReplayVerdict::Detected,
@@ -193,6 +199,11 @@ mod tests {
     use tmo_hal::MarkerSample;
 
     fn trial_with_fall(fall_at: f64) -> Trial {
+        trial_with_fall_onto(fall_at, f64::INFINITY)
+    }
+
+    /// The object falls from `fall_at` and lands `depth_mm` lower.
+    fn trial_with_fall_onto(fall_at: f64, depth_mm: f64) -> Trial {
         let mut t = crate::trial::tests::sample_trial();
         t.events.clear();
         t.markers = (0..200)
@@ -201,7 +212,7 @@ mod tests {
                 let fall = (time_s - fall_at).max(0.0);
                 MarkerSample {
                     time_s,
-                    object_mm: 300.0 - 0.5 * 9810.0 * fall * fall,
+                    object_mm: 300.0 - (0.5 * 9810.0 * fall * fall).min(depth_mm),
                     hand_mm: 360.0,
                 }
             })
@@ -256,6 +267,16 @@ mod tests {
         assert_eq!(
             judge(&caught, at(onset + 0.01), None, &spec).0,
             ReplayVerdict::Detected
+        );
+        // a short fall onto the table: once the object lies there, a reaction is too late
+        let landed = trial_with_fall_onto(1.0, 30.0);
+        assert_eq!(
+            judge(&landed, at(onset + 0.03), None, &spec).0,
+            ReplayVerdict::Detected
+        );
+        assert_eq!(
+            judge(&landed, at(onset + 1.0), None, &spec).0,
+            ReplayVerdict::Missed
         );
         let still = trial_with_fall(99.0);
         assert_eq!(judge(&still, None, None, &spec).0, ReplayVerdict::NoSlip);
