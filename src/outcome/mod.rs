@@ -135,30 +135,44 @@ pub fn drop_time(track: &[MarkerSample], onset_s: f64, spec: &CatchSpec) -> Opti
         .map(|m| m.time_s)
 }
 
-/// When the object, having slipped from `onset_s`, came to rest (on a support, or caught):
-/// the first sample from which the means of the two halves of the next `rest_window_s`
-/// differ by less than the rest tolerance.
+/// When the object, having slipped from `onset_s`, had come to rest for good (on a support,
+/// or caught): the end of the first block of half a rest window from which the mean relative
+/// heights of all later blocks stay within twice the rest tolerance. A stick-slip pause
+/// followed by more slip is not rest.
 pub fn rest_after(track: &[MarkerSample], onset_s: f64, spec: &CatchSpec) -> Option<f64> {
-    let after: Vec<&MarkerSample> = track.iter().filter(|m| m.time_s >= onset_s).collect();
-    let mean =
-        |v: &[&&MarkerSample]| v.iter().map(|m| relative_height(m)).sum::<f64>() / v.len() as f64;
-    for (i, start) in after.iter().enumerate() {
-        let window: Vec<&&MarkerSample> = after[i..]
-            .iter()
-            .take_while(|m| m.time_s <= start.time_s + spec.rest_window_s)
-            .collect();
-        if window
-            .last()
-            .is_none_or(|m| m.time_s < start.time_s + 0.9 * spec.rest_window_s)
-        {
-            return None; // the track ends before a full window
+    let block_s = spec.rest_window_s / 2.0;
+    let mut means: Vec<(f64, usize)> = Vec::new();
+    for m in track.iter().filter(|m| m.time_s >= onset_s) {
+        let k = ((m.time_s - onset_s) / block_s) as usize;
+        if means.len() <= k {
+            means.resize(k + 1, (0.0, 0));
         }
-        let (a, b) = window.split_at(window.len() / 2);
-        if !a.is_empty() && !b.is_empty() && (mean(a) - mean(b)).abs() < spec.rest_tolerance_mm {
-            return Some(start.time_s);
-        }
+        means[k].0 += relative_height(m);
+        means[k].1 += 1;
     }
-    None
+    let means: Vec<(usize, f64)> = means
+        .iter()
+        .enumerate()
+        .filter(|(_, (_, n))| *n > 0)
+        .map(|(k, (sum, n))| (k, sum / *n as f64))
+        .collect();
+    // A rest needs at least a full window behind it.
+    if means.len() < 2 {
+        return None;
+    }
+    let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+    let mut start = None;
+    for &(k, mean) in means.iter().rev() {
+        lo = lo.min(mean);
+        hi = hi.max(mean);
+        if hi - lo >= 2.0 * spec.rest_tolerance_mm {
+            break;
+        }
+        start = Some(k);
+    }
+    let k = start?;
+    // The object may still have moved within block k: rest is certain from its end.
+    (means.last().map(|l| l.0) > Some(k)).then(|| onset_s + (k + 1) as f64 * block_s)
 }
 
 /// Mean height over the last `rest_window_s` if the object was still there: the means of

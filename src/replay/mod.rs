@@ -125,16 +125,20 @@ pub fn judge(
     });
     // A reaction once the object had fallen past the drop limit, or had come to rest (on
     // the table below a low lift), catches nothing.
-    let too_late_s = onset.and_then(|o| {
-        let d = drop_time(&trial.markers, o, spec);
-        let r = rest_after(&trial.markers, o, spec);
-        d.into_iter().chain(r).reduce(f64::min)
-    });
+    // Only what happened before the recorded hand reacted counts: after that a rest may be
+    // its catch.
+    let too_late_s = onset
+        .and_then(|o| {
+            let d = drop_time(&trial.markers, o, spec);
+            let r = rest_after(&trial.markers, o, spec);
+            d.into_iter().chain(r).reduce(f64::min)
+        })
+        .filter(|t| logged.is_none_or(|l| *t < l));
     let verdict = match (reaction, onset) {
         _ if fault.is_some() && reaction.is_none() => ReplayVerdict::Aborted,
+        (Some(r), _) if logged.is_some_and(|l| r.time_s > l + 1e-9) => ReplayVerdict::AfterLogged,
         // reacting once the object is gone catches nothing
         (Some(r), _) if too_late_s.is_some_and(|d| r.time_s > d) => ReplayVerdict::Missed,
-        (Some(r), _) if logged.is_some_and(|l| r.time_s > l + 1e-9) => ReplayVerdict::AfterLogged,
         (Some(r), Some(o)) if r.time_s < o - spec.marker_lag_s => ReplayVerdict::FalsePositive,
         (Some(_), Some(_)) => ReplayVerdict::Detected,
         (Some(_), None) => ReplayVerdict::FalsePositive,
