@@ -3,6 +3,7 @@
 //! The binary (`main.rs`) is the CLI and glue; the work lives here and in `tmo-hal`.
 
 pub mod collect;
+pub mod hardware;
 pub mod online;
 pub mod outcome;
 pub mod plots;

@@ -27,6 +27,9 @@ enum Command {
     /// The simulated rig.
     #[command(subcommand)]
     Sim(SimCommand),
+    /// The real rig's hardware file.
+    #[command(subcommand)]
+    Hardware(cli::hardware::HardwareCommand),
     /// Labelled feature data from recorded trials.
     #[command(subcommand)]
     Dataset(DatasetCommand),
@@ -68,6 +71,7 @@ fn run(cli: Cli) -> Result<u8> {
     }
     match cli.command {
         Command::Sim(command) => cli::sim::run(command),
+        Command::Hardware(command) => cli::hardware::run(command),
         Command::Dataset(DatasetCommand::Export(args)) => cli::slip::dataset_export(args),
         Command::Train(args) => cli::slip::train(args),
         Command::Evaluate(args) => cli::slip::evaluate(args),

@@ -9,6 +9,7 @@
 //! world) is the job of that backend's constructor; see [`sim::SimRig`].
 
 pub mod error;
+pub mod real;
 pub mod sim;
 pub mod traits;
 pub mod types;

@@ -1,5 +1,6 @@
 //! Subcommands: argument types and the glue from them to the library.
 
+pub mod hardware;
 pub mod replay;
 pub mod report;
 pub mod run;

@@ -156,7 +156,7 @@ impl Plan {
 }
 
 /// Line and column (1-based) of byte `offset` in `text`.
-fn line_column(text: &str, offset: usize) -> (usize, usize) {
+pub(crate) fn line_column(text: &str, offset: usize) -> (usize, usize) {
     let before = &text[..offset.min(text.len())];
     let line = before.matches('\n').count() + 1;
     let column = before
@@ -168,7 +168,7 @@ fn line_column(text: &str, offset: usize) -> (usize, usize) {
 
 /// Byte span of the value at dotted `field` (e.g. `hand_release.regrasp` or `models.1`),
 /// or of the nearest enclosing item that has one.
-fn field_span(text: &str, field: &str) -> Option<std::ops::Range<usize>> {
+pub(crate) fn field_span(text: &str, field: &str) -> Option<std::ops::Range<usize>> {
     let doc = toml_edit::ImDocument::parse(text.to_string()).ok()?;
     let mut item = doc.as_item();
     let mut span = None;
@@ -186,7 +186,7 @@ fn field_span(text: &str, field: &str) -> Option<std::ops::Range<usize>> {
 }
 
 /// Dotted path of the innermost key whose value spans byte `offset`, for parse errors.
-fn field_at(text: &str, offset: usize) -> Option<String> {
+pub(crate) fn field_at(text: &str, offset: usize) -> Option<String> {
     fn walk(item: &toml_edit::Item, offset: usize, path: &mut Vec<String>) {
         let Some(table) = item.as_table_like() else {
             return;

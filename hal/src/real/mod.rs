@@ -1,0 +1,5 @@
+//! The real rig's wire protocols (issue 7, in progress): parsers and codecs first, each
+//! tested on its own and by property tests; the device adapters over serial ports and TCP
+//! come on top of them.
+
+pub mod jevois;
