@@ -2,4 +2,5 @@
 //! tested on its own and by property tests; the device adapters over serial ports and TCP
 //! come on top of them.
 
+pub mod dynamixel;
 pub mod jevois;
