@@ -4,3 +4,4 @@
 
 pub mod dynamixel;
 pub mod jevois;
+pub mod rtde;
