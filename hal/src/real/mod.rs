@@ -5,3 +5,5 @@
 pub mod dynamixel;
 pub mod jevois;
 pub mod rtde;
+pub mod ur;
+pub mod urscript;

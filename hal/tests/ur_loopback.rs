@@ -1,0 +1,95 @@
+//! The UR arm backend against the simulated arm served as a UR controller on loopback:
+//! RTDE negotiation, state streaming, and URScript moves that the simulated arm follows.
+
+use std::net::TcpListener;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{mpsc, Arc};
+use std::time::{Duration, Instant};
+
+use tmo_hal::real::ur::UrArm;
+use tmo_hal::sim::serve_ur::{serve_ur, UrServeStats, CONTROLLER_VERSION};
+use tmo_hal::sim::{SimConfig, SimRig};
+use tmo_hal::Arm;
+
+fn serve() -> (
+    u16,
+    u16,
+    Arc<AtomicBool>,
+    std::thread::JoinHandle<UrServeStats>,
+) {
+    let stop = Arc::new(AtomicBool::new(false));
+    let (tx, rx) = mpsc::channel();
+    let flag = stop.clone();
+    let server = std::thread::spawn(move || {
+        let rig = SimRig::new(SimConfig::default()).unwrap();
+        let rtde = TcpListener::bind("127.0.0.1:0").unwrap();
+        let script = TcpListener::bind("127.0.0.1:0").unwrap();
+        tx.send((
+            rtde.local_addr().unwrap().port(),
+            script.local_addr().unwrap().port(),
+        ))
+        .unwrap();
+        serve_ur(&rig, rtde, script, &flag).unwrap()
+    });
+    let (r, s) = rx.recv().unwrap();
+    (r, s, stop, server)
+}
+
+#[test]
+fn the_arm_backend_drives_the_served_simulated_arm() {
+    let (rtde_port, script_port, stop, server) = serve();
+    let mut arm = UrArm::connect("127.0.0.1", rtde_port, script_port, 125.0).unwrap();
+    let start = arm.tcp_pose().unwrap().position_mm;
+    assert!(
+        (start[2] - SimConfig::default().arm.start_mm[2]).abs() < 1e-6,
+        "{start:?}"
+    );
+
+    arm.move_linear([0.0, 0.0, 10.0], 50.0).unwrap();
+    let deadline = Instant::now() + Duration::from_secs(5);
+    let mut z = start[2];
+    while Instant::now() < deadline {
+        std::thread::sleep(Duration::from_millis(20));
+        z = arm.tcp_pose().unwrap().position_mm[2];
+        if (z - (start[2] + 10.0)).abs() < 0.05 {
+            break;
+        }
+    }
+    // the controller's own accelerations may overshoot by a few micrometres
+    assert!((z - (start[2] + 10.0)).abs() < 0.05, "reached {z}");
+    arm.stop().unwrap();
+    // let the server read the last line before it stops
+    std::thread::sleep(Duration::from_millis(100));
+    drop(arm);
+    stop.store(true, Ordering::Relaxed);
+    let stats = server.join().unwrap();
+    assert_eq!((stats.rtde_clients, stats.script_clients), (1, 1));
+    assert!(stats.data_packages > 10, "{stats:?}");
+    assert_eq!(stats.script_lines, 2, "movel and stopl");
+    assert_eq!(stats.script_errors, 0);
+    assert_eq!(CONTROLLER_VERSION.0, 3);
+}
+
+#[test]
+fn a_server_that_goes_away_is_an_error_of_the_next_call() {
+    let (rtde_port, script_port, stop, server) = serve();
+    let mut arm = UrArm::connect("127.0.0.1", rtde_port, script_port, 125.0).unwrap();
+    arm.tcp_pose().unwrap();
+    stop.store(true, Ordering::Relaxed);
+    server.join().unwrap();
+    // the listener and connections are gone: state stops, then reads fail
+    let deadline = Instant::now() + Duration::from_secs(3);
+    let mut failed = None;
+    while Instant::now() < deadline && failed.is_none() {
+        std::thread::sleep(Duration::from_millis(20));
+        if let Err(e) = arm.tcp_pose() {
+            failed = Some(e);
+        }
+    }
+    let e = failed.expect("an error once the controller is gone");
+    assert_eq!(
+        tmo_hal::Error::kind(&e),
+        tmo_hal::ErrorKind::Disconnected,
+        "{e}"
+    );
+}
