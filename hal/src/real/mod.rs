@@ -2,8 +2,10 @@
 //! tested on its own and by property tests; the device adapters over serial ports and TCP
 //! come on top of them.
 
+pub mod clock;
 pub mod dynamixel;
 pub mod jevois;
+pub mod jevois_sensor;
 pub mod rtde;
 pub mod ur;
 pub mod urscript;

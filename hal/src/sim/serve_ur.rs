@@ -5,13 +5,12 @@
 
 use std::io::{Read, Write};
 use std::net::{TcpListener, TcpStream};
-use std::sync::atomic::{AtomicBool, Ordering};
-use std::time::{Duration, Instant};
+use std::sync::atomic::AtomicBool;
 
 use super::SimRig;
 use crate::real::rtde::{encode_values, ClientMessage, Framer, ServerMessage, Value};
 use crate::real::urscript::{parse_line, Command};
-use crate::{Arm, Clock};
+use crate::Arm;
 
 /// What the emulated controller says it is (a CB3 at 125 Hz).
 pub const CONTROLLER_VERSION: (u32, u32, u32, u32) = (3, 15, 7, 0);
@@ -76,29 +75,37 @@ fn write(stream: &mut TcpStream, m: &ServerMessage, code: Option<u8>) -> bool {
     bytes.is_ok_and(|b| stream.write_all(&b).is_ok())
 }
 
-/// Serves until `stop` is set. The sim clock follows the wall clock from the call.
-pub fn serve_ur(
-    rig: &SimRig,
+/// The emulated UR controller: listeners, connections and what it has done.
+pub struct UrEmulator {
     rtde: TcpListener,
     script: TcpListener,
-    stop: &AtomicBool,
-) -> std::io::Result<UrServeStats> {
-    rtde.set_nonblocking(true)?;
-    script.set_nonblocking(true)?;
-    let mut clock = rig.clock();
-    let mut arm = rig.arm();
-    let t0_sim = clock.now_s();
-    let t0 = Instant::now();
-    let mut stats = UrServeStats::default();
-    let mut rtde_conns: Vec<RtdeConn> = Vec::new();
-    let mut script_conns: Vec<ScriptConn> = Vec::new();
-    let mut buf = [0u8; 4096];
-    while !stop.load(Ordering::Relaxed) {
-        while let Ok((s, _)) = rtde.accept() {
+    rtde_conns: Vec<RtdeConn>,
+    script_conns: Vec<ScriptConn>,
+    pub stats: UrServeStats,
+}
+
+impl UrEmulator {
+    pub fn new(rtde: TcpListener, script: TcpListener) -> std::io::Result<Self> {
+        rtde.set_nonblocking(true)?;
+        script.set_nonblocking(true)?;
+        Ok(Self {
+            rtde,
+            script,
+            rtde_conns: Vec::new(),
+            script_conns: Vec::new(),
+            stats: UrServeStats::default(),
+        })
+    }
+
+    /// Accepts, reads and answers what arrived, and streams state due at `now` (sim s).
+    pub fn step(&mut self, now: f64, arm: &mut super::SimArm) -> std::io::Result<()> {
+        let mut buf = [0u8; 4096];
+        let stats = &mut self.stats;
+        while let Ok((s, _)) = self.rtde.accept() {
             s.set_nonblocking(true)?;
             s.set_nodelay(true)?;
             stats.rtde_clients += 1;
-            rtde_conns.push(RtdeConn {
+            self.rtde_conns.push(RtdeConn {
                 stream: s,
                 framer: Framer::default(),
                 outputs: Vec::new(),
@@ -108,18 +115,17 @@ pub fn serve_ur(
                 open: true,
             });
         }
-        while let Ok((s, _)) = script.accept() {
+        while let Ok((s, _)) = self.script.accept() {
             s.set_nonblocking(true)?;
             stats.script_clients += 1;
-            script_conns.push(ScriptConn {
+            self.script_conns.push(ScriptConn {
                 stream: s,
                 pending: Vec::new(),
                 open: true,
             });
         }
-        clock.sleep_until(t0_sim + t0.elapsed().as_secs_f64());
-        let now = clock.now_s();
-
+        let rtde_conns = &mut self.rtde_conns;
+        let script_conns = &mut self.script_conns;
         for c in rtde_conns.iter_mut() {
             loop {
                 match c.stream.read(&mut buf) {
@@ -276,7 +282,18 @@ pub fn serve_ur(
             }
         }
         script_conns.retain(|c| c.open);
-        std::thread::sleep(Duration::from_micros(500));
+        Ok(())
     }
-    Ok(stats)
+}
+
+/// Serves the arm until `stop` is set; the sim clock follows the wall clock from the call.
+pub fn serve_ur(
+    rig: &SimRig,
+    rtde: TcpListener,
+    script: TcpListener,
+    stop: &AtomicBool,
+) -> std::io::Result<UrServeStats> {
+    let mut ur = UrEmulator::new(rtde, script)?;
+    super::serve_jevois::serve(rig, Some(&mut ur), &mut [], stop)?;
+    Ok(ur.stats)
 }

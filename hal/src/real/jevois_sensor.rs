@@ -1,0 +1,171 @@
+//! A JeVois fingertip camera on a serial port as the rig's [`TactileSensor`]. A reader
+//! thread turns the byte stream into pin frames (timestamped on arrival by the backend's
+//! clock); `next_frame` never blocks. Lines that are not `F2` frames with the expected pin
+//! count are counted and dropped; a camera silent for longer than the limit is a
+//! [`ErrorKind::Timeout`].
+
+use std::sync::mpsc::{self, Receiver, TryRecvError};
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
+
+use super::clock::RealClock;
+use super::jevois::{LineReader, Message, ReaderStats};
+use crate::{Clock, ErrorKind, ErrorType, PinFrame, TactileSensor};
+
+#[derive(Debug, thiserror::Error)]
+pub enum CameraError {
+    #[error("camera {port}: {source}")]
+    Open {
+        port: String,
+        source: std::io::Error,
+    },
+    #[error("camera {port} silent for {silent_s:.2} s")]
+    Silent { port: String, silent_s: f64 },
+    #[error("camera {port}: the port closed ({reason})")]
+    Closed { port: String, reason: String },
+}
+
+impl crate::Error for CameraError {
+    fn kind(&self) -> ErrorKind {
+        match self {
+            CameraError::Silent { .. } => ErrorKind::Timeout,
+            CameraError::Closed { .. } | CameraError::Open { .. } => ErrorKind::Disconnected,
+        }
+    }
+}
+
+/// What a camera's stream held, beyond its frames.
+#[derive(Debug, Default, Clone, PartialEq, Eq)]
+pub struct CameraStats {
+    pub reader: ReaderStats,
+    /// `F2` frames with another pin count than expected.
+    pub wrong_pin_count: u64,
+    /// Messages that were not `F2` frames.
+    pub other_messages: u64,
+}
+
+pub struct JevoisSensor {
+    port: String,
+    sensor: u8,
+    frames: Receiver<Result<PinFrame, String>>,
+    stats: Arc<Mutex<CameraStats>>,
+    clock: RealClock,
+    last_s: f64,
+    silent_limit_s: f64,
+}
+
+impl JevoisSensor {
+    /// Opens `port` and starts reading; frames carry `sensor` and `clock` times.
+    pub fn open(
+        port: &str,
+        baud: u32,
+        sensor: u8,
+        pins: usize,
+        silent_limit_s: f64,
+        clock: RealClock,
+    ) -> Result<Self, CameraError> {
+        let open_err = |source| CameraError::Open {
+            port: port.to_string(),
+            source,
+        };
+        let mut serial = serial2::SerialPort::open(port, baud).map_err(open_err)?;
+        serial
+            .set_read_timeout(Duration::from_millis(100))
+            .map_err(open_err)?;
+        let (tx, rx) = mpsc::channel();
+        let stats = Arc::new(Mutex::new(CameraStats::default()));
+        let shared = stats.clone();
+        std::thread::Builder::new()
+            .name(format!("jevois {port}"))
+            .spawn(move || {
+                let mut reader = LineReader::default();
+                let mut buf = [0u8; 2048];
+                let mut seq = 0u64;
+                loop {
+                    let n = match serial.read(&mut buf) {
+                        Ok(0) => continue,
+                        Ok(n) => n,
+                        Err(e) if e.kind() == std::io::ErrorKind::TimedOut => continue,
+                        Err(e) => {
+                            let _ = tx.send(Err(e.to_string()));
+                            return;
+                        }
+                    };
+                    let arrived = clock.at(Instant::now());
+                    let messages = reader.push(&buf[..n]);
+                    let mut s = shared.lock().expect("stats lock");
+                    s.reader = reader.stats().clone();
+                    for m in messages {
+                        match m.message {
+                            Message::Fine2 { points, .. } if points.len() == pins => {
+                                seq += 1;
+                                let f = PinFrame {
+                                    sensor,
+                                    seq,
+                                    time_s: arrived,
+                                    pins: points,
+                                };
+                                if tx.send(Ok(f)).is_err() {
+                                    return; // the sensor was dropped
+                                }
+                            }
+                            Message::Fine2 { .. } => s.wrong_pin_count += 1,
+                            _ => s.other_messages += 1,
+                        }
+                    }
+                }
+            })
+            .map_err(open_err)?;
+        Ok(Self {
+            port: port.to_string(),
+            sensor,
+            frames: rx,
+            stats,
+            clock,
+            last_s: clock.now_s(),
+            silent_limit_s,
+        })
+    }
+
+    pub fn stats(&self) -> CameraStats {
+        self.stats.lock().expect("stats lock").clone()
+    }
+
+    pub fn sensor(&self) -> u8 {
+        self.sensor
+    }
+}
+
+impl ErrorType for JevoisSensor {
+    type Error = CameraError;
+}
+
+impl TactileSensor for JevoisSensor {
+    fn next_frame(&mut self) -> Result<Option<PinFrame>, CameraError> {
+        match self.frames.try_recv() {
+            Ok(Ok(f)) => {
+                self.last_s = f.time_s;
+                Ok(Some(f))
+            }
+            Ok(Err(reason)) => Err(CameraError::Closed {
+                port: self.port.clone(),
+                reason,
+            }),
+            Err(TryRecvError::Empty) => {
+                let silent_s = self.clock.now_s() - self.last_s;
+                if silent_s > self.silent_limit_s {
+                    Err(CameraError::Silent {
+                        port: self.port.clone(),
+                        silent_s,
+                    })
+                } else {
+                    Ok(None)
+                }
+            }
+            Err(TryRecvError::Disconnected) => Err(CameraError::Closed {
+                port: self.port.clone(),
+                reason: "reader stopped".into(),
+            }),
+        }
+    }
+}
