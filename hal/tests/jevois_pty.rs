@@ -26,7 +26,7 @@ fn frames_cross_the_serial_line_at_the_camera_rate() {
             .collect();
         tx.send(cams.iter().map(|c| c.path.clone()).collect::<Vec<_>>())
             .unwrap();
-        serve(&rig, None, &mut cams, &flag).unwrap();
+        serve(&rig, None, &mut cams, None, &flag).unwrap();
         cams.iter()
             .map(|c| (c.sent_lines, c.dropped_lines))
             .collect::<Vec<_>>()

@@ -11,6 +11,7 @@ use std::time::{Duration, Instant};
 use nix::fcntl::{fcntl, FcntlArg, OFlag};
 use nix::sys::termios;
 
+use super::serve_dynamixel::PtyServoBus;
 use super::serve_ur::UrEmulator;
 use super::{SimRig, SimTactileSensor};
 use crate::real::jevois::format_fine2;
@@ -75,11 +76,13 @@ impl PtyCamera {
     }
 }
 
-/// Runs the rig in real time until `stop` is set, serving the arm (if given) and cameras.
+/// Runs the rig in real time until `stop` is set, serving the arm, the cameras and the
+/// hand's bus that are given.
 pub fn serve(
     rig: &SimRig,
     mut ur: Option<&mut UrEmulator>,
     cameras: &mut [PtyCamera],
+    mut bus: Option<&mut PtyServoBus>,
     stop: &AtomicBool,
 ) -> std::io::Result<()> {
     let mut clock = rig.clock();
@@ -94,6 +97,9 @@ pub fn serve(
         }
         for c in cameras.iter_mut() {
             c.step()?;
+        }
+        if let Some(b) = bus.as_deref_mut() {
+            b.step()?;
         }
         std::thread::sleep(Duration::from_micros(500));
     }

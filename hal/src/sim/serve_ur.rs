@@ -294,6 +294,6 @@ pub fn serve_ur(
     stop: &AtomicBool,
 ) -> std::io::Result<UrServeStats> {
     let mut ur = UrEmulator::new(rtde, script)?;
-    super::serve_jevois::serve(rig, Some(&mut ur), &mut [], stop)?;
+    super::serve_jevois::serve(rig, Some(&mut ur), &mut [], None, stop)?;
     Ok(ur.stats)
 }
