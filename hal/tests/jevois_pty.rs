@@ -8,9 +8,10 @@ use std::time::{Duration, Instant};
 
 use tmo_hal::real::clock::RealClock;
 use tmo_hal::real::jevois_sensor::JevoisSensor;
-use tmo_hal::sim::serve_jevois::{serve, PtyCamera};
+use tmo_hal::real::marker_camera::MarkerCamera;
+use tmo_hal::sim::serve_jevois::{serve, PtyCamera, PtyMarkerCamera, ServedDevices};
 use tmo_hal::sim::{SimConfig, SimRig};
-use tmo_hal::{ErrorKind, TactileSensor};
+use tmo_hal::{ErrorKind, MarkerTracker, TactileSensor};
 
 #[test]
 fn frames_cross_the_serial_line_at_the_camera_rate() {
@@ -19,21 +20,38 @@ fn frames_cross_the_serial_line_at_the_camera_rate() {
     let flag = stop.clone();
     let server = std::thread::spawn(move || {
         let rig = SimRig::new(SimConfig::default()).unwrap();
-        let mut cams: Vec<PtyCamera> = rig
-            .tactile_sensors()
-            .into_iter()
-            .map(|s| PtyCamera::open(s, "pins").unwrap())
-            .collect();
-        tx.send(cams.iter().map(|c| c.path.clone()).collect::<Vec<_>>())
+        let mut devices = ServedDevices {
+            cameras: rig
+                .tactile_sensors()
+                .into_iter()
+                .map(|s| PtyCamera::open(s, "pins").unwrap())
+                .collect(),
+            markers: Some(PtyMarkerCamera::open(rig.marker_tracker(), "U42", "U7").unwrap()),
+            ..Default::default()
+        };
+        let paths: Vec<_> = devices.cameras.iter().map(|c| c.path.clone()).collect();
+        tx.send((paths, devices.markers.as_ref().unwrap().path.clone()))
             .unwrap();
-        serve(&rig, None, &mut cams, None, &flag).unwrap();
-        cams.iter()
+        serve(&rig, &mut devices, &flag).unwrap();
+        devices
+            .cameras
+            .iter()
             .map(|c| (c.sent_lines, c.dropped_lines))
             .collect::<Vec<_>>()
     });
-    let paths = rx.recv().unwrap();
+    let (paths, marker_path) = rx.recv().unwrap();
     assert_eq!(paths.len(), 3);
     let clock = RealClock::new();
+    let mut markers = MarkerCamera::open(
+        marker_path.to_str().unwrap(),
+        115200,
+        "U42",
+        "U7",
+        0.25,
+        clock,
+    )
+    .unwrap();
+    let mut samples = Vec::new();
     let mut sensors: Vec<JevoisSensor> = paths
         .iter()
         .enumerate()
@@ -44,6 +62,9 @@ fn frames_cross_the_serial_line_at_the_camera_rate() {
     let mut counts = [0usize; 3];
     let until = Instant::now() + Duration::from_millis(600);
     while Instant::now() < until {
+        while let Some(m) = markers.next_sample().unwrap() {
+            samples.push(m);
+        }
         for (k, s) in sensors.iter_mut().enumerate() {
             while let Some(f) = s.next_frame().unwrap() {
                 assert_eq!(f.pins.len(), 30);
@@ -55,6 +76,19 @@ fn frames_cross_the_serial_line_at_the_camera_rate() {
     }
     // 60 fps for 0.6 s, give or take start-up and a loaded machine
     assert!(counts.iter().all(|&n| n >= 15), "{counts:?}");
+    // the tracker runs at 60 Hz too; the default rig's object falls out of an open hand
+    assert!(samples.len() >= 15, "{} marker samples", samples.len());
+    let hand =
+        SimConfig::default().arm.start_mm[2] + SimConfig::default().arm.hand_marker_offset_mm;
+    assert!(
+        samples.iter().all(|s| (s.hand_mm - hand).abs() < 5.0),
+        "{:?}",
+        samples[0]
+    );
+    assert!(
+        samples.last().unwrap().object_mm < samples[0].object_mm - 10.0,
+        "the object fell"
+    );
     for s in &sensors {
         let st = s.stats();
         assert_eq!(st.wrong_pin_count, 0, "{st:?}");

@@ -7,7 +7,7 @@ use std::time::{Duration, Instant};
 
 use tmo_hal::real::model_o::{ModelOConfig, ModelOHand};
 use tmo_hal::sim::serve_dynamixel::PtyServoBus;
-use tmo_hal::sim::serve_jevois::serve;
+use tmo_hal::sim::serve_jevois::{serve, ServedDevices};
 use tmo_hal::sim::{SimConfig, SimRig};
 use tmo_hal::Hand;
 
@@ -29,10 +29,14 @@ fn the_hand_backend_drives_the_served_simulated_fingers() {
     let flag = stop.clone();
     let server = std::thread::spawn(move || {
         let rig = SimRig::new(SimConfig::default()).unwrap();
-        let mut bus = PtyServoBus::open(rig.hand(), config(String::new())).unwrap();
+        let bus = PtyServoBus::open(rig.hand(), config(String::new())).unwrap();
         tx.send(bus.path.clone()).unwrap();
-        serve(&rig, None, &mut [], Some(&mut bus), &flag).unwrap();
-        bus.stats
+        let mut devices = ServedDevices {
+            bus: Some(bus),
+            ..Default::default()
+        };
+        serve(&rig, &mut devices, &flag).unwrap();
+        devices.bus.unwrap().stats
     });
     let path = rx.recv().unwrap();
     let mut hand = ModelOHand::open(config(path.display().to_string())).unwrap();

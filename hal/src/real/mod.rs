@@ -6,6 +6,7 @@ pub mod clock;
 pub mod dynamixel;
 pub mod jevois;
 pub mod jevois_sensor;
+pub mod marker_camera;
 pub mod model_o;
 pub mod rtde;
 pub mod ur;

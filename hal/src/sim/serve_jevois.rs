@@ -13,9 +13,9 @@ use nix::sys::termios;
 
 use super::serve_dynamixel::PtyServoBus;
 use super::serve_ur::UrEmulator;
-use super::{SimRig, SimTactileSensor};
-use crate::real::jevois::format_fine2;
-use crate::{Clock, TactileSensor};
+use super::{SimMarkerTracker, SimRig, SimTactileSensor};
+use crate::real::jevois::{format_detail3, format_fine2};
+use crate::{Clock, MarkerTracker, TactileSensor};
 
 /// One fingertip camera on a pseudo-terminal: clients open [`PtyCamera::path`] as they
 /// would `/dev/ttyACM0`.
@@ -35,24 +35,46 @@ fn io(e: nix::Error) -> std::io::Error {
     std::io::Error::from(e)
 }
 
+/// A raw pseudo-terminal (like a USB serial port: no echo, no line editing, no CR/LF
+/// translation) with a non-blocking master: the master, the slave (kept open so the
+/// terminal does not hang up between clients) and the slave's path.
+pub fn open_pty() -> std::io::Result<(File, OwnedFd, PathBuf)> {
+    let pty = nix::pty::openpty(None, None).map_err(io)?;
+    let mut t = termios::tcgetattr(pty.slave.as_fd()).map_err(io)?;
+    termios::cfmakeraw(&mut t);
+    termios::tcsetattr(pty.slave.as_fd(), termios::SetArg::TCSANOW, &t).map_err(io)?;
+    let path = nix::unistd::ttyname(pty.slave.as_fd()).map_err(io)?;
+    let flags = fcntl(pty.master.as_fd(), FcntlArg::F_GETFL).map_err(io)?;
+    fcntl(
+        pty.master.as_fd(),
+        FcntlArg::F_SETFL(OFlag::from_bits_truncate(flags) | OFlag::O_NONBLOCK),
+    )
+    .map_err(io)?;
+    Ok((File::from(pty.master), pty.slave, path))
+}
+
+/// Writes a line; a camera does not wait for its host, so a full terminal drops it.
+fn send_line(
+    master: &mut File,
+    line: &str,
+    sent: &mut u64,
+    dropped: &mut u64,
+) -> std::io::Result<()> {
+    match master.write(line.as_bytes()) {
+        Ok(n) if n == line.len() => *sent += 1,
+        Ok(_) => *dropped += 1,
+        Err(e) if e.kind() == std::io::ErrorKind::WouldBlock => *dropped += 1,
+        Err(e) => return Err(e),
+    }
+    Ok(())
+}
+
 impl PtyCamera {
     pub fn open(sensor: SimTactileSensor, id: &str) -> std::io::Result<Self> {
-        let pty = nix::pty::openpty(None, None).map_err(io)?;
-        // Raw, like a USB serial port: no echo, no line editing, no CR/LF translation.
-        let mut t = termios::tcgetattr(pty.slave.as_fd()).map_err(io)?;
-        termios::cfmakeraw(&mut t);
-        termios::tcsetattr(pty.slave.as_fd(), termios::SetArg::TCSANOW, &t).map_err(io)?;
-        let path = nix::unistd::ttyname(pty.slave.as_fd()).map_err(io)?;
-        // A camera does not wait for its host: writes that would block are dropped.
-        let flags = fcntl(pty.master.as_fd(), FcntlArg::F_GETFL).map_err(io)?;
-        fcntl(
-            pty.master.as_fd(),
-            FcntlArg::F_SETFL(OFlag::from_bits_truncate(flags) | OFlag::O_NONBLOCK),
-        )
-        .map_err(io)?;
+        let (master, slave, path) = open_pty()?;
         Ok(Self {
-            master: File::from(pty.master),
-            _slave: pty.slave,
+            master,
+            _slave: slave,
             path,
             sensor,
             id: id.to_string(),
@@ -65,26 +87,81 @@ impl PtyCamera {
     pub fn step(&mut self) -> std::io::Result<()> {
         while let Ok(Some(f)) = self.sensor.next_frame() {
             let line = format_fine2(None, &self.id, &f.pins);
-            match self.master.write(line.as_bytes()) {
-                Ok(n) if n == line.len() => self.sent_lines += 1,
-                Ok(_) => self.dropped_lines += 1,
-                Err(e) if e.kind() == std::io::ErrorKind::WouldBlock => self.dropped_lines += 1,
-                Err(e) => return Err(e),
+            send_line(
+                &mut self.master,
+                &line,
+                &mut self.sent_lines,
+                &mut self.dropped_lines,
+            )?;
+        }
+        Ok(())
+    }
+}
+
+/// The marker camera on a pseudo-terminal: DemoArUco `D3` lines for the object's and the
+/// hand's markers, heights as camera-frame `-y`.
+pub struct PtyMarkerCamera {
+    master: File,
+    _slave: OwnedFd,
+    pub path: PathBuf,
+    markers: SimMarkerTracker,
+    object_id: String,
+    hand_id: String,
+    pub sent_lines: u64,
+    pub dropped_lines: u64,
+}
+
+impl PtyMarkerCamera {
+    pub fn open(
+        markers: SimMarkerTracker,
+        object_id: &str,
+        hand_id: &str,
+    ) -> std::io::Result<Self> {
+        let (master, slave, path) = open_pty()?;
+        Ok(Self {
+            master,
+            _slave: slave,
+            path,
+            markers,
+            object_id: object_id.into(),
+            hand_id: hand_id.into(),
+            sent_lines: 0,
+            dropped_lines: 0,
+        })
+    }
+
+    pub fn step(&mut self) -> std::io::Result<()> {
+        while let Ok(Some(m)) = self.markers.next_sample() {
+            for (id, height) in [(&self.object_id, m.object_mm), (&self.hand_id, m.hand_mm)] {
+                let line = format_detail3(
+                    id,
+                    [0.0, -height, 500.0],
+                    [40.0, 40.0, 1.0],
+                    [1.0, 0.0, 0.0, 0.0],
+                );
+                send_line(
+                    &mut self.master,
+                    &line,
+                    &mut self.sent_lines,
+                    &mut self.dropped_lines,
+                )?;
             }
         }
         Ok(())
     }
 }
 
-/// Runs the rig in real time until `stop` is set, serving the arm, the cameras and the
-/// hand's bus that are given.
-pub fn serve(
-    rig: &SimRig,
-    mut ur: Option<&mut UrEmulator>,
-    cameras: &mut [PtyCamera],
-    mut bus: Option<&mut PtyServoBus>,
-    stop: &AtomicBool,
-) -> std::io::Result<()> {
+/// Every device `tmo sim serve` emulates for one rig; absent ones are not served.
+#[derive(Default)]
+pub struct ServedDevices {
+    pub ur: Option<UrEmulator>,
+    pub cameras: Vec<PtyCamera>,
+    pub markers: Option<PtyMarkerCamera>,
+    pub bus: Option<PtyServoBus>,
+}
+
+/// Runs the rig in real time until `stop` is set, serving its devices.
+pub fn serve(rig: &SimRig, devices: &mut ServedDevices, stop: &AtomicBool) -> std::io::Result<()> {
     let mut clock = rig.clock();
     let mut arm = rig.arm();
     let t0_sim = clock.now_s();
@@ -92,13 +169,16 @@ pub fn serve(
     while !stop.load(Ordering::Relaxed) {
         clock.sleep_until(t0_sim + t0.elapsed().as_secs_f64());
         let now = clock.now_s();
-        if let Some(ur) = ur.as_deref_mut() {
+        if let Some(ur) = devices.ur.as_mut() {
             ur.step(now, &mut arm)?;
         }
-        for c in cameras.iter_mut() {
+        for c in devices.cameras.iter_mut() {
             c.step()?;
         }
-        if let Some(b) = bus.as_deref_mut() {
+        if let Some(m) = devices.markers.as_mut() {
+            m.step()?;
+        }
+        if let Some(b) = devices.bus.as_mut() {
             b.step()?;
         }
         std::thread::sleep(Duration::from_micros(500));

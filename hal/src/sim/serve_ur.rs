@@ -293,7 +293,10 @@ pub fn serve_ur(
     script: TcpListener,
     stop: &AtomicBool,
 ) -> std::io::Result<UrServeStats> {
-    let mut ur = UrEmulator::new(rtde, script)?;
-    super::serve_jevois::serve(rig, Some(&mut ur), &mut [], None, stop)?;
-    Ok(ur.stats)
+    let mut devices = super::serve_jevois::ServedDevices {
+        ur: Some(UrEmulator::new(rtde, script)?),
+        ..Default::default()
+    };
+    super::serve_jevois::serve(rig, &mut devices, stop)?;
+    Ok(devices.ur.map(|u| u.stats).unwrap_or_default())
 }
