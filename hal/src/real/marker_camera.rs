@@ -5,7 +5,6 @@
 //! a marker missing from a frame simply yields no sample for it, as a tracker that lost
 //! it would.
 
-use std::io::Read;
 use std::sync::mpsc::{self, Receiver, TryRecvError};
 use std::time::{Duration, Instant};
 
