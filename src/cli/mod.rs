@@ -5,6 +5,7 @@ pub mod replay;
 pub mod report;
 pub mod run;
 pub mod run_tables;
+pub mod serve;
 pub mod sim;
 pub mod slip;
 pub mod sweep;

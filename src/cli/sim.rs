@@ -18,6 +18,9 @@ pub enum SimCommand {
     Objects,
     /// Records collect-mode trials (no reaction to slip) as training data.
     Collect(CollectArgs),
+    /// Serves the simulated rig over the real rig's wire protocols (cameras and hand bus on
+    /// pseudo-terminals, the UR controller on loopback TCP).
+    Serve(super::serve::ServeArgs),
 }
 
 #[derive(clap::Args)]
@@ -86,6 +89,7 @@ pub fn run(command: SimCommand) -> Result<()> {
         }
         SimCommand::Trace(args) => sim_trace(args),
         SimCommand::Collect(args) => sim_collect(args),
+        SimCommand::Serve(args) => super::serve::serve_cmd(args),
     }
 }
 

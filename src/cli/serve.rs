@@ -1,0 +1,143 @@
+//! `tmo sim serve --hardware hw.toml --out served.toml`: the simulated rig behind the real
+//! rig's wire protocols — the fingertip and marker cameras and the Dynamixel bus on
+//! pseudo-terminals, the UR controller (RTDE and URScript) on loopback TCP — so the real
+//! backend's code path can drive the simulator. Writes a hardware file naming where each
+//! device is served, and runs until Ctrl-C (or `--for` seconds).
+
+use std::net::TcpListener;
+use std::path::PathBuf;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+
+use anyhow::{Context, Result};
+use tmo_hal::real::model_o::ModelOConfig;
+use tmo_hal::sim::serve_dynamixel::PtyServoBus;
+use tmo_hal::sim::serve_jevois::{serve, PtyCamera, PtyMarkerCamera, ServedDevices};
+use tmo_hal::sim::serve_ur::UrEmulator;
+use tmo_hal::sim::{HandSetup, ObjectStart, RigSetup, SimConfig, SimRig};
+
+#[derive(clap::Args)]
+pub struct ServeArgs {
+    /// The hardware file to serve (its servo ids, calibration and marker ids are kept).
+    #[arg(long)]
+    hardware: PathBuf,
+    /// Where to write the served hardware file (ports replaced by the served ones).
+    #[arg(long, default_value = "served-hardware.toml")]
+    out: PathBuf,
+    /// Object on the table between the open fingers.
+    #[arg(long, default_value = "crisps_can")]
+    object: String,
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Stop after this many seconds (default: until Ctrl-C).
+    #[arg(long = "for")]
+    for_s: Option<f64>,
+}
+
+pub fn serve_cmd(args: ServeArgs) -> Result<()> {
+    let hw = tmo::hardware::load(&args.hardware)?;
+    let mut config = SimConfig {
+        seed: args.seed,
+        ..SimConfig::default()
+    };
+    let contact = tmo::sim_presets::contact_closure(&config, &args.object)?;
+    config.rig = RigSetup::Hand(HandSetup {
+        object: args.object.clone(),
+        initial_closure: (contact - 0.04).max(0.0),
+        start: ObjectStart::OnTable,
+        ..Default::default()
+    });
+    let rig = SimRig::new(config)?;
+    let rtde = TcpListener::bind("127.0.0.1:0").context("cannot listen for RTDE")?;
+    let script = TcpListener::bind("127.0.0.1:0").context("cannot listen for URScript")?;
+    let (rtde_port, script_port) = (rtde.local_addr()?.port(), script.local_addr()?.port());
+    let servo = ModelOConfig {
+        port: String::new(),
+        baud: hw.hand.baud,
+        ids: hw.hand.ids,
+        min: hw.hand.min,
+        max: hw.hand.max,
+        current_limit_ma: hw.hand.current_limit_ma,
+    };
+    let mut devices = ServedDevices {
+        ur: Some(UrEmulator::new(rtde, script)?),
+        cameras: rig
+            .tactile_sensors()
+            .into_iter()
+            .map(|s| PtyCamera::open(s, "pins"))
+            .collect::<std::io::Result<_>>()
+            .context("cannot open a pseudo-terminal for a fingertip camera")?,
+        markers: Some(
+            PtyMarkerCamera::open(
+                rig.marker_tracker(),
+                &hw.marker_camera.object_marker,
+                &hw.marker_camera.hand_marker,
+            )
+            .context("cannot open a pseudo-terminal for the marker camera")?,
+        ),
+        bus: Some(
+            PtyServoBus::open(rig.hand(), servo)
+                .context("cannot open a pseudo-terminal for the hand's bus")?,
+        ),
+    };
+    let mut served = hw.clone();
+    for (c, pty) in served.cameras.fingertips.iter_mut().zip(&devices.cameras) {
+        c.port = pty.path.display().to_string();
+    }
+    if let Some(m) = &devices.markers {
+        served.marker_camera.port = m.path.display().to_string();
+    }
+    if let Some(b) = &devices.bus {
+        served.hand.port = b.path.display().to_string();
+    }
+    served.arm.host = "127.0.0.1".into();
+    served.arm.rtde_port = rtde_port;
+    served.arm.script_port = script_port;
+    let text = format!(
+        "# written by `tmo sim serve --hardware {}`: the simulated rig, served\n{}",
+        args.hardware.display(),
+        toml::to_string_pretty(&served)?
+    );
+    std::fs::write(&args.out, text)
+        .with_context(|| format!("cannot write {}", args.out.display()))?;
+    println!(
+        "serving the simulated rig ({}): cameras {}, markers {}, hand bus {}, UR at 127.0.0.1 (RTDE {rtde_port}, URScript {script_port})",
+        args.object,
+        served
+            .cameras
+            .fingertips
+            .iter()
+            .map(|c| c.port.as_str())
+            .collect::<Vec<_>>()
+            .join(", "),
+        served.marker_camera.port,
+        served.hand.port,
+    );
+    println!(
+        "wrote {} (use it as --hardware); Ctrl-C stops",
+        args.out.display()
+    );
+
+    let stop = Arc::new(AtomicBool::new(false));
+    let flag = stop.clone();
+    ctrlc::set_handler(move || flag.store(true, Ordering::Relaxed))
+        .context("cannot install the Ctrl-C handler")?;
+    if let Some(s) = args.for_s {
+        let flag = stop.clone();
+        std::thread::spawn(move || {
+            std::thread::sleep(std::time::Duration::from_secs_f64(s.max(0.0)));
+            flag.store(true, Ordering::Relaxed);
+        });
+    }
+    serve(&rig, &mut devices, &stop)?;
+    let ur = devices.ur.map(|u| u.stats).unwrap_or_default();
+    let sent: u64 = devices.cameras.iter().map(|c| c.sent_lines).sum();
+    println!(
+        "stopped: {sent} camera lines, {} RTDE packages, {} URScript lines ({} refused), {} bus packets",
+        ur.data_packages,
+        ur.script_lines,
+        ur.script_errors,
+        devices.bus.map_or(0, |b| b.stats.packets)
+    );
+    Ok(())
+}
