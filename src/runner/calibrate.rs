@@ -54,14 +54,13 @@ where
 {
     let mut run = LiftRun::new(dev, None, p.watch)?;
     let contact = match run.close_to_contact(
-        dev,
         p.deformation_px,
         p.approach_speed_per_s,
         p.max_closure,
         stop,
     )? {
         Ok(q) => q,
-        Err(f) => return run.finish(dev, None, None, Some(f)),
+        Err(f) => return run.finish(None, None, Some(f)),
     };
     let open = run.start[0];
     let spec = LiftSpec::default();
@@ -69,28 +68,28 @@ where
     loop {
         let closure = contact + attempt as f64 * p.step;
         if closure > p.max_closure + 1e-12 {
-            return run.finish(dev, None, None, None);
+            return run.finish(None, None, None);
         }
-        let now = dev.clock.now_s();
+        let now = run.dev.clock.now_s();
         run.phase(
             now,
             "attempt",
             json!({ "attempt": attempt, "closure": closure }),
         );
-        run.grip(dev, closure)?;
+        run.grip(closure)?;
         // The fingers travel from open at most the whole range at the servo's pace; wait for
         // them and for the skin to settle.
-        if let Some(f) = run.idle_until(dev, now + 0.6, stop)? {
-            return run.finish(dev, None, None, Some(f));
+        if let Some(f) = run.idle_until(now + 0.6, stop)? {
+            return run.finish(None, None, Some(f));
         }
-        let lift_start = dev.clock.now_s();
+        let lift_start = run.dev.clock.now_s();
         run.phase(lift_start, "lifting", json!({}));
-        run.raise(dev, p.lift_mm, p.lift_speed_mm_s)?;
+        run.raise(p.lift_mm, p.lift_speed_mm_s)?;
         let hold_end = lift_start + move_time_s(p.lift_mm, p.lift_speed_mm_s) + p.hold_s;
-        if let Some(f) = run.idle_until(dev, hold_end, stop)? {
-            return run.finish(dev, None, None, Some(f));
+        if let Some(f) = run.idle_until(hold_end, stop)? {
+            return run.finish(None, None, Some(f));
         }
-        let now = dev.clock.now_s();
+        let now = run.dev.clock.now_s();
         run.phase(now, "hold_end", json!({ "closure": closure }));
         let window = LiftWindow {
             lift_start_s: lift_start,
@@ -99,24 +98,24 @@ where
         let r = rise(&run.rec.markers, &window, &spec);
         let ok = r.is_some_and(|r| lifted(&r, p.max_slide_mm));
         run.phase(now, "judged", json!({ "lifted": ok, "rise": r }));
-        run.raise(dev, -p.lift_mm, p.lift_speed_mm_s)?;
+        run.raise(-p.lift_mm, p.lift_speed_mm_s)?;
         let down = now + move_time_s(p.lift_mm, p.lift_speed_mm_s);
-        if let Some(f) = run.idle_until(dev, down, stop)? {
-            return run.finish(dev, None, None, Some(f));
+        if let Some(f) = run.idle_until(down, stop)? {
+            return run.finish(None, None, Some(f));
         }
-        let now = dev.clock.now_s();
-        run.grip(dev, open)?;
+        let now = run.dev.clock.now_s();
+        run.grip(open)?;
         if ok {
             run.phase(
                 now,
                 "calibrated",
                 json!({ "g_cont": contact, "g_min": closure }),
             );
-            let fault = run.idle_until(dev, now + 0.5, stop)?;
-            return run.finish(dev, None, None, fault);
+            let fault = run.idle_until(now + 0.5, stop)?;
+            return run.finish(None, None, fault);
         }
-        if let Some(f) = run.idle_until(dev, now + 0.6, stop)? {
-            return run.finish(dev, None, None, Some(f));
+        if let Some(f) = run.idle_until(now + 0.6, stop)? {
+            return run.finish(None, None, Some(f));
         }
         attempt += 1;
     }

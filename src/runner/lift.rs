@@ -46,8 +46,9 @@ pub(super) fn move_time_s(mm: f64, speed_mm_s: f64) -> f64 {
     mm.abs() / speed_mm_s + 0.3
 }
 
-/// What a lift runner carries through its phases.
-pub(super) struct LiftRun<'m> {
+/// What a lift runner carries through its phases, with the devices it drives.
+pub(super) struct LiftRun<'m, 'd, C, H, A, M, S> {
+    pub dev: &'d mut Devices<C, H, A, M, S>,
     pub monitor: FrameMonitor<'m>,
     pub rec: Recording,
     pub events: Vec<TrialEvent>,
@@ -55,25 +56,27 @@ pub(super) struct LiftRun<'m> {
     pub start: [f64; 4],
 }
 
-impl<'m> LiftRun<'m> {
-    pub fn new<C, H, A, M, S>(
-        dev: &mut Devices<C, H, A, M, S>,
+impl<'m, 'd, C, H, A, M, S> LiftRun<'m, 'd, C, H, A, M, S>
+where
+    C: Clock,
+    H: Hand,
+    A: Arm,
+    M: MarkerTracker,
+    S: TactileSensor,
+{
+    pub fn new(
+        dev: &'d mut Devices<C, H, A, M, S>,
         online: Option<Online<'m>>,
         watch: WatchLimits,
-    ) -> Result<Self, ScenarioError>
-    where
-        C: Clock,
-        H: Hand,
-        A: Arm,
-        M: MarkerTracker,
-        S: TactileSensor,
-    {
+    ) -> Result<Self, ScenarioError> {
         let t0 = dev.clock.now_s();
+        let start = dev.hand.present_positions().map_err(device("hand"))?;
         Ok(Self {
             monitor: FrameMonitor::new(dev.sensors.len(), online, watch, t0),
+            dev,
             rec: Recording::default(),
             events: Vec::new(),
-            start: dev.hand.present_positions().map_err(device("hand"))?,
+            start,
         })
     }
 
@@ -86,44 +89,22 @@ impl<'m> LiftRun<'m> {
     }
 
     /// Sets the three fingers to `closure` (the thumb rotation stays).
-    pub fn grip<C, H, A, M, S>(
-        &mut self,
-        dev: &mut Devices<C, H, A, M, S>,
-        closure: f64,
-    ) -> Result<(), ScenarioError>
-    where
-        C: Clock,
-        H: Hand,
-        A: Arm,
-        M: MarkerTracker,
-        S: TactileSensor,
-    {
+    pub fn grip(&mut self, closure: f64) -> Result<(), ScenarioError> {
         let targets = [closure, closure, closure, self.start[3]];
-        dev.hand.set_targets(targets).map_err(device("hand"))?;
-        let now = dev.clock.now_s();
+        self.dev.hand.set_targets(targets).map_err(device("hand"))?;
+        let now = self.dev.clock.now_s();
         self.events
             .push(event(now, "/command/hand", json!({ "targets": targets })));
         Ok(())
     }
 
     /// Moves the arm up (or down, negative) by `mm`.
-    pub fn raise<C, H, A, M, S>(
-        &mut self,
-        dev: &mut Devices<C, H, A, M, S>,
-        mm: f64,
-        speed_mm_s: f64,
-    ) -> Result<(), ScenarioError>
-    where
-        C: Clock,
-        H: Hand,
-        A: Arm,
-        M: MarkerTracker,
-        S: TactileSensor,
-    {
-        dev.arm
+    pub fn raise(&mut self, mm: f64, speed_mm_s: f64) -> Result<(), ScenarioError> {
+        self.dev
+            .arm
             .move_linear([0.0, 0.0, mm], speed_mm_s)
             .map_err(device("arm"))?;
-        let now = dev.clock.now_s();
+        let now = self.dev.clock.now_s();
         self.events.push(event(
             now,
             "/command/arm",
@@ -133,20 +114,12 @@ impl<'m> LiftRun<'m> {
     }
 
     /// One tick; `armed` frames count towards a reaction.
-    pub fn step<C, H, A, M, S>(
+    pub fn step(
         &mut self,
-        dev: &mut Devices<C, H, A, M, S>,
         armed: bool,
         stop: &AtomicBool,
-    ) -> Result<(Verdict, f64, usize), ScenarioError>
-    where
-        C: Clock,
-        H: Hand,
-        A: Arm,
-        M: MarkerTracker,
-        S: TactileSensor,
-    {
-        let (first_new, now) = dev.tick(&mut self.rec)?;
+    ) -> Result<(Verdict, f64, usize), ScenarioError> {
+        let (first_new, now) = self.dev.tick(&mut self.rec)?;
         let v = self.monitor.feed(
             &self.rec.frames[first_new..],
             now,
@@ -158,21 +131,13 @@ impl<'m> LiftRun<'m> {
     }
 
     /// Ticks with the detector disarmed until `until_s`; `Some(fault)` if one ended it.
-    pub fn idle_until<C, H, A, M, S>(
+    pub fn idle_until(
         &mut self,
-        dev: &mut Devices<C, H, A, M, S>,
         until_s: f64,
         stop: &AtomicBool,
-    ) -> Result<Option<Fault>, ScenarioError>
-    where
-        C: Clock,
-        H: Hand,
-        A: Arm,
-        M: MarkerTracker,
-        S: TactileSensor,
-    {
-        while dev.clock.now_s() < until_s {
-            if let (Verdict::Abort(f), _, _) = self.step(dev, false, stop)? {
+    ) -> Result<Option<Fault>, ScenarioError> {
+        while self.dev.clock.now_s() < until_s {
+            if let (Verdict::Abort(f), _, _) = self.step(false, stop)? {
                 return Ok(Some(f));
             }
         }
@@ -181,38 +146,31 @@ impl<'m> LiftRun<'m> {
 
     /// Closes all three fingers from where they are until every sensor's deformation reaches
     /// `goal_px`; the closure there (g_cont), or the fault that stopped it.
-    pub fn close_to_contact<C, H, A, M, S>(
+    pub fn close_to_contact(
         &mut self,
-        dev: &mut Devices<C, H, A, M, S>,
         goal_px: f64,
         speed_per_s: f64,
         max_closure: f64,
         stop: &AtomicBool,
-    ) -> Result<Result<f64, Fault>, ScenarioError>
-    where
-        C: Clock,
-        H: Hand,
-        A: Arm,
-        M: MarkerTracker,
-        S: TactileSensor,
-    {
-        let t0 = dev.clock.now_s();
+    ) -> Result<Result<f64, Fault>, ScenarioError> {
+        let t0 = self.dev.clock.now_s();
         let from = self.start[..3]
             .iter()
             .copied()
             .fold(f64::INFINITY, f64::min);
         self.phase(t0, "approaching", json!({ "speed_per_s": speed_per_s }));
         let mut gauge = ContactGauge::new(
-            dev.sensors.len(),
+            self.dev.sensors.len(),
             FeatureSpec::new(0).max_pin_step_px as f64,
         );
         loop {
-            let now = dev.clock.now_s();
+            let now = self.dev.clock.now_s();
             let q = (from + speed_per_s * (now - t0)).min(max_closure);
-            dev.hand
+            self.dev
+                .hand
                 .set_targets([q, q, q, self.start[3]])
                 .map_err(device("hand"))?;
-            let (v, now, first_new) = self.step(dev, false, stop)?;
+            let (v, now, first_new) = self.step(false, stop)?;
             if let Verdict::Abort(f) = v {
                 return Ok(Err(f));
             }
@@ -222,7 +180,7 @@ impl<'m> LiftRun<'m> {
             let d = gauge.least_deformed().unwrap_or(0.0);
             if d >= goal_px {
                 self.phase(now, "contact", json!({ "closure": q, "deformation_px": d }));
-                self.grip(dev, q)?;
+                self.grip(q)?;
                 return Ok(Ok(q));
             }
             if q >= max_closure {
@@ -234,25 +192,17 @@ impl<'m> LiftRun<'m> {
     }
 
     /// Ends a trial: the arm stops; after a fault the fingers hold where they are.
-    pub fn finish<C, H, A, M, S>(
+    pub fn finish(
         mut self,
-        dev: &mut Devices<C, H, A, M, S>,
         armed_s: Option<f64>,
         reaction: Option<Reaction>,
         fault: Option<Fault>,
-    ) -> Result<RunRecord, ScenarioError>
-    where
-        C: Clock,
-        H: Hand,
-        A: Arm,
-        M: MarkerTracker,
-        S: TactileSensor,
-    {
-        let now = dev.clock.now_s();
+    ) -> Result<RunRecord, ScenarioError> {
+        let now = self.dev.clock.now_s();
         if fault.is_some() {
-            dev.hold_hand(now, &mut self.events)?;
+            self.dev.hold_hand(now, &mut self.events)?;
         }
-        dev.arm.stop().map_err(device("arm"))?;
+        self.dev.arm.stop().map_err(device("arm"))?;
         self.events
             .push(event(now, "/command/arm", json!({"stop": true})));
         Ok(RunRecord {
@@ -282,58 +232,57 @@ where
 {
     let mut run = LiftRun::new(dev, online, p.watch)?;
     let mut closure = match run.close_to_contact(
-        dev,
         p.deformation_px,
         p.approach_speed_per_s,
         p.max_closure,
         stop,
     )? {
         Ok(q) => q,
-        Err(f) => return run.finish(dev, None, None, Some(f)),
+        Err(f) => return run.finish(None, None, Some(f)),
     };
     // Let the skin settle after closing before the arm moves.
-    let now = dev.clock.now_s();
-    if let Some(f) = run.idle_until(dev, now + 0.3, stop)? {
-        return run.finish(dev, None, None, Some(f));
+    let now = run.dev.clock.now_s();
+    if let Some(f) = run.idle_until(now + 0.3, stop)? {
+        return run.finish(None, None, Some(f));
     }
-    let lift_start = dev.clock.now_s();
+    let lift_start = run.dev.clock.now_s();
     run.phase(lift_start, "lifting", json!({}));
-    run.raise(dev, p.lift_mm, p.lift_speed_mm_s)?;
+    run.raise(p.lift_mm, p.lift_speed_mm_s)?;
     let top = lift_start + move_time_s(p.lift_mm, p.lift_speed_mm_s);
     let hold_end = top + p.hold_s;
     let (mut first, mut pause_until, mut holding) = (None::<Reaction>, lift_start, false);
-    while dev.clock.now_s() < hold_end {
-        let armed = dev.clock.now_s() >= pause_until;
-        let (v, now, _) = run.step(dev, armed, stop)?;
+    while run.dev.clock.now_s() < hold_end {
+        let armed = run.dev.clock.now_s() >= pause_until;
+        let (v, now, _) = run.step(armed, stop)?;
         if !holding && now >= top {
             holding = true;
             run.phase(now, "holding", json!({}));
         }
         match v {
             Verdict::Continue => {}
-            Verdict::Abort(f) => return run.finish(dev, Some(lift_start), first, Some(f)),
+            Verdict::Abort(f) => return run.finish(Some(lift_start), first, Some(f)),
             Verdict::React(r) => {
                 first.get_or_insert(r);
                 closure = (closure + p.close_step).min(p.max_closure);
-                run.grip(dev, closure)?;
+                run.grip(closure)?;
                 pause_until = now + p.pause_s;
                 run.monitor.rearm();
             }
         }
     }
-    let now = dev.clock.now_s();
+    let now = run.dev.clock.now_s();
     run.phase(now, "hold_end", json!({ "closure": closure }));
     run.phase(now, "lowering", json!({}));
-    run.raise(dev, -p.lift_mm, p.lift_speed_mm_s)?;
-    if let Some(f) = run.idle_until(dev, now + move_time_s(p.lift_mm, p.lift_speed_mm_s), stop)? {
-        return run.finish(dev, Some(lift_start), first, Some(f));
+    run.raise(-p.lift_mm, p.lift_speed_mm_s)?;
+    if let Some(f) = run.idle_until(now + move_time_s(p.lift_mm, p.lift_speed_mm_s), stop)? {
+        return run.finish(Some(lift_start), first, Some(f));
     }
-    let now = dev.clock.now_s();
+    let now = run.dev.clock.now_s();
     run.phase(now, "opening", json!({}));
     let open = run.start[0];
-    run.grip(dev, open)?;
-    let fault = run.idle_until(dev, now + 0.5, stop)?;
-    run.finish(dev, Some(lift_start), first, fault)
+    run.grip(open)?;
+    let fault = run.idle_until(now + 0.5, stop)?;
+    run.finish(Some(lift_start), first, fault)
 }
 
 #[cfg(test)]

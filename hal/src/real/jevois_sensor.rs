@@ -4,13 +4,14 @@
 //! count are counted and dropped; a camera silent for longer than the limit is a
 //! [`ErrorKind::Timeout`].
 
-use std::sync::mpsc::{self, Receiver, TryRecvError};
+use std::sync::mpsc;
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
 use super::clock::RealClock;
 use super::jevois::{LineReader, Message, ReaderStats};
-use crate::{Clock, ErrorKind, ErrorType, PinFrame, TactileSensor};
+use super::watched::Watched;
+use crate::{ErrorKind, ErrorType, PinFrame, TactileSensor};
 
 #[derive(Debug, thiserror::Error)]
 pub enum CameraError {
@@ -45,13 +46,9 @@ pub struct CameraStats {
 }
 
 pub struct JevoisSensor {
-    port: String,
     sensor: u8,
-    frames: Receiver<Result<PinFrame, String>>,
+    frames: Watched<PinFrame>,
     stats: Arc<Mutex<CameraStats>>,
-    clock: RealClock,
-    last_s: f64,
-    silent_limit_s: f64,
 }
 
 impl JevoisSensor {
@@ -117,13 +114,9 @@ impl JevoisSensor {
             })
             .map_err(open_err)?;
         Ok(Self {
-            port: port.to_string(),
             sensor,
-            frames: rx,
+            frames: Watched::new(port, rx, clock, silent_limit_s),
             stats,
-            clock,
-            last_s: clock.now_s(),
-            silent_limit_s,
         })
     }
 
@@ -142,30 +135,6 @@ impl ErrorType for JevoisSensor {
 
 impl TactileSensor for JevoisSensor {
     fn next_frame(&mut self) -> Result<Option<PinFrame>, CameraError> {
-        match self.frames.try_recv() {
-            Ok(Ok(f)) => {
-                self.last_s = f.time_s;
-                Ok(Some(f))
-            }
-            Ok(Err(reason)) => Err(CameraError::Closed {
-                port: self.port.clone(),
-                reason,
-            }),
-            Err(TryRecvError::Empty) => {
-                let silent_s = self.clock.now_s() - self.last_s;
-                if silent_s > self.silent_limit_s {
-                    Err(CameraError::Silent {
-                        port: self.port.clone(),
-                        silent_s,
-                    })
-                } else {
-                    Ok(None)
-                }
-            }
-            Err(TryRecvError::Disconnected) => Err(CameraError::Closed {
-                port: self.port.clone(),
-                reason: "reader stopped".into(),
-            }),
-        }
+        self.frames.next(|f| f.time_s)
     }
 }

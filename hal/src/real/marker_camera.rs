@@ -5,13 +5,14 @@
 //! a marker missing from a frame simply yields no sample for it, as a tracker that lost
 //! it would.
 
-use std::sync::mpsc::{self, Receiver, TryRecvError};
+use std::sync::mpsc;
 use std::time::{Duration, Instant};
 
 use super::clock::RealClock;
 use super::jevois::{LineReader, Message};
 use super::jevois_sensor::CameraError;
-use crate::{Clock, ErrorType, MarkerSample, MarkerTracker};
+use super::watched::Watched;
+use crate::{ErrorType, MarkerSample, MarkerTracker};
 
 /// Height above the camera's optical axis of a marker at camera-frame `y`, mm.
 pub fn height_mm(y_mm: f64) -> f64 {
@@ -71,11 +72,7 @@ impl MarkerPairing {
 }
 
 pub struct MarkerCamera {
-    port: String,
-    samples: Receiver<Result<MarkerSample, String>>,
-    clock: RealClock,
-    last_s: f64,
-    silent_limit_s: f64,
+    samples: Watched<MarkerSample>,
 }
 
 impl MarkerCamera {
@@ -123,11 +120,7 @@ impl MarkerCamera {
             })
             .map_err(open_err)?;
         Ok(Self {
-            port: port.to_string(),
-            samples: rx,
-            clock,
-            last_s: clock.now_s(),
-            silent_limit_s,
+            samples: Watched::new(port, rx, clock, silent_limit_s),
         })
     }
 }
@@ -138,31 +131,7 @@ impl ErrorType for MarkerCamera {
 
 impl MarkerTracker for MarkerCamera {
     fn next_sample(&mut self) -> Result<Option<MarkerSample>, CameraError> {
-        match self.samples.try_recv() {
-            Ok(Ok(s)) => {
-                self.last_s = s.time_s;
-                Ok(Some(s))
-            }
-            Ok(Err(reason)) => Err(CameraError::Closed {
-                port: self.port.clone(),
-                reason,
-            }),
-            Err(TryRecvError::Empty) => {
-                let silent_s = self.clock.now_s() - self.last_s;
-                if silent_s > self.silent_limit_s {
-                    Err(CameraError::Silent {
-                        port: self.port.clone(),
-                        silent_s,
-                    })
-                } else {
-                    Ok(None)
-                }
-            }
-            Err(TryRecvError::Disconnected) => Err(CameraError::Closed {
-                port: self.port.clone(),
-                reason: "reader stopped".into(),
-            }),
-        }
+        self.samples.next(|s| s.time_s)
     }
 }
 

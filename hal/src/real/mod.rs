@@ -11,3 +11,4 @@ pub mod model_o;
 pub mod rtde;
 pub mod ur;
 pub mod urscript;
+mod watched;

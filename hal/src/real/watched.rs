@@ -1,0 +1,60 @@
+//! What the camera backends share: items from a reader thread, handed out without blocking,
+//! with a watchdog that turns silence into an error.
+
+use std::sync::mpsc::{Receiver, TryRecvError};
+
+use super::clock::RealClock;
+use super::jevois_sensor::CameraError;
+use crate::Clock;
+
+pub(crate) struct Watched<T> {
+    port: String,
+    items: Receiver<Result<T, String>>,
+    clock: RealClock,
+    last_s: f64,
+    silent_limit_s: f64,
+}
+
+impl<T> Watched<T> {
+    pub fn new(
+        port: &str,
+        items: Receiver<Result<T, String>>,
+        clock: RealClock,
+        silent_limit_s: f64,
+    ) -> Self {
+        Self {
+            port: port.to_string(),
+            items,
+            clock,
+            last_s: clock.now_s(),
+            silent_limit_s,
+        }
+    }
+
+    /// The next item, if one arrived; `time_of` gives its arrival time.
+    pub fn next(&mut self, time_of: impl Fn(&T) -> f64) -> Result<Option<T>, CameraError> {
+        let closed = |reason: String| CameraError::Closed {
+            port: self.port.clone(),
+            reason,
+        };
+        match self.items.try_recv() {
+            Ok(Ok(item)) => {
+                self.last_s = time_of(&item);
+                Ok(Some(item))
+            }
+            Ok(Err(reason)) => Err(closed(reason)),
+            Err(TryRecvError::Empty) => {
+                let silent_s = self.clock.now_s() - self.last_s;
+                if silent_s > self.silent_limit_s {
+                    Err(CameraError::Silent {
+                        port: self.port.clone(),
+                        silent_s,
+                    })
+                } else {
+                    Ok(None)
+                }
+            }
+            Err(TryRecvError::Disconnected) => Err(closed("reader stopped".into())),
+        }
+    }
+}
