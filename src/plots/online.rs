@@ -13,6 +13,16 @@ use crate::protocol::Kind;
 use crate::report::inputs::Inputs;
 use crate::runner::score::OutcomeRow;
 
+/// The label of the category at integer position `v` of a category axis, blank between.
+fn category(labels: &[String], v: f64) -> String {
+    let i = v.round();
+    if (v - i).abs() < 1e-6 && i >= 0.0 {
+        labels.get(i as usize).cloned().unwrap_or_default()
+    } else {
+        String::new()
+    }
+}
+
 /// Outcome counts of one bar.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Bar {
@@ -78,14 +88,7 @@ fn bars<DB: DrawingBackend>(
             .light_line_style(TRANSPARENT)
             .disable_x_mesh()
             .x_labels(bars.len())
-            .x_label_formatter(&|v| {
-                let i = v.round();
-                if (v - i).abs() < 1e-6 && i >= 0.0 {
-                    labels.get(i as usize).cloned().unwrap_or_default()
-                } else {
-                    String::new()
-                }
-            })
+            .x_label_formatter(&|v| category(&labels, *v))
             .y_desc("trials")
             .y_label_formatter(&|v| format!("{v:.0}"))
             .label_style((FONT, 12))
@@ -161,14 +164,7 @@ fn boxes<DB: DrawingBackend>(
         .light_line_style(TRANSPARENT)
         .disable_x_mesh()
         .x_labels(groups.len())
-        .x_label_formatter(&|v| {
-            let i = v.round();
-            if (v - i).abs() < 1e-6 && i >= 0.0 {
-                labels.get(i as usize).cloned().unwrap_or_default()
-            } else {
-                String::new()
-            }
-        })
+        .x_label_formatter(&|v| category(&labels, *v))
         .y_desc("D (mm), caught trials")
         .label_style((FONT, 13))
         .axis_desc_style((FONT, 14))

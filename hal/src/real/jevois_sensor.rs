@@ -6,11 +6,11 @@
 
 use std::sync::mpsc;
 use std::sync::{Arc, Mutex};
-use std::time::{Duration, Instant};
+use std::time::Instant;
 
 use super::clock::RealClock;
 use super::jevois::{LineReader, Message, ReaderStats};
-use super::watched::Watched;
+use super::watched::{open_camera_port, Watched};
 use crate::{ErrorKind, ErrorType, PinFrame, TactileSensor};
 
 #[derive(Debug, thiserror::Error)]
@@ -65,10 +65,7 @@ impl JevoisSensor {
             port: port.to_string(),
             source,
         };
-        let mut serial = serial2::SerialPort::open(port, baud).map_err(open_err)?;
-        serial
-            .set_read_timeout(Duration::from_millis(100))
-            .map_err(open_err)?;
+        let serial = open_camera_port(port, baud)?;
         let (tx, rx) = mpsc::channel();
         let stats = Arc::new(Mutex::new(CameraStats::default()));
         let shared = stats.clone();

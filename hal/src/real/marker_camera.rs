@@ -6,12 +6,12 @@
 //! it would.
 
 use std::sync::mpsc;
-use std::time::{Duration, Instant};
+use std::time::Instant;
 
 use super::clock::RealClock;
 use super::jevois::{LineReader, Message};
 use super::jevois_sensor::CameraError;
-use super::watched::Watched;
+use super::watched::{open_camera_port, Watched};
 use crate::{ErrorType, MarkerSample, MarkerTracker};
 
 /// Height above the camera's optical axis of a marker at camera-frame `y`, mm.
@@ -88,10 +88,7 @@ impl MarkerCamera {
             port: port.to_string(),
             source,
         };
-        let mut serial = serial2::SerialPort::open(port, baud).map_err(open_err)?;
-        serial
-            .set_read_timeout(Duration::from_millis(100))
-            .map_err(open_err)?;
+        let serial = open_camera_port(port, baud)?;
         let (tx, rx) = mpsc::channel();
         let mut pairing = MarkerPairing::new(object_marker, hand_marker);
         std::thread::Builder::new()

@@ -7,6 +7,19 @@ use super::clock::RealClock;
 use super::jevois_sensor::CameraError;
 use crate::Clock;
 
+/// Opens a camera's serial port with the short read timeout the reader threads poll with.
+pub(crate) fn open_camera_port(port: &str, baud: u32) -> Result<serial2::SerialPort, CameraError> {
+    let open_err = |source| CameraError::Open {
+        port: port.to_string(),
+        source,
+    };
+    let mut serial = serial2::SerialPort::open(port, baud).map_err(open_err)?;
+    serial
+        .set_read_timeout(std::time::Duration::from_millis(100))
+        .map_err(open_err)?;
+    Ok(serial)
+}
+
 pub(crate) struct Watched<T> {
     port: String,
     items: Receiver<Result<T, String>>,
