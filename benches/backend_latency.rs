@@ -1,0 +1,212 @@
+//! Latency through the real backend: from the last byte of a slipping fingertip frame
+//! arriving at the host (written into the camera's pseudo-terminal) to the first byte of
+//! the resulting hand command leaving it (readable on the servo bus's pseudo-terminal).
+//!
+//! The host side is the production code: `JevoisSensor` (reader thread, line parser),
+//! `FrameMonitor` (classification and a 1Fr1Sen detector) polled on the runners' 1 kHz
+//! tick, and `ModelOHand` (dynamixel2 sync write). The devices are played by this program:
+//! a camera streaming still frames at 60 fps with one slipping frame at a random moment, and
+//! a servo bus answering the hand's start-up and timing the sync write.
+//!
+//! Run: `cargo bench --bench backend_latency` (prints median and p99 over the trials).
+
+use std::fs::File;
+use std::io::{Read, Write};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{mpsc, Arc};
+use std::time::{Duration, Instant};
+
+use rand::{Rng, SeedableRng};
+use tmo::online::strategy::Strategy;
+use tmo::runner::monitor::{FrameMonitor, Verdict, WatchLimits};
+use tmo::runner::Online;
+use tmo::slip::dataset::{LabelSpec, Scope};
+use tmo::slip::features::FeatureSpec;
+use tmo::slip::model::{
+    Classifier, ClassifierKind, ModelFile, SensorModel, MODEL_FORMAT, MODEL_FORMAT_VERSION,
+};
+use tmo::slip::threshold::ThresholdModel;
+use tmo_hal::real::clock::RealClock;
+use tmo_hal::real::dynamixel::{instruction, Decoder, Packet};
+use tmo_hal::real::jevois::format_fine2;
+use tmo_hal::real::jevois_sensor::JevoisSensor;
+use tmo_hal::real::model_o::{ModelOConfig, ModelOHand};
+use tmo_hal::sim::serve_jevois::open_pty;
+use tmo_hal::{Clock, Hand, TactileSensor};
+
+const PINS: usize = 30;
+const TRIALS: usize = 200;
+
+fn model() -> ModelFile {
+    ModelFile {
+        format: MODEL_FORMAT.into(),
+        version: MODEL_FORMAT_VERSION,
+        classifier: ClassifierKind::Threshold,
+        hyperparameters: Default::default(),
+        features: FeatureSpec::new(PINS),
+        labels: LabelSpec {
+            n_slip: 5,
+            onset: Default::default(),
+        },
+        downsample: 1.0,
+        seed: 0,
+        scope: Scope::Global,
+        sensors: vec![0],
+        models: vec![SensorModel {
+            sensor: None,
+            scaler: None,
+            classifier: Classifier::Threshold(ThresholdModel { threshold: 0.5 }),
+            training_rows: 0,
+            training_scores: Default::default(),
+        }],
+        training_trials: vec![],
+        search: None,
+        tmo_version: String::new(),
+        git_revision: String::new(),
+    }
+}
+
+fn pins(shift: f32, jitter: f32) -> Vec<[f32; 2]> {
+    (0..PINS)
+        .map(|i| [40.0 + 10.0 * i as f32 + shift, 100.0 + jitter])
+        .collect()
+}
+
+/// The servo bus: answers the hand's start-up, then reports when each sync write's first
+/// byte could be read.
+fn servo_bus(mut master: File, written: mpsc::Sender<Instant>, stop: Arc<AtomicBool>) {
+    let mut decoder = Decoder::default();
+    let mut buf = [0u8; 512];
+    let mut in_packet = false;
+    while !stop.load(Ordering::Relaxed) {
+        match master.read(&mut buf) {
+            Ok(n) if n > 0 => {
+                let now = Instant::now();
+                if !in_packet {
+                    in_packet = true;
+                    // the first byte of whatever the host sent next
+                    let _ = written.send(now);
+                }
+                for p in decoder.push(&buf[..n]) {
+                    in_packet = false;
+                    let reply = match p.instruction {
+                        instruction::PING => Some(Packet::status(p.id, 0, &[0xFC, 0x03, 52])),
+                        instruction::WRITE => Some(Packet::status(p.id, 0, &[])),
+                        _ => None,
+                    };
+                    if let Some(r) = reply {
+                        let _ = master.write_all(&r.encode());
+                    }
+                }
+            }
+            _ => std::thread::sleep(Duration::from_micros(50)),
+        }
+    }
+}
+
+fn main() {
+    let (mut camera, _camera_slave, camera_path) = open_pty().expect("camera pty");
+    let (bus_master, _bus_slave, bus_path) = open_pty().expect("bus pty");
+    let stop = Arc::new(AtomicBool::new(false));
+    let (tx, written) = mpsc::channel();
+    let bus_stop = stop.clone();
+    let bus = std::thread::spawn(move || servo_bus(bus_master, tx, bus_stop));
+
+    let clock = RealClock::new();
+    let mut hand = ModelOHand::open(ModelOConfig {
+        port: bus_path.display().to_string(),
+        baud: 1_000_000,
+        ids: [1, 2, 3, 4],
+        min: [1200, 1150, 2900, 2048],
+        max: [2900, 2850, 1200, 2600],
+        current_limit_ma: 300,
+    })
+    .expect("hand");
+    let mut sensor = JevoisSensor::open(
+        &camera_path.display().to_string(),
+        115200,
+        0,
+        PINS,
+        1.0,
+        clock,
+    )
+    .expect("camera");
+    // the start-up traffic's timestamps are not latencies
+    std::thread::sleep(Duration::from_millis(50));
+    while written.try_recv().is_ok() {}
+
+    let model = model();
+    let online = Online {
+        model: &model,
+        strategy: "1x1".parse::<Strategy>().unwrap(),
+    };
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(1);
+    let mut latencies_us = Vec::with_capacity(TRIALS);
+    let never = AtomicBool::new(false);
+    let mut mclock = clock;
+    for _ in 0..TRIALS {
+        let mut monitor =
+            FrameMonitor::new(1, Some(online), WatchLimits::default(), mclock.now_s());
+        let slip_at = rng.gen_range(5..15);
+        let mut shift = 0.0;
+        let mut sent_slip: Option<Instant> = None;
+        let mut events = Vec::new();
+        let mut next_frame = Instant::now();
+        let mut frame = 0;
+        let reacted = loop {
+            // the camera: one line every 1/60 s
+            if Instant::now() >= next_frame && sent_slip.is_none() {
+                frame += 1;
+                if frame == slip_at {
+                    shift += 2.0;
+                }
+                let line = format_fine2(None, "pins", &pins(shift, 0.01 * (frame % 2) as f32));
+                camera.write_all(line.as_bytes()).expect("camera write");
+                if frame == slip_at {
+                    sent_slip = Some(Instant::now());
+                }
+                next_frame += Duration::from_micros(16_667);
+            }
+            // the host: the runners' control tick
+            mclock.sleep(0.001);
+            let mut batch = Vec::new();
+            while let Some(f) = sensor.next_frame().expect("frame") {
+                batch.push(f);
+            }
+            match monitor.feed(&batch, mclock.now_s(), true, &never, &mut events) {
+                Verdict::React(_) => {
+                    hand.set_targets([0.5, 0.5, 0.5, 0.0]).expect("hand");
+                    break sent_slip;
+                }
+                Verdict::Abort(f) => panic!("fault {f:?}"),
+                Verdict::Continue => {}
+            }
+            if frame > 40 {
+                break None;
+            }
+        };
+        let out = written
+            .recv_timeout(Duration::from_secs(1))
+            .expect("the hand command");
+        if let Some(t0) = reacted {
+            latencies_us.push(out.saturating_duration_since(t0).as_secs_f64() * 1e6);
+        }
+        std::thread::sleep(Duration::from_millis(20));
+        while written.try_recv().is_ok() {}
+    }
+    stop.store(true, Ordering::Relaxed);
+    let _ = bus.join();
+    latencies_us.sort_by(f64::total_cmp);
+    let at = |q: f64| {
+        latencies_us
+            [((q * latencies_us.len() as f64).ceil() as usize).clamp(1, latencies_us.len()) - 1]
+    };
+    println!(
+        "backend latency, slip frame in -> hand command out ({} of {TRIALS} trials reacted on the slip frame): median {:.0} us, p90 {:.0} us, p99 {:.0} us, max {:.0} us",
+        latencies_us.len(),
+        at(0.5),
+        at(0.9),
+        at(0.99),
+        latencies_us.last().copied().unwrap_or(f64::NAN)
+    );
+}
