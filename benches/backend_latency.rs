@@ -9,6 +9,8 @@
 //! a servo bus answering the hand's start-up and timing the sync write.
 //!
 //! Run: `cargo bench --bench backend_latency` (prints median and p99 over the trials).
+//! `TICK_US=100 cargo bench --bench backend_latency` shortens the control tick, to see how
+//! much of the latency is the runners' 1 kHz tick and how much the I/O path.
 
 use std::fs::File;
 use std::io::{Read, Write};
@@ -140,69 +142,77 @@ fn main() {
         model: &model,
         strategy: "1x1".parse::<Strategy>().unwrap(),
     };
-    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(1);
-    let mut latencies_us = Vec::with_capacity(TRIALS);
-    let never = AtomicBool::new(false);
     let mut mclock = clock;
-    for _ in 0..TRIALS {
-        let mut monitor =
-            FrameMonitor::new(1, Some(online), WatchLimits::default(), mclock.now_s());
-        let slip_at = rng.gen_range(5..15);
-        let mut shift = 0.0;
-        let mut sent_slip: Option<Instant> = None;
-        let mut events = Vec::new();
-        let mut next_frame = Instant::now();
-        let mut frame = 0;
-        let reacted = loop {
-            // the camera: one line every 1/60 s
-            if Instant::now() >= next_frame && sent_slip.is_none() {
-                frame += 1;
-                if frame == slip_at {
-                    shift += 2.0;
-                }
-                let line = format_fine2(None, "pins", &pins(shift, 0.01 * (frame % 2) as f32));
-                camera.write_all(line.as_bytes()).expect("camera write");
-                if frame == slip_at {
-                    sent_slip = Some(Instant::now());
-                }
-                next_frame += Duration::from_micros(16_667);
+    let tick_s = std::env::var("TICK_US")
+        .ok()
+        .and_then(|v| v.parse::<f64>().ok())
+        .map_or(tmo::runner::TICK_S, |us| us * 1e-6);
+
+    // The camera runs on its own clock, so slips arrive at any phase of the host's tick.
+    let (slip_tx, slips) = mpsc::channel();
+    let camera_stop = stop.clone();
+    let camera_thread = std::thread::spawn(move || {
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(1);
+        let (mut shift, mut frame, mut next_slip) = (0.0f32, 0u64, rng.gen_range(5..15));
+        let mut next = Instant::now();
+        while !camera_stop.load(Ordering::Relaxed) {
+            frame += 1;
+            let slip = frame == next_slip;
+            if slip {
+                shift += 2.0;
+                next_slip = frame + rng.gen_range(5..15);
             }
-            // the host: the runners' control tick
-            mclock.sleep(0.001);
-            let mut batch = Vec::new();
-            while let Some(f) = sensor.next_frame().expect("frame") {
-                batch.push(f);
+            let line = format_fine2(None, "pins", &pins(shift, 0.01 * (frame % 2) as f32));
+            camera.write_all(line.as_bytes()).expect("camera write");
+            if slip {
+                let _ = slip_tx.send(Instant::now());
             }
-            match monitor.feed(&batch, mclock.now_s(), true, &never, &mut events) {
-                Verdict::React(_) => {
-                    hand.set_targets([0.5, 0.5, 0.5, 0.0]).expect("hand");
-                    break sent_slip;
-                }
-                Verdict::Abort(f) => panic!("fault {f:?}"),
-                Verdict::Continue => {}
-            }
-            if frame > 40 {
-                break None;
-            }
-        };
-        let out = written
-            .recv_timeout(Duration::from_secs(1))
-            .expect("the hand command");
-        if let Some(t0) = reacted {
-            latencies_us.push(out.saturating_duration_since(t0).as_secs_f64() * 1e6);
+            next += Duration::from_micros(16_667);
+            std::thread::sleep(next.saturating_duration_since(Instant::now()));
         }
-        std::thread::sleep(Duration::from_millis(20));
-        while written.try_recv().is_ok() {}
+    });
+
+    let never = AtomicBool::new(false);
+    let mut monitor = FrameMonitor::new(1, Some(online), WatchLimits::default(), mclock.now_s());
+    let mut events = Vec::new();
+    let mut reactions = 0;
+    while reactions < TRIALS {
+        // the runners' control tick
+        mclock.sleep(tick_s);
+        let mut batch = Vec::new();
+        while let Some(f) = sensor.next_frame().expect("frame") {
+            batch.push(f);
+        }
+        match monitor.feed(&batch, mclock.now_s(), true, &never, &mut events) {
+            Verdict::React(_) => {
+                hand.set_targets([0.5, 0.5, 0.5, 0.0]).expect("hand");
+                monitor.rearm();
+                reactions += 1;
+            }
+            Verdict::Abort(f) => panic!("fault {f:?}"),
+            Verdict::Continue => {}
+        }
+        events.clear();
     }
+    std::thread::sleep(Duration::from_millis(50));
+    let sent: Vec<Instant> = slips.try_iter().collect();
+    let out: Vec<Instant> = written.try_iter().collect();
+    let mut latencies_us: Vec<f64> = sent
+        .iter()
+        .zip(&out)
+        .map(|(t0, t1)| t1.saturating_duration_since(*t0).as_secs_f64() * 1e6)
+        .collect();
     stop.store(true, Ordering::Relaxed);
     let _ = bus.join();
+    let _ = camera_thread.join();
     latencies_us.sort_by(f64::total_cmp);
     let at = |q: f64| {
         latencies_us
             [((q * latencies_us.len() as f64).ceil() as usize).clamp(1, latencies_us.len()) - 1]
     };
     println!(
-        "backend latency, slip frame in -> hand command out ({} of {TRIALS} trials reacted on the slip frame): median {:.0} us, p90 {:.0} us, p99 {:.0} us, max {:.0} us",
+        "backend latency, slip frame in -> hand command out (tick {:.0} us; {} slips): median {:.0} us, p90 {:.0} us, p99 {:.0} us, max {:.0} us",
+        tick_s * 1e6,
         latencies_us.len(),
         at(0.5),
         at(0.9),
