@@ -22,12 +22,7 @@ use rand::{Rng, SeedableRng};
 use tmo::online::strategy::Strategy;
 use tmo::runner::monitor::{FrameMonitor, Verdict, WatchLimits};
 use tmo::runner::Online;
-use tmo::slip::dataset::{LabelSpec, Scope};
-use tmo::slip::features::FeatureSpec;
-use tmo::slip::model::{
-    Classifier, ClassifierKind, ModelFile, SensorModel, MODEL_FORMAT, MODEL_FORMAT_VERSION,
-};
-use tmo::slip::threshold::ThresholdModel;
+use tmo::slip::model::ModelFile;
 use tmo_hal::real::clock::RealClock;
 use tmo_hal::real::dynamixel::{instruction, Decoder, Packet};
 use tmo_hal::real::jevois::format_fine2;
@@ -40,32 +35,7 @@ const PINS: usize = 30;
 const TRIALS: usize = 200;
 
 fn model() -> ModelFile {
-    ModelFile {
-        format: MODEL_FORMAT.into(),
-        version: MODEL_FORMAT_VERSION,
-        classifier: ClassifierKind::Threshold,
-        hyperparameters: Default::default(),
-        features: FeatureSpec::new(PINS),
-        labels: LabelSpec {
-            n_slip: 5,
-            onset: Default::default(),
-        },
-        downsample: 1.0,
-        seed: 0,
-        scope: Scope::Global,
-        sensors: vec![0],
-        models: vec![SensorModel {
-            sensor: None,
-            scaler: None,
-            classifier: Classifier::Threshold(ThresholdModel { threshold: 0.5 }),
-            training_rows: 0,
-            training_scores: Default::default(),
-        }],
-        training_trials: vec![],
-        search: None,
-        tmo_version: String::new(),
-        git_revision: String::new(),
-    }
+    ModelFile::threshold_model(PINS, vec![0], 0.5)
 }
 
 fn pins(shift: f32, jitter: f32) -> Vec<[f32; 2]> {

@@ -6,7 +6,7 @@ use std::path::Path;
 
 use serde::Deserialize;
 
-use crate::protocol::{field_at, field_span, line_column, ProtocolError, SafetyLimits};
+use crate::protocol::{field_span, line_column, parse_toml, ProtocolError, SafetyLimits};
 
 /// Errors of hardware files have the protocol files' shape: `file:line:column: field: ...`.
 pub type HardwareError = ProtocolError;
@@ -248,19 +248,7 @@ pub fn load(path: &Path) -> Result<HardwareFile, HardwareError> {
 }
 
 pub fn parse(path: &Path, text: &str) -> Result<HardwareFile, HardwareError> {
-    let file: HardwareFile = toml::from_str(text).map_err(|e| {
-        let start = e.span().map(|s| s.start);
-        let (line, column) = start.map_or((1, 1), |s| line_column(text, s));
-        ProtocolError {
-            path: path.to_path_buf(),
-            line,
-            column,
-            field: start
-                .and_then(|s| field_at(text, s))
-                .unwrap_or_else(|| "(file)".into()),
-            message: e.message().to_string(),
-        }
-    })?;
+    let file: HardwareFile = parse_toml(path, text)?;
     file.check().map_err(|(field, message)| {
         let (line, column) =
             field_span(text, &field).map_or((1, 1), |s| line_column(text, s.start));

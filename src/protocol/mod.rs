@@ -211,21 +211,29 @@ pub(crate) fn field_at(text: &str, offset: usize) -> Option<String> {
     (!path.is_empty()).then(|| path.join("."))
 }
 
+/// Parses a TOML file into `T`; a syntax or type error names its line, column and field.
+pub(crate) fn parse_toml<T: serde::de::DeserializeOwned>(
+    path: &Path,
+    text: &str,
+) -> Result<T, ProtocolError> {
+    toml::from_str(text).map_err(|e| {
+        let start = e.span().map(|s| s.start);
+        let (line, column) = start.map_or((1, 1), |s| line_column(text, s));
+        ProtocolError {
+            path: path.to_path_buf(),
+            line,
+            column,
+            field: start
+                .and_then(|s| field_at(text, s))
+                .unwrap_or_else(|| "(file)".into()),
+            message: e.message().to_string(),
+        }
+    })
+}
+
 impl ProtocolFile {
     pub fn parse(path: &Path, text: &str) -> Result<Self, ProtocolError> {
-        toml::from_str(text).map_err(|e| {
-            let start = e.span().map(|s| s.start);
-            let (line, column) = start.map_or((1, 1), |s| line_column(text, s));
-            ProtocolError {
-                path: path.to_path_buf(),
-                line,
-                column,
-                field: start
-                    .and_then(|s| field_at(text, s))
-                    .unwrap_or_else(|| "(file)".into()),
-                message: e.message().to_string(),
-            }
-        })
+        parse_toml(path, text)
     }
 }
 

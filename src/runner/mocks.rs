@@ -5,10 +5,7 @@ use std::sync::{Arc, Mutex};
 use mockall::mock;
 use tmo_hal::{Clock, ErrorKind, ErrorType, HandPositions, MarkerSample, PinFrame, Pose};
 
-use crate::slip::dataset::{LabelSpec, Scope};
-use crate::slip::features::FeatureSpec;
-use crate::slip::model::{Classifier, ClassifierKind, ModelFile, SensorModel, MODEL_FORMAT};
-use crate::slip::threshold::ThresholdModel;
+use crate::slip::model::ModelFile;
 
 #[derive(Debug, thiserror::Error)]
 #[error("mock device failure")]
@@ -76,30 +73,5 @@ pub const PINS: usize = 4;
 
 /// A global model that calls a frame slip when the pins move more than 0.5 px on average.
 pub fn threshold_model() -> ModelFile {
-    ModelFile {
-        format: MODEL_FORMAT.into(),
-        version: crate::slip::model::MODEL_FORMAT_VERSION,
-        classifier: ClassifierKind::Threshold,
-        hyperparameters: Default::default(),
-        features: FeatureSpec::new(PINS),
-        labels: LabelSpec {
-            n_slip: 5,
-            onset: Default::default(),
-        },
-        downsample: 1.0,
-        seed: 0,
-        scope: Scope::Global,
-        sensors: vec![0, 1, 2],
-        models: vec![SensorModel {
-            sensor: None,
-            scaler: None,
-            classifier: Classifier::Threshold(ThresholdModel { threshold: 0.5 }),
-            training_rows: 0,
-            training_scores: Default::default(),
-        }],
-        training_trials: vec![],
-        search: None,
-        tmo_version: String::new(),
-        git_revision: String::new(),
-    }
+    ModelFile::threshold_model(PINS, vec![0, 1, 2], 0.5)
 }

@@ -355,6 +355,37 @@ impl ModelFile {
     }
 
     /// Scores on `data` (every row, never down-sampled), overall and per sensor.
+    /// A global threshold model calling a frame slip when the mean pin speed reaches
+    /// `threshold` px per frame (for tests and benchmarks that need a model without data).
+    pub fn threshold_model(pins: usize, sensors: Vec<u8>, threshold: f32) -> Self {
+        Self {
+            format: MODEL_FORMAT.into(),
+            version: MODEL_FORMAT_VERSION,
+            classifier: ClassifierKind::Threshold,
+            hyperparameters: Default::default(),
+            features: FeatureSpec::new(pins),
+            labels: LabelSpec {
+                n_slip: 5,
+                onset: Default::default(),
+            },
+            downsample: 1.0,
+            seed: 0,
+            scope: Scope::Global,
+            sensors,
+            models: vec![SensorModel {
+                sensor: None,
+                scaler: None,
+                classifier: Classifier::Threshold(super::threshold::ThresholdModel { threshold }),
+                training_rows: 0,
+                training_scores: Default::default(),
+            }],
+            training_trials: vec![],
+            search: None,
+            tmo_version: String::new(),
+            git_revision: String::new(),
+        }
+    }
+
     /// The threshold of a threshold model (its first, usually only, classifier).
     pub fn threshold(&self) -> Option<f32> {
         self.models.iter().find_map(|m| match &m.classifier {
