@@ -68,6 +68,15 @@ pub struct HandBus {
     pub encoder_range: u32,
     /// Current limit written at start, mA.
     pub current_limit_ma: u32,
+    /// Fastest finger motion, fraction of the range per s (protocol speeds are given as a
+    /// fraction of it).
+    #[serde(default = "default_hand_speed")]
+    pub max_speed_per_s: f64,
+}
+
+fn default_hand_speed() -> f64 {
+    // an XM430-W350 at 12 V turns about 0.77 rev/s; a Model O finger spans ~0.4 rev
+    2.0
 }
 
 fn default_encoder() -> u32 {
@@ -210,6 +219,15 @@ impl HardwareFile {
                     "expected max to differ from min".into(),
                 );
             }
+        }
+        if !(0.05..=20.0).contains(&h.max_speed_per_s) {
+            return err(
+                "hand.max_speed_per_s",
+                format!(
+                    "expected 0.05..=20 (fraction of the range per s), got {}",
+                    h.max_speed_per_s
+                ),
+            );
         }
         if !(1..=6000).contains(&h.current_limit_ma) {
             return err(

@@ -113,3 +113,120 @@ fn the_real_backends_drive_the_served_simulator() {
     let q = hand.present_positions().unwrap();
     assert!(q[..3].iter().all(|v| (v - 0.3).abs() < 2e-3), "{q:?}");
 }
+
+/// `tmo run --backend real` against `tmo sim serve`: the lift protocols end as they began, so
+/// they run trial after trial unattended and are scored by the same code as on the sim.
+#[test]
+fn lift_protocols_run_on_the_real_backend_against_the_served_simulator() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let tmo = |args: &[&str]| {
+        let out = Command::new(env!("CARGO_BIN_EXE_tmo"))
+            .current_dir(d)
+            .args(args)
+            .output()
+            .unwrap();
+        (
+            out.status.code(),
+            String::from_utf8_lossy(&out.stdout).into_owned()
+                + &String::from_utf8_lossy(&out.stderr),
+        )
+    };
+    let ok = |args: &[&str]| {
+        let (code, text) = tmo(args);
+        assert_eq!(code, Some(0), "{args:?}: {text}");
+        text
+    };
+    ok(&[
+        "sim", "collect", "--trials", "8", "--seed", "5", "--out", "train",
+    ]);
+    ok(&[
+        "train",
+        "train",
+        "--classifier",
+        "logreg",
+        "--C",
+        "1",
+        "--n-slip",
+        "5",
+        "--out",
+        "global.json",
+    ]);
+    let hw = Path::new(env!("CARGO_MANIFEST_DIR")).join("hardware/tmo.toml");
+    let _server = Server(
+        Command::new(env!("CARGO_BIN_EXE_tmo"))
+            .current_dir(d)
+            .args(["sim", "serve", "--hardware"])
+            .arg(&hw)
+            .args(["--out", "served.toml", "--for", "120"])
+            .stdout(Stdio::null())
+            .spawn()
+            .unwrap(),
+    );
+    let deadline = Instant::now() + Duration::from_secs(20);
+    while !d.join("served.toml").exists() && Instant::now() < deadline {
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    let quick = "lift_height_mm = 20\nlift_speed_mm_s = 40\nhold_s = 0.5\nmasses_g = [0]\n";
+    std::fs::write(
+        d.join("cal.toml"),
+        format!("kind = \"calibrate_lift\"\nobjects = [\"crisps_can\"]\n[calibrate_lift]\n{quick}"),
+    )
+    .unwrap();
+    let out = ok(&[
+        "run",
+        "cal.toml",
+        "--backend",
+        "real",
+        "--hardware",
+        "served.toml",
+        "--out",
+        "cal",
+    ]);
+    assert!(out.contains("g_min.json"), "{out}");
+    std::fs::write(
+        d.join("lift.toml"),
+        format!("kind = \"first_time_lift\"\nobjects = [\"crisps_can\"]\nmodels = [\"global.json\"]\nrepetitions = 2\n[first_time_lift]\n{quick}calibration = \"cal/g_min.json\"\n"),
+    )
+    .unwrap();
+    ok(&[
+        "run",
+        "lift.toml",
+        "--backend",
+        "real",
+        "--hardware",
+        "served.toml",
+        "--out",
+        "lift",
+    ]);
+    let rows: Vec<serde_json::Value> =
+        serde_json::from_str(&std::fs::read_to_string(d.join("lift/outcomes.json")).unwrap())
+            .unwrap();
+    assert_eq!(rows.len(), 2);
+    assert!(
+        rows.iter()
+            .all(|r| r["success"] == true && r["fault"].is_null()),
+        "{rows:?}"
+    );
+    let trial = tmo::trial::read_trial(&d.join("lift/trial-00000.mcap")).unwrap();
+    assert_eq!(trial.meta.backend, "real");
+    assert!(trial.frames.len() > 100 && trial.markers.len() > 50);
+    // the other kinds need the object put back by hand: refused, clearly
+    std::fs::write(
+        d.join("rail.toml"),
+        "kind = \"rail_catch\"\nmodels = [\"global.json\"]\nstrategies = [\"1x1\"]\n",
+    )
+    .unwrap();
+    let (code, text) = tmo(&[
+        "run",
+        "rail.toml",
+        "--backend",
+        "real",
+        "--hardware",
+        "served.toml",
+        "--out",
+        "rail",
+    ]);
+    assert_eq!(code, Some(2), "{text}");
+    assert!(text.contains("put back between trials"), "{text}");
+}

@@ -6,6 +6,7 @@ use anyhow::{Context, Result};
 use tmo::protocol::KindParams;
 use tmo::protocol::{self, Kind};
 use tmo::runner::batch;
+use tmo::runner::real_trial::{open_real, run_real_trial};
 use tmo::runner::score::{self, CalibrationRow, GMinTable, LiftRow, OutcomeRow};
 use tmo::runner::sim_trial::run_sim_trial;
 use tmo::slip::model::ModelFile;
@@ -41,6 +42,9 @@ pub struct RunArgs {
     /// Finish a batch: run only the trials whose logs are missing.
     #[arg(long)]
     resume: bool,
+    /// With `--backend real`: the hardware file.
+    #[arg(long)]
+    hardware: Option<PathBuf>,
     /// With `--backend replay`: the recorded trials (logs or batch directories) to replay
     /// through the protocol's models and strategies.
     #[arg(long, num_args = 1..)]
@@ -56,8 +60,8 @@ fn write_atomic(path: &std::path::Path, bytes: &[u8]) -> Result<()> {
 /// Runs the batch; the exit code (0, or 3 when a replay skipped damaged logs).
 pub fn run(args: RunArgs) -> Result<u8> {
     anyhow::ensure!(
-        args.backend != Backend::Real,
-        "--backend real is not implemented yet (issue 7); use --backend sim or replay"
+        args.backend != Backend::Real || args.hardware.is_some(),
+        "--backend real needs --hardware FILE (see hardware/tmo.toml; `tmo sim serve` writes one for the simulator)"
     );
     let mut plan = protocol::load(&args.protocol, 3)?;
     if args.backend == Backend::Replay {
@@ -131,7 +135,10 @@ pub fn run(args: RunArgs) -> Result<u8> {
         mode: plan.mode,
         seed: plan.seed,
         repetitions: plan.repetitions,
-        backend: "sim".into(),
+        backend: match args.backend {
+            Backend::Real => "real".into(),
+            _ => "sim".into(),
+        },
         trials: trials.iter().map(|t| t.trial_id.clone()).collect(),
     };
     write_atomic(
@@ -155,6 +162,16 @@ pub fn run(args: RunArgs) -> Result<u8> {
         .expect("valid template")
         .progress_chars("=> "),
     );
+    // The real rig is opened once for the batch; the simulator builds a rig per trial.
+    let mut real = match (&args.backend, &args.hardware) {
+        (Backend::Real, Some(path)) => {
+            let hw = tmo::hardware::load(path)?;
+            let devices = open_real(&hw, &plan)
+                .with_context(|| format!("opening the devices of {}", path.display()))?;
+            Some((hw, devices))
+        }
+        _ => None,
+    };
     let started = std::time::Instant::now();
     let mut rows = Rows::default();
     let (mut ran, mut kept) = (0, 0);
@@ -168,8 +185,11 @@ pub fn run(args: RunArgs) -> Result<u8> {
             let unix = std::time::SystemTime::now()
                 .duration_since(std::time::UNIX_EPOCH)
                 .map_or(0, |d| d.as_secs());
-            let trial = run_sim_trial(&plan, t, &models, unix, &stop)
-                .with_context(|| format!("trial {}", t.trial_id))?;
+            let trial = match real.as_mut() {
+                Some((hw, devices)) => run_real_trial(&plan, t, &models, hw, devices, unix, &stop),
+                None => run_sim_trial(&plan, t, &models, unix, &stop),
+            }
+            .with_context(|| format!("trial {}", t.trial_id))?;
             if stop.load(std::sync::atomic::Ordering::Relaxed) {
                 bar.finish_and_clear();
                 let aborted = batch::aborted_trial_path(&out, t);

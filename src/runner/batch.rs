@@ -90,6 +90,10 @@ pub fn expand(plan: &Plan) -> Vec<PlannedTrial> {
 
 #[derive(Debug, thiserror::Error)]
 pub enum BatchError {
+    #[error(
+        "{0} on the real backend needs the object put back between trials; only first_time_lift and calibrate_lift run unattended so far (issue 7)"
+    )]
+    NeedsOperator(Kind),
     #[error(transparent)]
     Sim(#[from] CollectError),
     #[error(transparent)]

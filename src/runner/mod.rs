@@ -9,6 +9,7 @@ pub mod lift;
 pub(crate) mod mocks;
 pub mod monitor;
 pub mod rail_catch;
+pub mod real_trial;
 pub mod replay;
 pub mod rice_pour;
 pub mod safety;

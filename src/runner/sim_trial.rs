@@ -209,6 +209,42 @@ pub fn run_sim_trial(
             (config, rig, record)
         }
     };
+    // Ground truth for diagnostics only; scoring never reads it.
+    let events = rig.probe().events();
+    put(
+        "sim_truth_slip_onsets_s",
+        events
+            .slip_onsets_s
+            .iter()
+            .map(|t| format!("{t:.4}"))
+            .collect::<Vec<_>>()
+            .join(","),
+    );
+    let sensors = rig.tactile_sensors().len() as u8;
+    Ok(finish_trial(
+        plan,
+        planned,
+        models,
+        record,
+        parameters,
+        ("sim", sensors, config.tactip.pins),
+        started_unix_s,
+    ))
+}
+
+/// The trial log of a finished run: what every backend records about it.
+pub(crate) fn finish_trial(
+    plan: &Plan,
+    planned: &PlannedTrial,
+    models: &[(ModelFile, String)],
+    record: super::RunRecord,
+    mut parameters: std::collections::BTreeMap<String, String>,
+    (backend, sensors, pins): (&str, u8, usize),
+    started_unix_s: u64,
+) -> Trial {
+    let mut put = |k: &str, v: String| {
+        parameters.insert(k.to_string(), v);
+    };
     put("repetition", planned.repetition.to_string());
     if let Some(s) = planned.strategy {
         put("strategy", s.to_string());
@@ -228,19 +264,8 @@ pub fn run_sim_trial(
         put("reaction_sensor", r.sensor.to_string());
         put("reaction_seq", r.seq.to_string());
     }
-    // Ground truth for diagnostics only; scoring never reads it.
-    let events = rig.probe().events();
-    put(
-        "sim_truth_slip_onsets_s",
-        events
-            .slip_onsets_s
-            .iter()
-            .map(|t| format!("{t:.4}"))
-            .collect::<Vec<_>>()
-            .join(","),
-    );
     let (tmo_version, git_revision) = TrialMeta::code_version();
-    Ok(Trial {
+    Trial {
         meta: TrialMeta {
             format_version: TRIAL_FORMAT_VERSION,
             trial_id: planned.trial_id.clone(),
@@ -248,12 +273,12 @@ pub fn run_sim_trial(
                 Mode::Online => plan.kind.to_string(),
                 Mode::Collect => format!("{}_collect", plan.kind),
             },
-            backend: "sim".into(),
+            backend: backend.into(),
             seed: planned.seed,
             object: planned.object.clone(),
             grasp_deg: planned.grasp_deg,
-            sensors: rig.tactile_sensors().len() as u8,
-            pins: config.tactip.pins,
+            sensors,
+            pins,
             tmo_version,
             git_revision,
             protocol: Some(plan.source.display().to_string()),
@@ -266,5 +291,5 @@ pub fn run_sim_trial(
         arrivals_s: record.recording.arrivals_s,
         markers: record.recording.markers,
         events: record.events,
-    })
+    }
 }
