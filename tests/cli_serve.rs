@@ -52,7 +52,7 @@ fn the_real_backends_drive_the_served_simulator() {
         .iter()
         .enumerate()
         .map(|(k, c)| {
-            JevoisSensor::open(&c.port, c.baud, k as u8, hw.cameras.pins, 1.0, clock).unwrap()
+            JevoisSensor::open(&c.port, c.baud, k as u8, hw.cameras.pins, 5.0, clock).unwrap()
         })
         .collect();
     let m = &hw.marker_camera;
@@ -61,7 +61,7 @@ fn the_real_backends_drive_the_served_simulator() {
         m.baud,
         &m.object_marker,
         &m.hand_marker,
-        1.0,
+        5.0,
         clock,
     )
     .unwrap();
@@ -167,6 +167,14 @@ fn lift_protocols_run_on_the_real_backend_against_the_served_simulator() {
     while !d.join("served.toml").exists() && Instant::now() < deadline {
         std::thread::sleep(Duration::from_millis(20));
     }
+    // A loaded CI machine can starve the emulator's real-time loop for a few hundred ms,
+    // which real cameras do not do; give the watchdog room.
+    let served = std::fs::read_to_string(d.join("served.toml")).unwrap();
+    std::fs::write(
+        d.join("served.toml"),
+        served.replace("silent_limit_s = 0.25", "silent_limit_s = 2.0"),
+    )
+    .unwrap();
     let quick = "lift_height_mm = 20\nlift_speed_mm_s = 40\nhold_s = 0.5\nmasses_g = [0]\n";
     std::fs::write(
         d.join("cal.toml"),

@@ -14,6 +14,7 @@ use tmo_hal::real::ur::UrArm;
 use super::batch::{BatchError, PlannedTrial};
 use super::calibrate::{run_calibration, CalibrationParams};
 use super::lift::{run_first_time_lift, LiftParams};
+use super::monitor::WatchLimits;
 use super::safety::{SafeArm, SafeHand};
 use super::sim_trial::finish_trial;
 use super::Online;
@@ -26,10 +27,22 @@ use crate::trial::Trial;
 pub type RealDevices =
     Devices<RealClock, SafeHand<ModelOHand>, SafeArm<UrArm>, MarkerCamera, JevoisSensor>;
 
+/// A camera silent this many times the file's limit is taken as gone (a batch error); a
+/// shorter silence is the runner's watchdog's business (that trial aborts, the batch goes on).
+const DISCONNECTED_FACTOR: f64 = 4.0;
+
+fn watch(hw: &HardwareFile) -> WatchLimits {
+    WatchLimits {
+        silent_limit_s: hw.cameras.silent_limit_s,
+        ..Default::default()
+    }
+}
+
 /// Opens every device the hardware file names, behind `plan`'s safety limits.
 pub fn open_real(hw: &HardwareFile, plan: &Plan) -> Result<RealDevices, BatchError> {
     let clock = RealClock::new();
     let cams = &hw.cameras;
+    let gone_s = (cams.silent_limit_s * DISCONNECTED_FACTOR).max(1.0);
     let sensors = cams
         .fingertips
         .iter()
@@ -52,7 +65,7 @@ pub fn open_real(hw: &HardwareFile, plan: &Plan) -> Result<RealDevices, BatchErr
         m.baud,
         &m.object_marker,
         &m.hand_marker,
-        cams.silent_limit_s,
+        gone_s,
         clock,
     )
     .map_err(device("marker camera"))?;
@@ -115,7 +128,7 @@ pub fn run_real_trial(
                 close_step: p.close_step,
                 pause_s: p.pause_s,
                 hold_s: p.hold_s,
-                watch: Default::default(),
+                watch: watch(hw),
             };
             run_first_time_lift(devices, &params, online, stop)?
         }
@@ -129,7 +142,7 @@ pub fn run_real_trial(
                 lift_speed_mm_s: p.lift_speed_mm_s,
                 hold_s: p.hold_s,
                 max_slide_mm: p.max_slide_mm,
-                watch: Default::default(),
+                watch: watch(hw),
             };
             run_calibration(devices, &params, stop)?
         }
