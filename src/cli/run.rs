@@ -6,7 +6,7 @@ use anyhow::{Context, Result};
 use tmo::protocol::KindParams;
 use tmo::protocol::{self, Kind};
 use tmo::runner::batch;
-use tmo::runner::real_trial::{open_real, run_real_trial};
+use tmo::runner::real_trial::{open_real, run_real_trial, runs_unattended};
 use tmo::runner::score::{self, CalibrationRow, GMinTable, LiftRow, OutcomeRow};
 use tmo::runner::sim_trial::run_sim_trial;
 use tmo::slip::model::ModelFile;
@@ -64,6 +64,10 @@ pub fn run(args: RunArgs) -> Result<u8> {
         "--backend real needs --hardware FILE (see hardware/tmo.toml; `tmo sim serve` writes one for the simulator)"
     );
     let mut plan = protocol::load(&args.protocol, 3)?;
+    if args.backend == Backend::Real && !runs_unattended(plan.kind) {
+        return Err(tmo::runner::batch::BatchError::NeedsOperator(plan.kind))
+            .with_context(|| args.protocol.display().to_string());
+    }
     if args.backend == Backend::Replay {
         anyhow::ensure!(
             !args.from.is_empty(),

@@ -94,6 +94,14 @@ pub fn open_real(hw: &HardwareFile, plan: &Plan) -> Result<RealDevices, BatchErr
     })
 }
 
+/// Can `kind` run unattended on the real backend (yet)?
+pub fn runs_unattended(kind: crate::protocol::Kind) -> bool {
+    matches!(
+        kind,
+        crate::protocol::Kind::FirstTimeLift | crate::protocol::Kind::CalibrateLift
+    )
+}
+
 /// Runs one planned trial on open real devices.
 pub fn run_real_trial(
     plan: &Plan,

@@ -75,7 +75,17 @@ impl ModelOHand {
                 id,
                 message: e.to_string(),
             };
-            hand.bus.ping(id).map_err(no_answer)?;
+            // A servo can miss the first ping after power-up (or a busy host can miss its
+            // reply window): three tries before giving up.
+            let mut ping = hand.bus.ping(id);
+            for _ in 0..2 {
+                if ping.is_ok() {
+                    break;
+                }
+                std::thread::sleep(std::time::Duration::from_millis(20));
+                ping = hand.bus.ping(id);
+            }
+            ping.map_err(no_answer)?;
             hand.bus
                 .write_u16(id, address::CURRENT_LIMIT, units)
                 .map_err(no_answer)?;
