@@ -93,3 +93,30 @@ fn a_server_that_goes_away_is_an_error_of_the_next_call() {
         "{e}"
     );
 }
+
+/// After a move the host did not watch, the next move starts from where the arm is now,
+/// not from the state the socket had buffered before.
+#[test]
+fn moves_start_from_the_newest_state_not_a_buffered_one() {
+    let (rtde_port, script_port, stop, server) = serve();
+    let mut arm = UrArm::connect("127.0.0.1", rtde_port, script_port, 125.0).unwrap();
+    let start = arm.tcp_pose().unwrap().position_mm[2];
+    arm.move_linear([0.0, 0.0, 10.0], 50.0).unwrap();
+    std::thread::sleep(Duration::from_millis(800)); // unwatched: state piles up in the socket
+    arm.move_linear([0.0, 0.0, 10.0], 50.0).unwrap();
+    let deadline = Instant::now() + Duration::from_secs(5);
+    let mut z = start;
+    while Instant::now() < deadline {
+        std::thread::sleep(Duration::from_millis(20));
+        z = arm.tcp_pose().unwrap().position_mm[2];
+        if (z - (start + 20.0)).abs() < 0.05 {
+            break;
+        }
+    }
+    assert!(
+        (z - (start + 20.0)).abs() < 0.05,
+        "ended at {z}, started at {start}"
+    );
+    stop.store(true, Ordering::Relaxed);
+    server.join().unwrap();
+}

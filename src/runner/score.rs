@@ -54,11 +54,12 @@ fn param(trial: &Trial, key: &str) -> Option<String> {
     trial.meta.parameters.get(key).cloned()
 }
 
+/// Reactions of the hand (not the detector's being armed or disarmed).
 fn responses(trial: &Trial) -> usize {
     trial
         .events
         .iter()
-        .filter(|e| e.topic == "/detector")
+        .filter(|e| crate::trial::is_reaction(e))
         .count()
 }
 
@@ -311,5 +312,26 @@ impl GMinTable {
             return Err(GMinError::Version { path: p, found });
         }
         serde_json::from_str(&text).map_err(|source| GMinError::Parse { path: p, source })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn responses_count_reactions_only() {
+        let mut t = crate::trial::tests::sample_trial();
+        let at = |time_s: f64, event: &str| {
+            crate::runner::event(time_s, "/detector", serde_json::json!({ "event": event }))
+        };
+        t.events = vec![
+            at(1.0, "armed"),
+            at(1.5, "reaction"),
+            at(1.6, "disarmed"),
+            at(2.0, "armed"),
+            at(2.5, "reaction"),
+        ];
+        assert_eq!(responses(&t), 2);
     }
 }

@@ -140,7 +140,33 @@ impl RtdeClient {
     }
 
     /// Reads until at least one package arrived, or the timeout.
+    /// Everything the socket holds now, without waiting.
+    fn drain(&mut self) -> Result<Vec<(u8, Vec<u8>)>, UrError> {
+        let mut buf = [0u8; 4096];
+        let mut out = Vec::new();
+        self.stream.set_nonblocking(true).map_err(io(&self.addr))?;
+        let drained = loop {
+            match self.stream.read(&mut buf) {
+                Ok(0) => break Err(UrError::Closed),
+                Ok(n) => match self.framer.push(&buf[..n]) {
+                    Ok(more) => out.extend(more),
+                    Err(e) => break Err(e.into()),
+                },
+                Err(e) if e.kind() == std::io::ErrorKind::WouldBlock => break Ok(()),
+                Err(e) => break Err(io(&self.addr)(e)),
+            }
+        };
+        self.stream.set_nonblocking(false).map_err(io(&self.addr))?;
+        drained.map(|()| out)
+    }
+
+    /// Every package already buffered (after a pause the socket holds seconds of state, and
+    /// the newest is what counts); if there are none, waits up to `wait` for some.
     fn read_packages(&mut self, wait: Duration) -> Result<Vec<(u8, Vec<u8>)>, UrError> {
+        let now = self.drain()?;
+        if !now.is_empty() || wait.is_zero() {
+            return Ok(now);
+        }
         let deadline = Instant::now() + wait;
         let mut buf = [0u8; 4096];
         loop {
@@ -154,8 +180,9 @@ impl RtdeClient {
             match self.stream.read(&mut buf) {
                 Ok(0) => return Err(UrError::Closed),
                 Ok(n) => {
-                    let p = self.framer.push(&buf[..n])?;
+                    let mut p = self.framer.push(&buf[..n])?;
                     if !p.is_empty() {
+                        p.extend(self.drain()?);
                         return Ok(p);
                     }
                 }
@@ -271,7 +298,7 @@ impl UrArm {
         } else {
             self.state_timeout
         };
-        if let Some(s) = self.rtde.latest(wait.max(Duration::from_micros(1)))? {
+        if let Some(s) = self.rtde.latest(wait)? {
             self.last = Some(s);
         }
         self.last
