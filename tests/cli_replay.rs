@@ -10,21 +10,7 @@ use common::*;
 /// A short online hand-release batch (two strategies) with a freshly trained model.
 fn batch(d: &Path) {
     let run = |args: &[&str]| ok(&tmo(d, args));
-    run(&[
-        "sim", "collect", "--trials", "8", "--seed", "5", "--out", "train",
-    ]);
-    run(&[
-        "train",
-        "train",
-        "--classifier",
-        "logreg",
-        "--C",
-        "1",
-        "--n-slip",
-        "5",
-        "--out",
-        "global.json",
-    ]);
+    collect_and_train(d, &["--trials", "8", "--seed", "5"], "train", "global.json");
     std::fs::write(
         d.join("hand.toml"),
         "kind = \"hand_release\"\nobjects = [\"crisps_can\", \"banana\"]\ngrasps_deg = [0, 180]\nmodels = [\"global.json\"]\nstrategies = [\"1x1\", \"2x2\"]\nrepetitions = 2\nseed = 6\n",

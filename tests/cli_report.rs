@@ -86,9 +86,7 @@ fn every_figure_is_drawn_from_simulator_batches() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     let run = |args: &[&str]| ok(&tmo(d, args));
-    run(&[
-        "sim", "collect", "--trials", "6", "--seed", "8", "--out", "train",
-    ]);
+    collect_and_train(d, &["--trials", "6", "--seed", "8"], "train", "global.json");
     run(&[
         "sweep",
         "train",
@@ -100,18 +98,6 @@ fn every_figure_is_drawn_from_simulator_batches() {
         "0.5:1.0:0.5",
         "--out",
         "sweep/sweep.csv",
-    ]);
-    run(&[
-        "train",
-        "train",
-        "--classifier",
-        "logreg",
-        "--C",
-        "1",
-        "--n-slip",
-        "5",
-        "--out",
-        "global.json",
     ]);
     run(&[
         "train",

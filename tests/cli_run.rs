@@ -18,27 +18,12 @@ seed = 4
 "#;
 
 fn setup(d: &Path) {
-    ok(&tmo(
+    collect_and_train(
         d,
-        &[
-            "sim", "collect", "--trials", "10", "--seed", "8", "--out", "train",
-        ],
-    ));
-    ok(&tmo(
-        d,
-        &[
-            "train",
-            "train",
-            "--classifier",
-            "logreg",
-            "--C",
-            "1",
-            "--n-slip",
-            "5",
-            "--out",
-            "global.json",
-        ],
-    ));
+        &["--trials", "10", "--seed", "8"],
+        "train",
+        "global.json",
+    );
     std::fs::write(d.join("release.toml"), PROTOCOL).unwrap();
 }
 
@@ -232,27 +217,12 @@ fn ctrl_c_keeps_finished_trials_and_the_batch_resumes() {
 fn a_rail_catch_batch_runs_on_the_simulator() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    ok(&tmo(
+    collect_and_train(
         d,
-        &[
-            "sim", "collect", "--rig", "rail", "--trials", "12", "--seed", "2", "--out", "rail",
-        ],
-    ));
-    ok(&tmo(
-        d,
-        &[
-            "train",
-            "rail",
-            "--classifier",
-            "logreg",
-            "--C",
-            "1",
-            "--n-slip",
-            "5",
-            "--out",
-            "rail.json",
-        ],
-    ));
+        &["--rig", "rail", "--trials", "12", "--seed", "2"],
+        "rail",
+        "rail.json",
+    );
     std::fs::write(
         d.join("rail.toml"),
         "kind = \"rail_catch\"\nmodels = [\"rail.json\"]\nstrategies = [\"1x1\", \"2x1\"]\nrepetitions = 4\nseed = 3\n",

@@ -2,6 +2,8 @@
 //! cameras and the hand bus over pseudo-terminals, the UR controller over loopback TCP),
 //! from the hardware file it wrote.
 
+mod common;
+
 use std::path::Path;
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
@@ -137,21 +139,7 @@ fn lift_protocols_run_on_the_real_backend_against_the_served_simulator() {
         assert_eq!(code, Some(0), "{args:?}: {text}");
         text
     };
-    ok(&[
-        "sim", "collect", "--trials", "8", "--seed", "5", "--out", "train",
-    ]);
-    ok(&[
-        "train",
-        "train",
-        "--classifier",
-        "logreg",
-        "--C",
-        "1",
-        "--n-slip",
-        "5",
-        "--out",
-        "global.json",
-    ]);
+    common::collect_and_train(d, &["--trials", "8", "--seed", "5"], "train", "global.json");
     let hw = Path::new(env!("CARGO_MANIFEST_DIR")).join("hardware/tmo.toml");
     let _server = Server(
         Command::new(env!("CARGO_BIN_EXE_tmo"))

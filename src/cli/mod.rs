@@ -4,7 +4,6 @@ pub mod hardware;
 pub mod replay;
 pub mod report;
 pub mod run;
-pub mod run_tables;
 pub mod serve;
 pub mod sim;
 pub mod slip;

@@ -12,7 +12,7 @@ use tmo::runner::sim_trial::run_sim_trial;
 use tmo::slip::model::ModelFile;
 use tmo::trial::{read_trial, sha256_hex, write_trial};
 
-use super::run_tables as tables;
+use tmo::report::inputs::{Batch, BatchRows, Inputs};
 
 /// Exit code of a batch stopped by Ctrl-C (128 + SIGINT, as shells report it).
 pub const EXIT_INTERRUPTED: i32 = 130;
@@ -245,12 +245,11 @@ pub fn run(args: RunArgs) -> Result<u8> {
         trials.len(),
         started.elapsed().as_secs_f64()
     );
-    match plan.kind {
-        Kind::RicePour => tables::pour(&rows.catch),
-        Kind::RailCatch => tables::rail(&rows.catch),
-        Kind::HandRelease => tables::hand(&rows.catch),
-        Kind::FirstTimeLift => tables::lift(&rows.lift, g_min.is_some()),
-        Kind::CalibrateLift => tables::calibration(&rows.calibration),
+    if rows.aborted > 0 {
+        println!(
+            "{} trial(s) aborted by a fault (see the fault column)",
+            rows.aborted
+        );
     }
     let mut outputs = vec![
         csv_path.display().to_string(),
@@ -266,11 +265,24 @@ pub fn run(args: RunArgs) -> Result<u8> {
         ));
     }
     outputs.push(out.join("batch.json").display().to_string());
-    if rows.aborted > 0 {
-        println!(
-            "{} trial(s) aborted by a fault (see the fault column)",
-            rows.aborted
-        );
+    // The summary is the report's own table for this batch, so `tmo run` and `tmo report`
+    // never disagree.
+    let inputs = Inputs {
+        batches: vec![Batch {
+            dir: out.clone(),
+            manifest,
+            rows: rows.into_batch_rows(plan.kind),
+        }],
+        ..Default::default()
+    };
+    let tables = tmo::report::build::tables(&inputs);
+    if tables.is_empty() {
+        println!("(a collect batch: its outcomes are in the files below)");
+    } else {
+        print!("{}", tmo::report::render(&tables, tmo::report::Format::Md)?);
+    }
+    if plan.kind == Kind::FirstTimeLift && g_min.is_none() {
+        println!("(no overgrasp: set first_time_lift.calibration to a calibrate_lift batch's g_min.json)");
     }
     println!(
         "wrote trial logs to {}, and {}",
@@ -299,6 +311,14 @@ fn write_rows<T: serde::Serialize>(rows: &[T], csv_path: &Path, json_path: &Path
 }
 
 impl Rows {
+    fn into_batch_rows(self, kind: Kind) -> BatchRows {
+        match kind {
+            Kind::FirstTimeLift => BatchRows::Lift(self.lift),
+            Kind::CalibrateLift => BatchRows::Calibration(self.calibration),
+            _ => BatchRows::Catch(self.catch),
+        }
+    }
+
     fn write(&mut self, csv_path: &Path, json_path: &Path) -> Result<()> {
         self.aborted = self.catch.iter().filter(|r| r.fault.is_some()).count()
             + self.lift.iter().filter(|r| r.fault.is_some()).count()

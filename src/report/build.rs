@@ -34,17 +34,33 @@ fn distances(rows: &[&OutcomeRow]) -> Vec<f64> {
     rows.iter().filter_map(|r| r.slip_distance_mm).collect()
 }
 
-/// Splits off aborted trials; the title notes how many.
-fn completed<'r>(rows: Vec<&'r OutcomeRow>, title: &str) -> (Vec<&'r OutcomeRow>, String) {
+/// Rows a fault did not abort; `None` when there are no rows at all. The title notes how
+/// many were left out.
+fn completed<'r, R>(
+    rows: Vec<&'r R>,
+    aborted: impl Fn(&R) -> bool,
+    title: &str,
+) -> Option<(Vec<&'r R>, String)> {
+    if rows.is_empty() {
+        return None;
+    }
     let total = rows.len();
-    let kept: Vec<_> = rows.into_iter().filter(|r| r.fault.is_none()).collect();
+    let kept: Vec<_> = rows.into_iter().filter(|r| !aborted(r)).collect();
     let aborted = total - kept.len();
     let title = if aborted > 0 {
         format!("{title} ({aborted} aborted trial(s) left out)")
     } else {
         title.to_string()
     };
-    (kept, title)
+    Some((kept, title))
+}
+
+fn completed_catches<'r>(
+    inputs: &'r Inputs,
+    kind: Kind,
+    title: &str,
+) -> Option<(Vec<&'r OutcomeRow>, String)> {
+    completed(inputs.catch_rows(kind), |r| r.fault.is_some(), title)
 }
 
 /// Every table the inputs support, in the paper's order.
@@ -151,11 +167,11 @@ pub fn offline_evaluations(inputs: &Inputs) -> Option<Table> {
 
 /// N frames | trials | caught | FP | dropped | d (mm), as the paper's rail results.
 pub fn rail(inputs: &Inputs) -> Option<Table> {
-    let rows = inputs.catch_rows(Kind::RailCatch);
-    if rows.is_empty() {
-        return None;
-    }
-    let (rows, title) = completed(rows, "Slip rail: catching a sliding object");
+    let (rows, title) = completed_catches(
+        inputs,
+        Kind::RailCatch,
+        "Slip rail: catching a sliding object",
+    )?;
     let mut t = Table::new(
         "rail_catch",
         &title,
@@ -190,11 +206,11 @@ fn catch_row(label: [String; 3], rs: &[&OutcomeRow]) -> Vec<Cell> {
 
 /// scope | strategy | grasp | TP | FP | FN | D (mm), with per-scope and overall rows.
 pub fn hand_online(inputs: &Inputs) -> Option<Table> {
-    let rows = inputs.catch_rows(Kind::HandRelease);
-    if rows.is_empty() {
-        return None;
-    }
-    let (rows, title) = completed(rows, "Whole hand: online release and regrasp");
+    let (rows, title) = completed_catches(
+        inputs,
+        Kind::HandRelease,
+        "Whole hand: online release and regrasp",
+    )?;
     let mut t = Table::new(
         "hand_online",
         &title,
@@ -224,11 +240,7 @@ pub fn hand_online(inputs: &Inputs) -> Option<Table> {
 
 /// object | strategy | TP | FP | FN (whole-hand trials, all scopes and grasps).
 pub fn per_object(inputs: &Inputs) -> Option<Table> {
-    let rows = inputs.catch_rows(Kind::HandRelease);
-    if rows.is_empty() {
-        return None;
-    }
-    let (rows, title) = completed(rows, "Whole hand: per object");
+    let (rows, title) = completed_catches(inputs, Kind::HandRelease, "Whole hand: per object")?;
     let mut t = Table::new(
         "hand_objects",
         &title,
@@ -248,11 +260,8 @@ pub fn per_object(inputs: &Inputs) -> Option<Table> {
 
 /// object | strategy | trials | responses | dropped.
 pub fn rice_pour(inputs: &Inputs) -> Option<Table> {
-    let rows = inputs.catch_rows(Kind::RicePour);
-    if rows.is_empty() {
-        return None;
-    }
-    let (rows, title) = completed(rows, "Grasp destabilisation: rice pour");
+    let (rows, title) =
+        completed_catches(inputs, Kind::RicePour, "Grasp destabilisation: rice pour")?;
     let mut t = Table::new(
         "rice_pour",
         &title,
@@ -273,13 +282,14 @@ pub fn rice_pour(inputs: &Inputs) -> Option<Table> {
 
 /// object | added mass | trials | found | g_cont | g_min | g_min - g_cont.
 pub fn calibration(inputs: &Inputs) -> Option<Table> {
-    let rows = inputs.calibration_rows();
-    if rows.is_empty() {
-        return None;
-    }
+    let (rows, title) = completed(
+        inputs.calibration_rows(),
+        |r| r.fault.is_some(),
+        "First-time lift: calibration of g_min",
+    )?;
     let mut t = Table::new(
         "calibrate_lift",
-        "First-time lift: calibration of g_min",
+        &title,
         &[
             "object",
             "added mass (g)",
@@ -315,16 +325,7 @@ pub fn calibration(inputs: &Inputs) -> Option<Table> {
 
 /// object | added mass | trials | success | slips | lag | overgrasp, as the paper's Fig. 10.
 pub fn first_time_lift(inputs: &Inputs) -> Option<Table> {
-    let rows = inputs.lift_rows();
-    if rows.is_empty() {
-        return None;
-    }
-    let total = rows.len();
-    let rows: Vec<_> = rows.into_iter().filter(|r| r.fault.is_none()).collect();
-    let title = match total - rows.len() {
-        0 => "First-time lift".to_string(),
-        n => format!("First-time lift ({n} aborted trial(s) left out)"),
-    };
+    let (rows, title) = completed(inputs.lift_rows(), |r| r.fault.is_some(), "First-time lift")?;
     let mut t = Table::new(
         "first_time_lift",
         &title,

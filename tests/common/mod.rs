@@ -30,3 +30,28 @@ pub fn fails(out: &Output) -> String {
     assert_eq!(out.status.code(), Some(2), "{out:?}");
     String::from_utf8_lossy(&out.stderr).into_owned()
 }
+
+/// Collects trials on the simulator into `d/trials_dir` (`collect` adds to `tmo sim collect`,
+/// e.g. the trial count and seed) and trains a logistic-regression model on them as `d/model`:
+/// a quick model for tests of what runs on top of one.
+pub fn collect_and_train(d: &Path, collect: &[&str], trials_dir: &str, model: &str) {
+    let mut args = vec!["sim", "collect"];
+    args.extend_from_slice(collect);
+    args.extend_from_slice(&["--out", trials_dir]);
+    ok(&tmo(d, &args));
+    ok(&tmo(
+        d,
+        &[
+            "train",
+            trials_dir,
+            "--classifier",
+            "logreg",
+            "--C",
+            "1",
+            "--n-slip",
+            "5",
+            "--out",
+            model,
+        ],
+    ));
+}
