@@ -14,7 +14,7 @@ use nix::sys::termios;
 
 use super::SimHand;
 use crate::real::dynamixel::{address, instruction, Decoder, Packet, BROADCAST_ID};
-use crate::real::model_o::ModelOConfig;
+use crate::real::model_o::{ModelOConfig, MA_PER_CURRENT_UNIT};
 use crate::{Hand, HAND_ACTUATORS};
 
 /// XM430-W350's model number, as a ping reports it.
@@ -75,6 +75,30 @@ impl PtyServoBus {
         })
     }
 
+    /// Serves another world's hand (after a reset) on the same bus: the servos keep the
+    /// settings written to them (torque enable, current limits); the goals are where the
+    /// new hand stands.
+    pub fn rebind(&mut self, mut hand: SimHand) {
+        self.targets = hand.present_positions().unwrap_or_default();
+        if let Some(f) = self.torque_limit() {
+            let _ = hand.set_torque_limit(f);
+        }
+        self.hand = hand;
+    }
+
+    /// The torque limit the servos' goal currents set, as a fraction of the current limit.
+    fn torque_limit(&self) -> Option<f64> {
+        let units = self
+            .cfg
+            .ids
+            .iter()
+            .filter_map(|&id| self.table.get(&(id, address::GOAL_CURRENT)))
+            .filter_map(|b| b.get(..2).map(|b| u16::from_le_bytes([b[0], b[1]])))
+            .max()?;
+        let ma = f64::from(units) * MA_PER_CURRENT_UNIT;
+        Some((ma / f64::from(self.cfg.current_limit_ma.max(1))).clamp(0.0, 1.0))
+    }
+
     fn servo(&self, id: u8) -> Option<usize> {
         self.cfg.ids.iter().position(|&s| s == id)
     }
@@ -102,6 +126,13 @@ impl PtyServoBus {
             let _ = self.hand.set_targets(self.targets);
         } else {
             self.table.insert((self.cfg.ids[i], addr), data.to_vec());
+            if addr == address::GOAL_CURRENT {
+                // The simulated hand has one torque limit for its fingers: the strongest
+                // goal current written sets it.
+                if let Some(f) = self.torque_limit() {
+                    let _ = self.hand.set_torque_limit(f);
+                }
+            }
         }
     }
 

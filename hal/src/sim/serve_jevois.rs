@@ -11,9 +11,10 @@ use std::time::{Duration, Instant};
 use nix::fcntl::{fcntl, FcntlArg, OFlag};
 use nix::sys::termios;
 
+use super::serve_control::ControlPort;
 use super::serve_dynamixel::PtyServoBus;
 use super::serve_ur::UrEmulator;
-use super::{SimMarkerTracker, SimRig, SimTactileSensor};
+use super::{SimConfig, SimMarkerTracker, SimRig, SimTactileSensor};
 use crate::real::jevois::{format_detail3, format_fine2};
 use crate::{Clock, MarkerTracker, TactileSensor};
 
@@ -83,6 +84,11 @@ impl PtyCamera {
         })
     }
 
+    /// Serves another world's sensor (after a reset) on the same terminal.
+    pub fn rebind(&mut self, sensor: SimTactileSensor) {
+        self.sensor = sensor;
+    }
+
     /// Sends every frame the simulated sensor produced since the last call.
     pub fn step(&mut self) -> std::io::Result<()> {
         while let Ok(Some(f)) = self.sensor.next_frame() {
@@ -130,6 +136,11 @@ impl PtyMarkerCamera {
         })
     }
 
+    /// Tracks another world's markers (after a reset) on the same terminal.
+    pub fn rebind(&mut self, markers: SimMarkerTracker) {
+        self.markers = markers;
+    }
+
     pub fn step(&mut self) -> std::io::Result<()> {
         while let Ok(Some(m)) = self.markers.next_sample() {
             for (id, height) in [(&self.object_id, m.object_mm), (&self.hand_id, m.hand_mm)] {
@@ -162,13 +173,63 @@ pub struct ServedDevices {
 
 /// Runs the rig in real time until `stop` is set, serving its devices.
 pub fn serve(rig: &SimRig, devices: &mut ServedDevices, stop: &AtomicBool) -> std::io::Result<()> {
+    serve_controlled(rig, devices, None, stop)
+}
+
+/// Builds the world a reset asks for, if the served devices fit it.
+fn reset_world(config: SimConfig, devices: &ServedDevices) -> Result<SimRig, String> {
+    let rig = SimRig::new(config).map_err(|e| e.to_string())?;
+    let sensors = rig.tactile_sensors().len();
+    if sensors != devices.cameras.len() {
+        return Err(format!(
+            "this rig serves {} fingertip camera(s) but the reset's world has {sensors} (serve the other rig: `tmo sim serve --rig`)",
+            devices.cameras.len()
+        ));
+    }
+    Ok(rig)
+}
+
+/// [`serve`], with a control port through which each trial resets the world. The UR
+/// controller's clock runs on across resets (a real controller does not restart between
+/// trials); each new world's own clock starts at zero.
+pub fn serve_controlled(
+    rig: &SimRig,
+    devices: &mut ServedDevices,
+    mut control: Option<&mut ControlPort>,
+    stop: &AtomicBool,
+) -> std::io::Result<()> {
+    let mut replaced: Option<SimRig> = None;
     let mut clock = rig.clock();
     let mut arm = rig.arm();
-    let t0_sim = clock.now_s();
-    let t0 = Instant::now();
+    let (mut t0_sim, mut t0) = (clock.now_s(), Instant::now());
+    // served time = offset + the current world's time
+    let mut offset = 0.0;
     while !stop.load(Ordering::Relaxed) {
+        if let Some(c) = control.as_deref_mut() {
+            if let Some((client, config)) = c.poll()? {
+                match reset_world(config, devices) {
+                    Ok(new) => {
+                        offset += clock.now_s();
+                        for (cam, sensor) in devices.cameras.iter_mut().zip(new.tactile_sensors()) {
+                            cam.rebind(sensor);
+                        }
+                        if let Some(m) = devices.markers.as_mut() {
+                            m.rebind(new.marker_tracker());
+                        }
+                        if let Some(b) = devices.bus.as_mut() {
+                            b.rebind(new.hand());
+                        }
+                        (clock, arm) = (new.clock(), new.arm());
+                        (t0_sim, t0) = (clock.now_s(), Instant::now());
+                        replaced = Some(new);
+                        c.answer(client, Ok(()))?;
+                    }
+                    Err(e) => c.answer(client, Err(e))?,
+                }
+            }
+        }
         clock.sleep_until(t0_sim + t0.elapsed().as_secs_f64());
-        let now = clock.now_s();
+        let now = offset + clock.now_s();
         if let Some(ur) = devices.ur.as_mut() {
             ur.step(now, &mut arm)?;
         }
@@ -183,5 +244,6 @@ pub fn serve(rig: &SimRig, devices: &mut ServedDevices, stop: &AtomicBool) -> st
         }
         std::thread::sleep(Duration::from_micros(500));
     }
+    drop(replaced);
     Ok(())
 }

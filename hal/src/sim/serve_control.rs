@@ -1,0 +1,174 @@
+//! The control port of `tmo sim serve`: what an operator does to a real rig between trials
+//! (put the object back, set the next one up), done to the served simulator by a request.
+//!
+//! One JSON object per line on a loopback TCP connection:
+//! `{"reset": <SimConfig>}` builds a new world from that configuration (the object where the
+//! trial starts it, the hand and arm at their start) behind the same served devices; the
+//! answer is `{"ok": true}` or `{"error": "<why>"}`. The served ports, sockets and the UR
+//! controller's clock carry on, as a real rig's do while the operator works.
+
+use std::io::{BufRead, BufReader, Read, Write};
+use std::net::{TcpListener, TcpStream, ToSocketAddrs};
+use std::time::Duration;
+
+use serde::{Deserialize, Serialize};
+
+use super::SimConfig;
+
+#[derive(Debug, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+enum Request {
+    Reset(Box<SimConfig>),
+}
+
+#[derive(Debug, Serialize, Deserialize)]
+struct Answer {
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    ok: bool,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    error: Option<String>,
+}
+
+/// Longest request line the server takes (a SimConfig is a few kB).
+const MAX_LINE: usize = 1 << 20;
+
+/// The server side, polled by the serve loop (one thread, non-blocking like the others).
+pub struct ControlPort {
+    listener: TcpListener,
+    clients: Vec<(TcpStream, Vec<u8>)>,
+    pub resets: u64,
+}
+
+impl ControlPort {
+    pub fn new(listener: TcpListener) -> std::io::Result<Self> {
+        listener.set_nonblocking(true)?;
+        Ok(Self {
+            listener,
+            clients: Vec::new(),
+            resets: 0,
+        })
+    }
+
+    /// The next reset asked for, if one has arrived; its answer goes back through
+    /// [`ControlPort::answer`]. Malformed requests are answered here with their error.
+    pub fn poll(&mut self) -> std::io::Result<Option<(usize, SimConfig)>> {
+        while let Ok((s, _)) = self.listener.accept() {
+            s.set_nonblocking(true)?;
+            self.clients.push((s, Vec::new()));
+        }
+        let mut buf = [0u8; 4096];
+        for k in 0..self.clients.len() {
+            let (stream, pending) = &mut self.clients[k];
+            loop {
+                match stream.read(&mut buf) {
+                    Ok(0) => break,
+                    Ok(n) => pending.extend_from_slice(&buf[..n]),
+                    Err(e) if e.kind() == std::io::ErrorKind::WouldBlock => break,
+                    Err(_) => break,
+                }
+            }
+            if pending.len() > MAX_LINE {
+                pending.clear();
+                self.answer(k, Err("request longer than 1 MiB".into()))?;
+                continue;
+            }
+            let Some(end) = pending.iter().position(|&b| b == b'\n') else {
+                continue;
+            };
+            let line: Vec<u8> = pending.drain(..=end).collect();
+            match serde_json::from_slice::<Request>(&line) {
+                Ok(Request::Reset(config)) => return Ok(Some((k, *config))),
+                Err(e) => {
+                    self.answer(k, Err(format!("expected {{\"reset\": <SimConfig>}}: {e}")))?
+                }
+            }
+        }
+        Ok(None)
+    }
+
+    /// Answers client `k`'s request.
+    pub fn answer(&mut self, k: usize, result: Result<(), String>) -> std::io::Result<()> {
+        if result.is_ok() {
+            self.resets += 1;
+        }
+        let answer = match result {
+            Ok(()) => Answer {
+                ok: true,
+                error: None,
+            },
+            Err(e) => Answer {
+                ok: false,
+                error: Some(e),
+            },
+        };
+        let mut line = serde_json::to_vec(&answer).map_err(std::io::Error::other)?;
+        line.push(b'\n');
+        let (stream, _) = &mut self.clients[k];
+        // A few hundred bytes into an idle socket: a blocking write cannot stall the loop.
+        stream.set_nonblocking(false)?;
+        let written = stream.write_all(&line);
+        stream.set_nonblocking(true)?;
+        if written.is_err() {
+            self.clients.remove(k);
+        }
+        Ok(())
+    }
+}
+
+/// Why a reset was not done.
+#[derive(Debug, thiserror::Error)]
+pub enum ControlError {
+    #[error("cannot reach the served simulator's control port {addr}: {source}")]
+    Connect {
+        addr: String,
+        source: std::io::Error,
+    },
+    #[error("the served simulator's control port stopped answering: {0}")]
+    Io(#[from] std::io::Error),
+    #[error("the served simulator refused the reset: {0}")]
+    Refused(String),
+    #[error("the served simulator answered {0:?}, not {{\"ok\": true}} or {{\"error\": ...}}")]
+    Garbled(String),
+}
+
+/// The client a batch uses to set up each trial on the served simulator.
+pub struct SimControlClient {
+    reader: BufReader<TcpStream>,
+}
+
+impl SimControlClient {
+    pub fn connect(addr: &str) -> Result<Self, ControlError> {
+        let connect = || -> std::io::Result<TcpStream> {
+            let a = addr.to_socket_addrs()?.next().ok_or_else(|| {
+                std::io::Error::new(std::io::ErrorKind::InvalidInput, "no address")
+            })?;
+            let s = TcpStream::connect_timeout(&a, Duration::from_secs(2))?;
+            // Building a world takes milliseconds; a loaded machine gets ample room.
+            s.set_read_timeout(Some(Duration::from_secs(10)))?;
+            s.set_nodelay(true)?;
+            Ok(s)
+        };
+        let stream = connect().map_err(|source| ControlError::Connect {
+            addr: addr.to_string(),
+            source,
+        })?;
+        Ok(Self {
+            reader: BufReader::new(stream),
+        })
+    }
+
+    /// Sets the served world up as `config` describes and waits until it is.
+    pub fn reset(&mut self, config: &SimConfig) -> Result<(), ControlError> {
+        let mut line = serde_json::to_vec(&Request::Reset(Box::new(config.clone())))
+            .map_err(std::io::Error::other)?;
+        line.push(b'\n');
+        self.reader.get_mut().write_all(&line)?;
+        let mut answer = String::new();
+        self.reader.read_line(&mut answer)?;
+        match serde_json::from_str::<Answer>(&answer) {
+            Ok(Answer { ok: true, .. }) => Ok(()),
+            Ok(Answer { error: Some(e), .. }) => Err(ControlError::Refused(e)),
+            _ => Err(ControlError::Garbled(answer.trim_end().to_string())),
+        }
+    }
+}

@@ -1,0 +1,98 @@
+//! The served simulator's control port: a reset builds the next trial's world behind the
+//! same served devices, and a world the served devices do not fit is refused with why.
+
+use std::net::TcpListener;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{mpsc, Arc};
+use std::time::{Duration, Instant};
+
+use tmo_hal::real::model_o::{ModelOConfig, ModelOHand};
+use tmo_hal::sim::serve_control::{ControlError, ControlPort, SimControlClient};
+use tmo_hal::sim::serve_dynamixel::PtyServoBus;
+use tmo_hal::sim::serve_jevois::{serve_controlled, PtyCamera, ServedDevices};
+use tmo_hal::sim::{HandSetup, RailSetup, RigSetup, SimConfig, SimRig};
+use tmo_hal::Hand;
+
+fn bus_config(port: String) -> ModelOConfig {
+    ModelOConfig {
+        port,
+        baud: 57600,
+        ids: [1, 2, 3, 4],
+        min: [1200, 1150, 2900, 2048],
+        max: [2900, 2850, 1200, 2600],
+        current_limit_ma: 300,
+    }
+}
+
+fn hand_world(initial_closure: f64) -> SimConfig {
+    SimConfig {
+        rig: RigSetup::Hand(HandSetup {
+            initial_closure,
+            ..Default::default()
+        }),
+        ..SimConfig::default()
+    }
+}
+
+fn settled_fingers(hand: &mut ModelOHand, to: f64) -> [f64; 4] {
+    let deadline = Instant::now() + Duration::from_secs(5);
+    let mut q = hand.present_positions().unwrap();
+    while Instant::now() < deadline && q[..3].iter().any(|v| (v - to).abs() > 2e-3) {
+        std::thread::sleep(Duration::from_millis(20));
+        q = hand.present_positions().unwrap();
+    }
+    q
+}
+
+#[test]
+fn a_reset_sets_the_next_world_up_behind_the_same_devices() {
+    let stop = Arc::new(AtomicBool::new(false));
+    let (tx, rx) = mpsc::channel();
+    let flag = stop.clone();
+    let server = std::thread::spawn(move || {
+        let rig = SimRig::new(hand_world(0.1)).unwrap();
+        let bus = PtyServoBus::open(rig.hand(), bus_config(String::new())).unwrap();
+        let cameras = rig
+            .tactile_sensors()
+            .into_iter()
+            .map(|s| PtyCamera::open(s, "pins").unwrap())
+            .collect();
+        let listener = TcpListener::bind("127.0.0.1:0").unwrap();
+        let addr = listener.local_addr().unwrap().to_string();
+        let mut control = ControlPort::new(listener).unwrap();
+        tx.send((bus.path.clone(), addr)).unwrap();
+        let mut devices = ServedDevices {
+            bus: Some(bus),
+            cameras,
+            ..Default::default()
+        };
+        serve_controlled(&rig, &mut devices, Some(&mut control), &flag).unwrap();
+        control.resets
+    });
+    let (path, addr) = rx.recv().unwrap();
+    let mut hand = ModelOHand::open(bus_config(path.display().to_string())).unwrap();
+    assert!((settled_fingers(&mut hand, 0.1)[0] - 0.1).abs() < 2e-3);
+    hand.set_targets([0.3, 0.3, 0.3, 0.0]).unwrap();
+    assert!((settled_fingers(&mut hand, 0.3)[0] - 0.3).abs() < 2e-3);
+
+    let mut control = SimControlClient::connect(&addr).unwrap();
+    control.reset(&hand_world(0.05)).unwrap();
+    // the new world's fingers stand where it starts them, read over the same bus
+    let q = hand.present_positions().unwrap();
+    assert!(q[..3].iter().all(|v| (v - 0.05).abs() < 2e-3), "{q:?}");
+    // and the bus drives them as before
+    hand.set_targets([0.2, 0.2, 0.2, 0.0]).unwrap();
+    assert!((settled_fingers(&mut hand, 0.2)[0] - 0.2).abs() < 2e-3);
+
+    // the rail rig has one fingertip; three cameras are served here
+    let rail = SimConfig {
+        rig: RigSetup::Rail(RailSetup::default()),
+        ..SimConfig::default()
+    };
+    match control.reset(&rail) {
+        Err(ControlError::Refused(why)) => assert!(why.contains("--rig"), "{why}"),
+        other => panic!("expected a refusal, got {other:?}"),
+    }
+    stop.store(true, Ordering::Relaxed);
+    assert_eq!(server.join().unwrap(), 1);
+}
