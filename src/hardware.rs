@@ -118,6 +118,19 @@ pub struct HardwareFile {
     pub arm: ArmHost,
     #[serde(default)]
     pub safety: SafetyLimits,
+    /// Written by `tmo sim serve` only: the rig is the simulator, which sets each trial up
+    /// itself (see [`ServedSimulator`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub served_simulator: Option<ServedSimulator>,
+}
+
+/// The served simulator's control port: between trials a batch sends it the next trial's
+/// world (object, grasp, mass) where on hardware an operator sets the rig up.
+#[derive(Debug, Clone, PartialEq, Eq, Deserialize, serde::Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct ServedSimulator {
+    /// `host:port` on loopback.
+    pub control: String,
 }
 
 /// Baud rates the JeVois and Dynamixel ports are used at.
@@ -129,11 +142,11 @@ impl HardwareFile {
     /// The first problem: (dotted field, what was expected).
     fn check(&self) -> Result<(), (String, String)> {
         let err = |f: &str, m: String| Err((f.to_string(), m));
-        if self.cameras.fingertips.len() != 3 {
+        if !matches!(self.cameras.fingertips.len(), 1 | 3) {
             return err(
                 "cameras.fingertips",
                 format!(
-                    "expected 3 fingertip cameras (thumb, then the two fingers), got {}",
+                    "expected 3 fingertip cameras (thumb, then the two fingers), or 1 for the single-finger rail rig, got {}",
                     self.cameras.fingertips.len()
                 ),
             );

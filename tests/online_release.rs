@@ -77,6 +77,7 @@ fn release(object: &str, seed: u64, online: Option<Online<'_>>) -> (Verdict, boo
     let mut devices = Devices::of_sim(&rig);
     let params = ReleaseParams {
         closure,
+        contact: None,
         close_speed_per_s: 0.05,
         lift_mm: 120.0,
         lift_speed_mm_s: 40.0,

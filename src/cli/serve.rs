@@ -10,9 +10,12 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 
 use anyhow::{Context, Result};
+use tmo::hardware::ServedSimulator;
+use tmo::sim_presets::{Preset, PresetOptions};
 use tmo_hal::real::model_o::ModelOConfig;
+use tmo_hal::sim::serve_control::ControlPort;
 use tmo_hal::sim::serve_dynamixel::PtyServoBus;
-use tmo_hal::sim::serve_jevois::{serve, PtyCamera, PtyMarkerCamera, ServedDevices};
+use tmo_hal::sim::serve_jevois::{serve_controlled, PtyCamera, PtyMarkerCamera, ServedDevices};
 use tmo_hal::sim::serve_ur::UrEmulator;
 use tmo_hal::sim::{HandSetup, ObjectStart, RigSetup, SimConfig, SimRig};
 
@@ -24,9 +27,13 @@ pub struct ServeArgs {
     /// Where to write the served hardware file (ports replaced by the served ones).
     #[arg(long, default_value = "served-hardware.toml")]
     out: PathBuf,
-    /// Object on the table between the open fingers.
-    #[arg(long, default_value = "crisps_can")]
-    object: String,
+    /// Which rig: the hand over the table, or the single finger on the slip rail (served
+    /// with one fingertip camera).
+    #[arg(long, value_enum, default_value = "hand")]
+    rig: ServedRig,
+    /// The object the served rig starts with (each trial's reset brings its own).
+    #[arg(long)]
+    object: Option<String>,
     #[arg(long, default_value_t = 1)]
     seed: u64,
     /// Stop after this many seconds (default: until Ctrl-C).
@@ -34,23 +41,65 @@ pub struct ServeArgs {
     for_s: Option<f64>,
 }
 
-pub fn serve_cmd(args: ServeArgs) -> Result<()> {
-    let hw = tmo::hardware::load(&args.hardware)?;
-    let mut config = SimConfig {
+#[derive(Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+enum ServedRig {
+    Hand,
+    Rail,
+}
+
+/// The world the served rig starts in, until the first trial's reset.
+fn first_world(args: &ServeArgs) -> Result<(SimConfig, String)> {
+    let base = SimConfig {
         seed: args.seed,
         ..SimConfig::default()
     };
-    let contact = tmo::sim_presets::contact_closure(&config, &args.object)?;
-    config.rig = RigSetup::Hand(HandSetup {
-        object: args.object.clone(),
-        initial_closure: (contact - 0.04).max(0.0),
-        start: ObjectStart::OnTable,
-        ..Default::default()
-    });
+    Ok(match args.rig {
+        ServedRig::Hand => {
+            let object = args.object.clone().unwrap_or_else(|| "crisps_can".into());
+            let contact = tmo::sim_presets::contact_closure(&base, &object)?;
+            let config = SimConfig {
+                rig: RigSetup::Hand(HandSetup {
+                    object: object.clone(),
+                    initial_closure: (contact - 0.04).max(0.0),
+                    start: ObjectStart::OnTable,
+                    ..Default::default()
+                }),
+                ..base
+            };
+            (config, object)
+        }
+        ServedRig::Rail => {
+            let options = PresetOptions {
+                object: args.object.clone(),
+                ..Default::default()
+            };
+            let (config, _) = tmo::sim_presets::build(Preset::Rail, &options, base)?;
+            let object = match &config.rig {
+                RigSetup::Rail(r) => r.object.clone(),
+                RigSetup::Hand(h) => h.object.clone(),
+            };
+            (config, object)
+        }
+    })
+}
+
+pub fn serve_cmd(args: ServeArgs) -> Result<()> {
+    let hw = tmo::hardware::load(&args.hardware)?;
+    let (config, object) = first_world(&args)?;
     let rig = SimRig::new(config)?;
+    let sensors = rig.tactile_sensors().len();
+    anyhow::ensure!(
+        hw.cameras.fingertips.len() >= sensors,
+        "{}: cameras.fingertips: the served rig has {sensors} fingertip(s), the file names {}",
+        args.hardware.display(),
+        hw.cameras.fingertips.len()
+    );
     let rtde = TcpListener::bind("127.0.0.1:0").context("cannot listen for RTDE")?;
     let script = TcpListener::bind("127.0.0.1:0").context("cannot listen for URScript")?;
+    let control = TcpListener::bind("127.0.0.1:0").context("cannot listen for control")?;
     let (rtde_port, script_port) = (rtde.local_addr()?.port(), script.local_addr()?.port());
+    let control_addr = control.local_addr()?.to_string();
+    let mut control = ControlPort::new(control)?;
     let servo = ModelOConfig {
         port: String::new(),
         baud: hw.hand.baud,
@@ -81,6 +130,10 @@ pub fn serve_cmd(args: ServeArgs) -> Result<()> {
         ),
     };
     let mut served = hw.clone();
+    served.cameras.fingertips.truncate(sensors);
+    served.served_simulator = Some(ServedSimulator {
+        control: control_addr.clone(),
+    });
     for (c, pty) in served.cameras.fingertips.iter_mut().zip(&devices.cameras) {
         c.port = pty.path.display().to_string();
     }
@@ -101,8 +154,7 @@ pub fn serve_cmd(args: ServeArgs) -> Result<()> {
     std::fs::write(&args.out, text)
         .with_context(|| format!("cannot write {}", args.out.display()))?;
     println!(
-        "serving the simulated rig ({}): cameras {}, markers {}, hand bus {}, UR at 127.0.0.1 (RTDE {rtde_port}, URScript {script_port})",
-        args.object,
+        "serving the simulated rig ({object}): cameras {}, markers {}, hand bus {}, UR at 127.0.0.1 (RTDE {rtde_port}, URScript {script_port}), control {control_addr}",
         served
             .cameras
             .fingertips
@@ -129,15 +181,16 @@ pub fn serve_cmd(args: ServeArgs) -> Result<()> {
             flag.store(true, Ordering::Relaxed);
         });
     }
-    serve(&rig, &mut devices, &stop)?;
+    serve_controlled(&rig, &mut devices, Some(&mut control), &stop)?;
     let ur = devices.ur.map(|u| u.stats).unwrap_or_default();
     let sent: u64 = devices.cameras.iter().map(|c| c.sent_lines).sum();
     println!(
-        "stopped: {sent} camera lines, {} RTDE packages, {} URScript lines ({} refused), {} bus packets",
+        "stopped: {sent} camera lines, {} RTDE packages, {} URScript lines ({} refused), {} bus packets, {} resets",
         ur.data_packages,
         ur.script_lines,
         ur.script_errors,
-        devices.bus.map_or(0, |b| b.stats.packets)
+        devices.bus.map_or(0, |b| b.stats.packets),
+        control.resets
     );
     Ok(())
 }

@@ -12,7 +12,7 @@ use serde::Deserialize;
 
 use crate::online::strategy::Strategy;
 pub use params::{
-    Calibration, FirstTimeLift, HandRelease, Outcome, RailCatch, RicePour, SafetyLimits,
+    Calibration, FirstTimeLift, HandRelease, Outcome, PerObject, RailCatch, RicePour, SafetyLimits,
 };
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize, serde::Serialize)]
@@ -430,6 +430,21 @@ pub fn validate(
                 ));
             }
             *c = resolved;
+        }
+    }
+    if let KindParams::HandRelease(HandRelease {
+        grasp_past_contact: Some(PerObject::Each(table)),
+        ..
+    }) = &params
+    {
+        if let Some(o) = objects
+            .iter()
+            .find(|o| !table.contains_key(*o) && !table.contains_key("default"))
+        {
+            return Err(err(
+                "hand_release.grasp_past_contact",
+                format!("expected a value for {o} (or a `default`), one for each object"),
+            ));
         }
     }
     if let (KindParams::HandRelease(p), Mode::Online) = (&params, file.mode) {

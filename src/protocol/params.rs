@@ -144,6 +144,14 @@ pub struct HandRelease {
     /// Hold before the release, s.
     pub hold_s: f64,
     pub max_duration_s: f64,
+    /// The starting grasp as found on any rig: close until contact (every sensor's
+    /// deformation at `contact_deformation_px`), then this much further, fraction of the
+    /// range — one value, or a table per object (`default` for the rest). Without it the
+    /// simulator uses its own holding closure (x 1.2..1.8); the real backend needs it.
+    pub grasp_past_contact: Option<PerObject>,
+    pub contact_deformation_px: f64,
+    /// Closing speed while looking for contact, fraction of the servos' maximum speed.
+    pub approach_speed_of_max: f64,
 }
 
 impl Default for HandRelease {
@@ -154,6 +162,26 @@ impl Default for HandRelease {
             lift_mm: 120.0,
             hold_s: 1.0,
             max_duration_s: 60.0,
+            grasp_past_contact: None,
+            contact_deformation_px: 0.5,
+            approach_speed_of_max: 0.01,
+        }
+    }
+}
+
+/// A value for every object, or per object with an optional `default`.
+#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
+#[serde(untagged)]
+pub enum PerObject {
+    All(f64),
+    Each(std::collections::BTreeMap<String, f64>),
+}
+
+impl PerObject {
+    pub fn get(&self, object: &str) -> Option<f64> {
+        match self {
+            PerObject::All(v) => Some(*v),
+            PerObject::Each(m) => m.get(object).or_else(|| m.get("default")).copied(),
         }
     }
 }
@@ -332,7 +360,29 @@ impl KindParams {
                 in_range(s, "regrasp", p.regrasp, 0.0, 0.2)?;
                 in_range(s, "lift_mm", p.lift_mm, 0.0, 300.0)?;
                 in_range(s, "hold_s", p.hold_s, 0.0, 60.0)?;
-                in_range(s, "max_duration_s", p.max_duration_s, 1.0, 600.0)
+                in_range(s, "max_duration_s", p.max_duration_s, 1.0, 600.0)?;
+                let past = match &p.grasp_past_contact {
+                    None => vec![],
+                    Some(PerObject::All(v)) => vec![*v],
+                    Some(PerObject::Each(m)) => m.values().copied().collect(),
+                };
+                for v in past {
+                    in_range(s, "grasp_past_contact", v, 0.0, 0.5)?;
+                }
+                in_range(
+                    s,
+                    "contact_deformation_px",
+                    p.contact_deformation_px,
+                    0.01,
+                    20.0,
+                )?;
+                in_range(
+                    s,
+                    "approach_speed_of_max",
+                    p.approach_speed_of_max,
+                    1e-4,
+                    0.5,
+                )
             }
             KindParams::RicePour(p) => {
                 let s = "rice_pour";

@@ -10,15 +10,19 @@ use std::sync::atomic::AtomicBool;
 use tmo_hal::{Arm, Clock, Hand, MarkerTracker, TactileSensor};
 
 use super::monitor::{FrameMonitor, Verdict, WatchLimits};
-use super::{event, Online, RunRecord};
+use super::{event, Fault, Online, RunRecord};
 use crate::online::classify::Reaction;
+use crate::online::contact::ContactGauge;
 use crate::scenario::{device, Devices, Recording, ScenarioError};
+use crate::slip::features::FeatureSpec;
 use serde_json::json;
 
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ReleaseParams {
-    /// Starting grasp, fraction of the closing range.
+    /// Starting grasp, fraction of the closing range (with `contact`, found at run time).
     pub closure: f64,
+    /// Find the starting grasp from the pins instead: close until contact, then further.
+    pub contact: Option<ContactGrasp>,
     pub close_speed_per_s: f64,
     pub lift_mm: f64,
     pub lift_speed_mm_s: f64,
@@ -33,9 +37,21 @@ pub struct ReleaseParams {
     pub watch: WatchLimits,
 }
 
+/// The backend-neutral "closed until stable": approach until every sensor's deformation
+/// reaches `deformation_px` (as the first-time lift does), then close `past_contact` more.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ContactGrasp {
+    pub deformation_px: f64,
+    pub approach_speed_per_s: f64,
+    pub past_contact: f64,
+    /// Never close past this (no contact by then is a fault).
+    pub max_closure: f64,
+}
+
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
 #[serde(rename_all = "snake_case")]
 enum Phase {
+    Approaching,
     Closing,
     Settling,
     Lifting,
@@ -61,18 +77,33 @@ where
     let mut monitor = FrameMonitor::new(dev.sensors.len(), online, p.watch, t0);
     let start = dev.hand.present_positions().map_err(device("hand"))?;
     let mut rec = Recording::default();
-    let (mut phase, mut phase_t0) = (Phase::Closing, t0);
     let mut armed_s = None;
     let mut reaction: Option<Reaction> = None;
     let mut fault = None;
-    let mut events = vec![
-        event(t0, "/phase", json!({"phase": phase})),
-        event(
+    let (mut phase, mut phase_t0) = (Phase::Closing, t0);
+    let mut events = vec![];
+    // Where the closing ramp starts and ends; with a contact grasp, set at contact.
+    let (mut close_from, mut closure) = ([start[0], start[1], start[2]], p.closure);
+    let mut gauge = None;
+    if let Some(c) = p.contact {
+        phase = Phase::Approaching;
+        gauge = Some(ContactGauge::new(
+            dev.sensors.len(),
+            FeatureSpec::new(0).max_pin_step_px as f64,
+        ));
+        events.push(event(
+            t0,
+            "/phase",
+            json!({"phase": phase, "speed_per_s": c.approach_speed_per_s}),
+        ));
+    } else {
+        events.push(event(t0, "/phase", json!({"phase": phase})));
+        events.push(event(
             t0,
             "/command/hand",
-            json!({"ramp_to": p.closure, "speed_per_s": p.close_speed_per_s}),
-        ),
-    ];
+            json!({"ramp_to": closure, "speed_per_s": p.close_speed_per_s}),
+        ));
+    }
     loop {
         let now = dev.clock.now_s();
         let elapsed = now - phase_t0;
@@ -80,12 +111,46 @@ where
             break;
         }
         match phase {
+            Phase::Approaching => {
+                let c = p.contact.expect("approaching only with a contact grasp");
+                let from = close_from.iter().copied().fold(f64::INFINITY, f64::min);
+                let q = (from + c.approach_speed_per_s * elapsed).min(c.max_closure);
+                dev.hand
+                    .set_targets([q, q, q, start[3]])
+                    .map_err(device("hand"))?;
+                let d = gauge
+                    .as_ref()
+                    .and_then(|g| g.least_deformed())
+                    .unwrap_or(0.0);
+                if d >= c.deformation_px {
+                    closure = (q + c.past_contact).min(c.max_closure);
+                    close_from = [q; 3];
+                    (phase, phase_t0) = (Phase::Closing, now);
+                    events.push(event(
+                        now,
+                        "/phase",
+                        json!({"phase": "contact", "closure": q, "deformation_px": d}),
+                    ));
+                    events.push(event(now, "/phase", json!({"phase": phase})));
+                    events.push(event(
+                        now,
+                        "/command/hand",
+                        json!({"ramp_to": closure, "speed_per_s": p.close_speed_per_s}),
+                    ));
+                } else if q >= c.max_closure {
+                    let f = Fault::NoContact { deformation_px: d };
+                    events.push(event(now, "/fault", json!(f)));
+                    fault = Some(f);
+                    dev.hold_hand(now, &mut events)?;
+                    break;
+                }
+            }
             Phase::Closing => {
-                let q = |i: usize| (start[i] + p.close_speed_per_s * elapsed).min(p.closure);
+                let q = |i: usize| (close_from[i] + p.close_speed_per_s * elapsed).min(closure);
                 dev.hand
                     .set_targets([q(0), q(1), q(2), start[3]])
                     .map_err(device("hand"))?;
-                if q(0) >= p.closure {
+                if q(0) >= closure {
                     (phase, phase_t0) = (Phase::Settling, now);
                     events.push(event(now, "/phase", json!({"phase": phase})));
                 }
@@ -113,7 +178,7 @@ where
                 ));
             }
             Phase::Releasing => {
-                let q = (p.closure - p.release_speed_per_s * elapsed).max(0.0);
+                let q = (closure - p.release_speed_per_s * elapsed).max(0.0);
                 dev.hand
                     .set_targets([q, q, q, start[3]])
                     .map_err(device("hand"))?;
@@ -121,6 +186,11 @@ where
             _ => {}
         }
         let (first_new, now) = dev.tick(&mut rec)?;
+        if let Some(g) = gauge.as_mut() {
+            for f in &rec.frames[first_new..] {
+                g.observe(f);
+            }
+        }
         let armed = phase == Phase::Releasing;
         match monitor.feed(&rec.frames[first_new..], now, armed, stop, &mut events) {
             Verdict::Continue => {}
@@ -132,7 +202,7 @@ where
             }
             Verdict::React(r) => {
                 reaction = Some(r);
-                let q = (p.closure + p.regrasp).min(1.0);
+                let q = (closure + p.regrasp).min(1.0);
                 dev.hand
                     .set_targets([q, q, q, start[3]])
                     .map_err(device("hand"))?;
@@ -226,6 +296,7 @@ mod tests {
     fn params() -> ReleaseParams {
         ReleaseParams {
             closure: CLOSURE,
+            contact: None,
             close_speed_per_s: 0.05,
             lift_mm: 10.0,
             lift_speed_mm_s: 100.0,
@@ -387,5 +458,108 @@ mod tests {
             record.fault
         );
         assert!(record.ended_s > 1.0 + 9.0 / 60.0 && record.ended_s < 1.0 + 12.0 / 60.0);
+    }
+
+    /// A hand whose fingertips touch the object at `touch` closure: past it, every pin
+    /// shifts 20 px per unit of closure (the sensors deform). Returns the record and the
+    /// targets the hand was sent.
+    fn run_contact_grasp(touch: f64, max_closure: f64) -> (RunRecord, Vec<HandPositions>) {
+        let clock = SharedClock::default();
+        let sent = Arc::new(Mutex::new(Vec::<HandPositions>::new()));
+        let mut hand = MockHand::new();
+        hand.expect_present_positions()
+            .returning(|| Ok([0.2, 0.2, 0.2, 0.0]));
+        let log = sent.clone();
+        hand.expect_set_targets().returning(move |t| {
+            log.lock().unwrap().push(t);
+            Ok(())
+        });
+        let mut arm = MockArm::new();
+        arm.expect_move_linear().returning(|_, _| Ok(()));
+        arm.expect_stop().returning(|| Ok(()));
+        let mut markers = MockMarkers::new();
+        markers.expect_next_sample().returning(|| Ok(None));
+        let sensors = (0..3u8)
+            .map(|id| {
+                let (clock, sent) = (clock.clone(), sent.clone());
+                let mut s = MockSensor::new();
+                let mut next = 0u64;
+                s.expect_next_frame().returning(move || {
+                    let t = next as f64 / 60.0;
+                    if t > clock.now_s() {
+                        return Ok(None);
+                    }
+                    next += 1;
+                    let q = sent.lock().unwrap().last().map_or(0.2, |t| t[0]);
+                    let x = (20.0 * (q - touch).max(0.0)) as f32;
+                    let y = 50.0 + 0.01 * (next % 2) as f32;
+                    Ok(Some(PinFrame {
+                        sensor: id,
+                        seq: next,
+                        time_s: t,
+                        pins: (0..PINS).map(|i| [x + 10.0 * i as f32, y]).collect(),
+                    }))
+                });
+                s
+            })
+            .collect();
+        let mut devices = Devices {
+            clock,
+            hand,
+            arm,
+            markers,
+            sensors,
+        };
+        let p = ReleaseParams {
+            contact: Some(ContactGrasp {
+                deformation_px: 0.5,
+                approach_speed_per_s: 0.05,
+                past_contact: 0.05,
+                max_closure,
+            }),
+            max_duration_s: 8.0,
+            ..params()
+        };
+        let record = run_release(&mut devices, &p, None, &AtomicBool::new(false)).unwrap();
+        let targets = sent.lock().unwrap().clone();
+        (record, targets)
+    }
+
+    #[test]
+    fn a_contact_grasp_closes_past_the_closure_where_the_pins_deform() {
+        let (record, targets) = run_contact_grasp(0.3, 0.95);
+        let contact = record
+            .events
+            .iter()
+            .find(|e| e.topic == "/phase" && e.data["phase"] == "contact")
+            .expect("contact found");
+        let at = contact.data["closure"].as_f64().unwrap();
+        // 0.5 px of deformation is 0.025 past the touch; one tick and one frame late at most
+        assert!(
+            (0.325..0.325 + 0.05 * (1.0 / 60.0 + 0.002) + 1e-9).contains(&at),
+            "{at}"
+        );
+        let grasp = targets
+            .iter()
+            .map(|t| t[0])
+            .fold(f64::NEG_INFINITY, f64::max);
+        assert!(
+            (grasp - (at + 0.05)).abs() < 1e-9,
+            "grasp {grasp}, contact {at}"
+        );
+        assert!(record.armed_s.is_some(), "lifted and released");
+        assert_eq!(record.fault, None);
+    }
+
+    #[test]
+    fn a_contact_grasp_that_finds_nothing_stops_at_the_closure_limit_before_lifting() {
+        let (record, targets) = run_contact_grasp(0.9, 0.45);
+        assert!(
+            matches!(record.fault, Some(Fault::NoContact { .. })),
+            "{:?}",
+            record.fault
+        );
+        assert!(targets.iter().all(|t| t[0] <= 0.45 + 1e-12));
+        assert_eq!(record.armed_s, None);
     }
 }

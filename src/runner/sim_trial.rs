@@ -7,14 +7,17 @@ use tmo_hal::sim::{HandSetup, ObjectStart, RigSetup, SimConfig, SimRig};
 
 use super::batch::{BatchError, PlannedTrial};
 use super::calibrate::{run_calibration, CalibrationParams};
-use super::hand_release::{run_release, ReleaseParams};
+use super::hand_release::{run_release, ContactGrasp, ReleaseParams};
 use super::lift::{run_first_time_lift, LiftParams};
+use super::monitor::WatchLimits;
 use super::rail_catch::{run_rail, RailParams};
 use super::rice_pour::{run_pour, PourParams};
 use super::safety::{SafeArm, SafeHand, SafetyLimits};
 use super::Online;
 use crate::collect::{hand_release_rig, CollectError};
-use crate::protocol::{KindParams, Mode, Plan};
+use crate::protocol::{
+    Calibration, FirstTimeLift, HandRelease, KindParams, Mode, Plan, RailCatch, RicePour,
+};
 use crate::scenario::Devices;
 use crate::sim_presets::{self, Preset, PresetOptions};
 use crate::slip::model::ModelFile;
@@ -60,6 +63,168 @@ fn safe_sim_devices(
     }
 }
 
+/// The random parts of a trial a hand-set rig would vary, drawn from its seed (the same on
+/// every backend, so a served-simulator trial meets the sim backend's world).
+pub(crate) fn trial_rng(planned: &PlannedTrial) -> ChaCha8Rng {
+    let mut rng = ChaCha8Rng::seed_from_u64(planned.seed);
+    rng.set_stream(7);
+    rng
+}
+
+/// The rail's retract speed for a trial, drawn from the protocol's range.
+pub(crate) fn retract_speed_mm_s(p: &RailCatch, planned: &PlannedTrial) -> f64 {
+    let [lo, hi] = p.retract_speed_mm_s;
+    if hi > lo {
+        trial_rng(planned).gen_range(lo..hi)
+    } else {
+        lo
+    }
+}
+
+/// The simulated world a planned trial starts in: what `tmo sim serve` is reset to between
+/// trials, and what the sim backend builds.
+pub fn world_for(plan: &Plan, planned: &PlannedTrial) -> Result<SimConfig, BatchError> {
+    let base = SimConfig {
+        seed: planned.seed,
+        ..SimConfig::default()
+    };
+    let options = PresetOptions {
+        object: Some(planned.object.clone()),
+        grasp_deg: planned.grasp_deg,
+        ..Default::default()
+    };
+    Ok(match &plan.params {
+        KindParams::HandRelease(_) => hand_release_rig(&base, &options, 1.0)?.0,
+        KindParams::RailCatch(p) => {
+            let options = PresetOptions {
+                retract_speed_mm_s: retract_speed_mm_s(p, planned),
+                grasp_deg: 0.0,
+                ..options
+            };
+            sim_presets::build(Preset::Rail, &options, base)
+                .map_err(CollectError::from)?
+                .0
+        }
+        KindParams::RicePour(p) => {
+            let options = PresetOptions {
+                pour_rate_g_per_s: p.pour_rate_g_per_s,
+                ..options
+            };
+            // the preset holds the object with 1.2x the friction it needs: a light grasp
+            sim_presets::build(Preset::Pour, &options, base)
+                .map_err(CollectError::from)?
+                .0
+        }
+        KindParams::FirstTimeLift(_) | KindParams::CalibrateLift(_) => {
+            on_table_rig(&base, planned, 0.04)?
+        }
+    })
+}
+
+/// The hand-release parameters every backend shares; `closure` is the starting grasp when
+/// the protocol does not find it from contact.
+pub(crate) fn release_params(
+    plan: &Plan,
+    p: &HandRelease,
+    object: &str,
+    closure: f64,
+    max_speed_per_s: f64,
+    watch: WatchLimits,
+) -> ReleaseParams {
+    ReleaseParams {
+        closure,
+        contact: p
+            .grasp_past_contact
+            .as_ref()
+            .and_then(|g| g.get(object))
+            .map(|past_contact| ContactGrasp {
+                deformation_px: p.contact_deformation_px,
+                approach_speed_per_s: p.approach_speed_of_max * max_speed_per_s,
+                past_contact,
+                max_closure: plan.safety.max_grip,
+            }),
+        close_speed_per_s: 0.05,
+        lift_mm: p.lift_mm,
+        lift_speed_mm_s: 40.0,
+        hold_s: p.hold_s,
+        release_speed_per_s: p.release_speed_of_max * max_speed_per_s,
+        regrasp: p.regrasp,
+        observe_s: 1.5,
+        max_duration_s: p.max_duration_s,
+        watch,
+    }
+}
+
+pub(crate) fn rail_params(
+    plan: &Plan,
+    p: &RailCatch,
+    planned: &PlannedTrial,
+    watch: WatchLimits,
+) -> RailParams {
+    let speed = retract_speed_mm_s(p, planned);
+    RailParams {
+        retract_speed_mm_s: speed,
+        retract_mm: 10.0,
+        forward_mm: p.forward_mm,
+        forward_speed_mm_s: 20.0,
+        torque_limit: p.initial_torque,
+        torque_step: p.torque_step,
+        max_torque: plan.safety.max_torque,
+        observe_s: 1.5,
+        // slip comes after about 1.2 mm of retraction
+        max_duration_s: (3.0 / speed + 1.5).min(p.max_duration_s),
+        watch,
+    }
+}
+
+pub(crate) fn pour_params(plan: &Plan, p: &RicePour, watch: WatchLimits) -> PourParams {
+    PourParams {
+        regrasp: p.regrasp,
+        max_closure: plan.safety.max_grip,
+        // the pour starts 0.5 s in; watch 1 s after it ends
+        duration_s: (0.5 + p.total_g / p.pour_rate_g_per_s + 1.0).min(p.max_duration_s),
+        watch,
+    }
+}
+
+pub(crate) fn lift_params(
+    plan: &Plan,
+    p: &FirstTimeLift,
+    max_speed_per_s: f64,
+    watch: WatchLimits,
+) -> LiftParams {
+    LiftParams {
+        deformation_px: p.deformation_px,
+        approach_speed_per_s: p.approach_speed_of_max * max_speed_per_s,
+        max_closure: plan.safety.max_grip,
+        lift_mm: p.lift_height_mm,
+        lift_speed_mm_s: p.lift_speed_mm_s,
+        close_step: p.close_step,
+        pause_s: p.pause_s,
+        hold_s: p.hold_s,
+        watch,
+    }
+}
+
+pub(crate) fn calibration_params(
+    plan: &Plan,
+    p: &Calibration,
+    max_speed_per_s: f64,
+    watch: WatchLimits,
+) -> CalibrationParams {
+    CalibrationParams {
+        deformation_px: p.deformation_px,
+        approach_speed_per_s: p.approach_speed_of_max * max_speed_per_s,
+        max_closure: plan.safety.max_grip,
+        step: p.step,
+        lift_mm: p.lift_height_mm,
+        lift_speed_mm_s: p.lift_speed_mm_s,
+        hold_s: p.hold_s,
+        max_slide_mm: p.max_slide_mm,
+        watch,
+    }
+}
+
 /// Runs one planned trial on the simulator and returns its log.
 pub fn run_sim_trial(
     plan: &Plan,
@@ -72,8 +237,7 @@ pub fn run_sim_trial(
         seed: planned.seed,
         ..SimConfig::default()
     };
-    let mut rng = ChaCha8Rng::seed_from_u64(planned.seed);
-    rng.set_stream(7);
+    let mut rng = trial_rng(planned);
     let online = match (plan.mode, planned.model, planned.strategy) {
         (Mode::Online, Some(m), Some(strategy)) => Some(Online {
             model: &models[m].0,
@@ -85,128 +249,62 @@ pub fn run_sim_trial(
     let mut put = |k: &str, v: String| {
         parameters.insert(k.to_string(), v);
     };
-    let (config, rig, record) = match &plan.params {
+    let config = world_for(plan, planned)?;
+    let rig = SimRig::new(config.clone())?;
+    let mut devices = safe_sim_devices(&rig, &plan.safety);
+    let max_speed = config.servo.max_speed_per_s;
+    let record = match &plan.params {
         KindParams::HandRelease(p) => {
-            let options = PresetOptions {
-                object: Some(planned.object.clone()),
-                grasp_deg: planned.grasp_deg,
-                ..Default::default()
-            };
-            // "Closed until stable": the simulator knows the grasp that holds each object;
-            // the safety factor varies from trial to trial as a hand-set grasp would.
+            // "Closed until stable": unless the protocol finds the grasp from contact, the
+            // simulator knows the grasp that holds each object; the safety factor varies
+            // from trial to trial as a hand-set grasp would.
             let safety: f64 = rng.gen_range(1.2..1.8);
-            let (config, closure, _) = hand_release_rig(&base, &options, safety)?;
-            let rig = SimRig::new(config.clone())?;
-            let mut devices = safe_sim_devices(&rig, &plan.safety);
-            let release_speed_per_s = p.release_speed_of_max * config.servo.max_speed_per_s;
-            let params = ReleaseParams {
+            let closure = sim_presets::holding_closure(&base, &planned.object, 0.0, safety)?;
+            let params = release_params(
+                plan,
+                p,
+                &planned.object,
                 closure,
-                close_speed_per_s: 0.05,
-                lift_mm: p.lift_mm,
-                lift_speed_mm_s: 40.0,
-                hold_s: p.hold_s,
-                release_speed_per_s,
-                regrasp: p.regrasp,
-                observe_s: 1.5,
-                max_duration_s: p.max_duration_s,
-                watch: Default::default(),
-            };
-            put("grip_safety", format!("{safety:.4}"));
-            put("closure", format!("{closure:.4}"));
-            put("release_speed_per_s", format!("{release_speed_per_s:.5}"));
-            let record = run_release(&mut devices, &params, online, stop)?;
-            (config, rig, record)
+                max_speed,
+                Default::default(),
+            );
+            if params.contact.is_none() {
+                put("grip_safety", format!("{safety:.4}"));
+                put("closure", format!("{closure:.4}"));
+            }
+            put(
+                "release_speed_per_s",
+                format!("{:.5}", params.release_speed_per_s),
+            );
+            run_release(&mut devices, &params, online, stop)?
         }
         KindParams::RailCatch(p) => {
-            let [lo, hi] = p.retract_speed_mm_s;
-            let speed = if hi > lo { rng.gen_range(lo..hi) } else { lo };
-            let options = PresetOptions {
-                object: Some(planned.object.clone()),
-                retract_speed_mm_s: speed,
-                ..Default::default()
-            };
-            let (config, _) = sim_presets::build(Preset::Rail, &options, base.clone())
-                .map_err(CollectError::from)?;
-            let rig = SimRig::new(config.clone())?;
-            let mut devices = safe_sim_devices(&rig, &plan.safety);
-            let params = RailParams {
-                retract_speed_mm_s: speed,
-                retract_mm: 10.0,
-                forward_mm: p.forward_mm,
-                forward_speed_mm_s: 20.0,
-                torque_limit: p.initial_torque,
-                torque_step: p.torque_step,
-                max_torque: plan.safety.max_torque,
-                observe_s: 1.5,
-                // slip comes after about 1.2 mm of retraction
-                max_duration_s: (3.0 / speed + 1.5).min(p.max_duration_s),
-                watch: Default::default(),
-            };
-            put("retract_speed_mm_s", format!("{speed:.4}"));
-            let record = run_rail(&mut devices, &params, online, stop)?;
-            (config, rig, record)
+            let params = rail_params(plan, p, planned, Default::default());
+            put(
+                "retract_speed_mm_s",
+                format!("{:.4}", params.retract_speed_mm_s),
+            );
+            run_rail(&mut devices, &params, online, stop)?
         }
         KindParams::RicePour(p) => {
-            let options = PresetOptions {
-                object: Some(planned.object.clone()),
-                grasp_deg: planned.grasp_deg,
-                pour_rate_g_per_s: p.pour_rate_g_per_s,
-                ..Default::default()
-            };
-            // the preset holds the object with 1.2x the friction it needs: a light grasp
-            let (config, _) = sim_presets::build(Preset::Pour, &options, base.clone())
-                .map_err(CollectError::from)?;
-            let rig = SimRig::new(config.clone())?;
-            let mut devices = safe_sim_devices(&rig, &plan.safety);
-            let params = PourParams {
-                regrasp: p.regrasp,
-                max_closure: plan.safety.max_grip,
-                // the pour starts 0.5 s in; watch 1 s after it ends
-                duration_s: (0.5 + p.total_g / p.pour_rate_g_per_s + 1.0).min(p.max_duration_s),
-                watch: Default::default(),
-            };
             put("pour_rate_g_per_s", format!("{:.3}", p.pour_rate_g_per_s));
             put("total_g", format!("{:.1}", p.total_g));
-            let record = run_pour(&mut devices, &params, online, stop)?;
-            (config, rig, record)
+            run_pour(
+                &mut devices,
+                &pour_params(plan, p, Default::default()),
+                online,
+                stop,
+            )?
         }
         KindParams::FirstTimeLift(p) => {
-            let config = on_table_rig(&base, planned, 0.04)?;
-            let rig = SimRig::new(config.clone())?;
-            let mut devices = safe_sim_devices(&rig, &plan.safety);
-            let params = LiftParams {
-                deformation_px: p.deformation_px,
-                approach_speed_per_s: p.approach_speed_of_max * config.servo.max_speed_per_s,
-                max_closure: plan.safety.max_grip,
-                lift_mm: p.lift_height_mm,
-                lift_speed_mm_s: p.lift_speed_mm_s,
-                close_step: p.close_step,
-                pause_s: p.pause_s,
-                hold_s: p.hold_s,
-                watch: Default::default(),
-            };
+            let params = lift_params(plan, p, max_speed, Default::default());
             put("extra_mass_g", format!("{:.1}", planned.extra_mass_g));
-            let record = run_first_time_lift(&mut devices, &params, online, stop)?;
-            (config, rig, record)
+            run_first_time_lift(&mut devices, &params, online, stop)?
         }
         KindParams::CalibrateLift(p) => {
-            let config = on_table_rig(&base, planned, 0.04)?;
-            let rig = SimRig::new(config.clone())?;
-            let mut devices = safe_sim_devices(&rig, &plan.safety);
-            let params = CalibrationParams {
-                deformation_px: p.deformation_px,
-                approach_speed_per_s: p.approach_speed_of_max * config.servo.max_speed_per_s,
-                max_closure: plan.safety.max_grip,
-                step: p.step,
-                lift_mm: p.lift_height_mm,
-                lift_speed_mm_s: p.lift_speed_mm_s,
-                hold_s: p.hold_s,
-                max_slide_mm: p.max_slide_mm,
-                watch: Default::default(),
-            };
+            let params = calibration_params(plan, p, max_speed, Default::default());
             put("extra_mass_g", format!("{:.1}", planned.extra_mass_g));
-            let record = run_calibration(&mut devices, &params, stop)?;
-            (config, rig, record)
+            run_calibration(&mut devices, &params, stop)?
         }
     };
     // Ground truth for diagnostics only; scoring never reads it.
