@@ -116,37 +116,19 @@ fn the_real_backends_drive_the_served_simulator() {
     assert!(q[..3].iter().all(|v| (v - 0.3).abs() < 2e-3), "{q:?}");
 }
 
-/// `tmo run --backend real` against `tmo sim serve`: the lift protocols end as they began, so
-/// they run trial after trial unattended and are scored by the same code as on the sim.
-#[test]
-fn lift_protocols_run_on_the_real_backend_against_the_served_simulator() {
-    let dir = tempfile::tempdir().unwrap();
-    let d = dir.path();
-    let tmo = |args: &[&str]| {
-        let out = Command::new(env!("CARGO_BIN_EXE_tmo"))
-            .current_dir(d)
-            .args(args)
-            .output()
-            .unwrap();
-        (
-            out.status.code(),
-            String::from_utf8_lossy(&out.stdout).into_owned()
-                + &String::from_utf8_lossy(&out.stderr),
-        )
-    };
-    let ok = |args: &[&str]| {
-        let (code, text) = tmo(args);
-        assert_eq!(code, Some(0), "{args:?}: {text}");
-        text
-    };
-    common::collect_and_train(d, &["--trials", "8", "--seed", "5"], "train", "global.json");
+/// `tmo sim serve --hardware hardware/tmo.toml --out served.toml` in `d` (plus `extra`),
+/// once its served hardware file is written. A loaded CI machine can starve the emulator's
+/// real-time loop for a few hundred ms, which real cameras do not do: the served file's
+/// watchdog is given room.
+fn serve_in(d: &Path, extra: &[&str]) -> Server {
     let hw = Path::new(env!("CARGO_MANIFEST_DIR")).join("hardware/tmo.toml");
-    let _server = Server(
+    let server = Server(
         Command::new(env!("CARGO_BIN_EXE_tmo"))
             .current_dir(d)
             .args(["sim", "serve", "--hardware"])
             .arg(&hw)
-            .args(["--out", "served.toml", "--for", "120"])
+            .args(["--out", "served.toml", "--for", "300"])
+            .args(extra)
             .stdout(Stdio::null())
             .spawn()
             .unwrap(),
@@ -155,49 +137,60 @@ fn lift_protocols_run_on_the_real_backend_against_the_served_simulator() {
     while !d.join("served.toml").exists() && Instant::now() < deadline {
         std::thread::sleep(Duration::from_millis(20));
     }
-    // A loaded CI machine can starve the emulator's real-time loop for a few hundred ms,
-    // which real cameras do not do; give the watchdog room.
     let served = std::fs::read_to_string(d.join("served.toml")).unwrap();
     std::fs::write(
         d.join("served.toml"),
         served.replace("silent_limit_s = 0.25", "silent_limit_s = 2.0"),
     )
     .unwrap();
+    server
+}
+
+/// `tmo run PROTOCOL --backend real --hardware served.toml --out OUT` in `d`.
+fn run_real(d: &Path, protocol: &str, out: &str) -> std::process::Output {
+    common::tmo(
+        d,
+        &[
+            "run",
+            protocol,
+            "--backend",
+            "real",
+            "--hardware",
+            "served.toml",
+            "--out",
+            out,
+        ],
+    )
+}
+
+fn outcome_rows(d: &Path, batch: &str) -> Vec<serde_json::Value> {
+    serde_json::from_str(&std::fs::read_to_string(d.join(batch).join("outcomes.json")).unwrap())
+        .unwrap()
+}
+
+/// `tmo run --backend real` against `tmo sim serve`: calibration, then first-time lifts that
+/// read its table, scored by the same code as on the sim.
+#[test]
+fn lift_protocols_run_on_the_real_backend_against_the_served_simulator() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    common::collect_and_train(d, &["--trials", "8", "--seed", "5"], "train", "global.json");
+    let _server = serve_in(d, &[]);
     let quick = "lift_height_mm = 20\nlift_speed_mm_s = 40\nhold_s = 0.5\nmasses_g = [0]\n";
     std::fs::write(
         d.join("cal.toml"),
         format!("kind = \"calibrate_lift\"\nobjects = [\"crisps_can\"]\n[calibrate_lift]\n{quick}"),
     )
     .unwrap();
-    let out = ok(&[
-        "run",
-        "cal.toml",
-        "--backend",
-        "real",
-        "--hardware",
-        "served.toml",
-        "--out",
-        "cal",
-    ]);
+    let out = common::ok(&run_real(d, "cal.toml", "cal"));
     assert!(out.contains("g_min.json"), "{out}");
     std::fs::write(
         d.join("lift.toml"),
         format!("kind = \"first_time_lift\"\nobjects = [\"crisps_can\"]\nmodels = [\"global.json\"]\nrepetitions = 2\n[first_time_lift]\n{quick}calibration = \"cal/g_min.json\"\n"),
     )
     .unwrap();
-    ok(&[
-        "run",
-        "lift.toml",
-        "--backend",
-        "real",
-        "--hardware",
-        "served.toml",
-        "--out",
-        "lift",
-    ]);
-    let rows: Vec<serde_json::Value> =
-        serde_json::from_str(&std::fs::read_to_string(d.join("lift/outcomes.json")).unwrap())
-            .unwrap();
+    common::ok(&run_real(d, "lift.toml", "lift"));
+    let rows = outcome_rows(d, "lift");
     assert_eq!(rows.len(), 2);
     assert!(
         rows.iter()
@@ -207,22 +200,140 @@ fn lift_protocols_run_on_the_real_backend_against_the_served_simulator() {
     let trial = tmo::trial::read_trial(&d.join("lift/trial-00000.mcap")).unwrap();
     assert_eq!(trial.meta.backend, "real");
     assert!(trial.frames.len() > 100 && trial.markers.len() > 50);
-    // the other kinds need the object put back by hand: refused, clearly
+}
+
+/// The whole-hand release and the rice pour on the real backend: the served simulator is
+/// reset to each trial's world between trials (an operator's job on hardware), the hand
+/// finds its grasp from contact, and the trials are scored as on the sim backend.
+#[test]
+fn hand_release_and_rice_pour_run_on_the_real_backend_against_the_served_simulator() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    common::collect_and_train(d, &["--trials", "8", "--seed", "5"], "train", "global.json");
+    let _server = serve_in(d, &[]);
+    let release = "kind = \"hand_release\"\nrepetitions = 2\nobjects = [\"crisps_can\", \"banana\"]\ngrasps_deg = [0]\nmodels = [\"global.json\"]\nstrategies = [\"2x2\"]\n[outcome]\ndrop_limit_mm = 30.0\n[hand_release]\nlift_mm = 40.0\nrelease_speed_of_max = 0.02\n";
+    // without a grasp the real backend has nothing to close to: refused before any device
+    std::fs::write(d.join("bare.toml"), release).unwrap();
+    let err = common::fails(&run_real(d, "bare.toml", "bare"));
+    assert!(
+        err.contains("grasp_past_contact") && err.contains("crisps_can"),
+        "{err}"
+    );
     std::fs::write(
-        d.join("rail.toml"),
-        "kind = \"rail_catch\"\nmodels = [\"global.json\"]\nstrategies = [\"1x1\"]\n",
+        d.join("release.toml"),
+        format!("{release}grasp_past_contact = {{ crisps_can = 0.03, default = 0.01 }}\n"),
     )
     .unwrap();
-    let (code, text) = tmo(&[
-        "run",
-        "rail.toml",
-        "--backend",
-        "real",
-        "--hardware",
-        "served.toml",
-        "--out",
-        "rail",
-    ]);
-    assert_eq!(code, Some(2), "{text}");
-    assert!(text.contains("put back between trials"), "{text}");
+    common::ok(&run_real(d, "release.toml", "release"));
+    let rows = outcome_rows(d, "release");
+    assert_eq!(rows.len(), 4);
+    for r in &rows {
+        assert!(r["fault"].is_null(), "{rows:?}");
+        assert!(
+            ["true_positive", "false_positive", "false_negative"]
+                .contains(&r["verdict"].as_str().unwrap()),
+            "{rows:?}"
+        );
+    }
+    // each trial met its own object: the reset brought the banana in
+    for (k, object) in [(0, "crisps_can"), (2, "banana")] {
+        let trial = tmo::trial::read_trial(&d.join(format!("release/trial-0000{k}.mcap"))).unwrap();
+        assert_eq!(
+            (trial.meta.backend.as_str(), trial.meta.object.as_str()),
+            ("real", object)
+        );
+        let contact = trial
+            .events
+            .iter()
+            .find(|e| e.topic == "/phase" && e.data["phase"] == "contact");
+        assert!(contact.is_some(), "trial {k} found contact");
+    }
+
+    std::fs::write(
+        d.join("pour.toml"),
+        "kind = \"rice_pour\"\nrepetitions = 1\nmodels = [\"global.json\"]\nstrategies = [\"2x2\"]\n[rice_pour]\ntotal_g = 120.0\n",
+    )
+    .unwrap();
+    common::ok(&run_real(d, "pour.toml", "pour"));
+    let rows = outcome_rows(d, "pour");
+    assert_eq!(rows.len(), 1);
+    assert!(
+        rows[0]["fault"].is_null() && rows[0]["dropped"] == false,
+        "{rows:?}"
+    );
+
+    // the rig's own limits bind the protocol: a lift faster than the rig allows is refused
+    let served = std::fs::read_to_string(d.join("served.toml")).unwrap();
+    std::fs::write(
+        d.join("served.toml"),
+        served.replace("max_arm_speed_mm_s = 100.0", "max_arm_speed_mm_s = 20.0"),
+    )
+    .unwrap();
+    std::fs::write(
+        d.join("fast.toml"),
+        "kind = \"first_time_lift\"\nobjects = [\"crisps_can\"]\nmodels = [\"global.json\"]\n[first_time_lift]\nlift_speed_mm_s = 40\nmasses_g = [0]\n",
+    )
+    .unwrap();
+    let err = common::fails(&run_real(d, "fast.toml", "fast"));
+    assert!(
+        err.contains("first_time_lift.lift_speed_mm_s = 40") && err.contains("20"),
+        "{err}"
+    );
+
+    // a rig that is not the served simulator needs an operator, and tests have no terminal
+    let served = std::fs::read_to_string(d.join("served.toml")).unwrap();
+    let cut = served
+        .find("[served_simulator]")
+        .expect("served file names its control port");
+    std::fs::write(d.join("served.toml"), &served[..cut]).unwrap();
+    let err = common::fails(&run_real(d, "release.toml", "release2"));
+    assert!(
+        err.contains("operator") && err.contains("--unattended"),
+        "{err}"
+    );
+}
+
+/// The rail catch on the real backend against the served single-finger rail rig.
+#[test]
+fn rail_catch_runs_on_the_real_backend_against_the_served_rail_rig() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    common::ok(&common::tmo(
+        d,
+        &[
+            "sim", "collect", "--rig", "rail", "--trials", "8", "--seed", "5", "--out", "rail",
+        ],
+    ));
+    common::ok(&common::tmo(
+        d,
+        &[
+            "train",
+            "rail",
+            "--classifier",
+            "threshold",
+            "--out",
+            "rail.json",
+        ],
+    ));
+    let _server = serve_in(d, &["--rig", "rail"]);
+    let hw = tmo::hardware::load(&d.join("served.toml")).unwrap();
+    assert_eq!(hw.cameras.fingertips.len(), 1, "one finger on the rail");
+    std::fs::write(
+        d.join("rail.toml"),
+        "kind = \"rail_catch\"\nrepetitions = 3\nmodels = [\"rail.json\"]\nstrategies = [\"1x1\"]\n[rail_catch]\nretract_speed_mm_s = [3.0, 5.0]\n",
+    )
+    .unwrap();
+    common::ok(&run_real(d, "rail.toml", "rail_batch"));
+    let rows = outcome_rows(d, "rail_batch");
+    assert_eq!(rows.len(), 3);
+    assert!(rows.iter().all(|r| r["fault"].is_null()), "{rows:?}");
+    // the reaction went out over the wire: the arm came forward and the finger tightened
+    let reacted: Vec<_> = rows.iter().filter(|r| r["responses"] != 0).collect();
+    assert!(!reacted.is_empty(), "{rows:?}");
+    let id = reacted[0]["trial_id"].as_str().unwrap();
+    let trial = tmo::trial::read_trial(&d.join(format!("rail_batch/{id}.mcap"))).unwrap();
+    assert!(trial
+        .events
+        .iter()
+        .any(|e| e.topic == "/command/hand" && e.data["torque_limit"].as_f64() > Some(0.8)));
 }

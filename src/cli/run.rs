@@ -6,9 +6,10 @@ use anyhow::{Context, Result};
 use tmo::protocol::KindParams;
 use tmo::protocol::{self, Kind};
 use tmo::runner::batch;
-use tmo::runner::real_trial::{open_real, run_real_trial, runs_unattended};
+use tmo::runner::real_trial::{check_real_plan, open_real, run_real_trial};
 use tmo::runner::score::{self, CalibrationRow, GMinTable, LiftRow, OutcomeRow};
 use tmo::runner::sim_trial::run_sim_trial;
+use tmo::runner::staging::Staging;
 use tmo::slip::model::ModelFile;
 use tmo::trial::{read_trial, sha256_hex, write_trial};
 
@@ -45,6 +46,9 @@ pub struct RunArgs {
     /// With `--backend real`: the hardware file.
     #[arg(long)]
     hardware: Option<PathBuf>,
+    /// With `--backend real`: no operator step between trials (the rig resets itself).
+    #[arg(long)]
+    unattended: bool,
     /// With `--backend replay`: the recorded trials (logs or batch directories) to replay
     /// through the protocol's models and strategies.
     #[arg(long, num_args = 1..)]
@@ -64,10 +68,18 @@ pub fn run(args: RunArgs) -> Result<u8> {
         "--backend real needs --hardware FILE (see hardware/tmo.toml; `tmo sim serve` writes one for the simulator)"
     );
     let mut plan = protocol::load(&args.protocol, 3)?;
-    if args.backend == Backend::Real && !runs_unattended(plan.kind) {
-        return Err(tmo::runner::batch::BatchError::NeedsOperator(plan.kind))
-            .with_context(|| args.protocol.display().to_string());
-    }
+    // On the real backend everything that can be refused is, before a device is opened.
+    let real_rig = match &args.hardware {
+        Some(path) if args.backend == Backend::Real => {
+            let hw = tmo::hardware::load(path)?;
+            let limits = check_real_plan(&hw, &plan)
+                .with_context(|| format!("{} on {}", args.protocol.display(), path.display()))?;
+            let staging = Staging::for_batch(&hw, plan.kind, args.unattended)
+                .with_context(|| args.protocol.display().to_string())?;
+            Some((path.clone(), hw, limits, staging))
+        }
+        _ => None,
+    };
     if args.backend == Backend::Replay {
         anyhow::ensure!(
             !args.from.is_empty(),
@@ -167,14 +179,13 @@ pub fn run(args: RunArgs) -> Result<u8> {
         .progress_chars("=> "),
     );
     // The real rig is opened once for the batch; the simulator builds a rig per trial.
-    let mut real = match (&args.backend, &args.hardware) {
-        (Backend::Real, Some(path)) => {
-            let hw = tmo::hardware::load(path)?;
-            let devices = open_real(&hw, &plan)
+    let mut real = match real_rig {
+        Some((path, hw, limits, staging)) => {
+            let rig = open_real(hw, limits)
                 .with_context(|| format!("opening the devices of {}", path.display()))?;
-            Some((hw, devices))
+            Some((staging, rig))
         }
-        _ => None,
+        None => None,
     };
     let started = std::time::Instant::now();
     let mut rows = Rows::default();
@@ -189,8 +200,22 @@ pub fn run(args: RunArgs) -> Result<u8> {
             let unix = std::time::SystemTime::now()
                 .duration_since(std::time::UNIX_EPOCH)
                 .map_or(0, |d| d.as_secs());
+            if let Some((staging, _)) = real.as_mut() {
+                bar.suspend(|| staging.stage(&plan, t, &stop))
+                    .with_context(|| format!("setting up trial {}", t.trial_id))?;
+                if stop.load(std::sync::atomic::Ordering::Relaxed) {
+                    bar.finish_and_clear();
+                    eprintln!(
+                        "interrupted before {}: {} finished trial(s) are in {}; run again with --resume to finish",
+                        t.trial_id,
+                        ran + kept,
+                        out.display()
+                    );
+                    std::process::exit(EXIT_INTERRUPTED);
+                }
+            }
             let trial = match real.as_mut() {
-                Some((hw, devices)) => run_real_trial(&plan, t, &models, hw, devices, unix, &stop),
+                Some((_, rig)) => run_real_trial(&plan, t, &models, rig, unix, &stop),
                 None => run_sim_trial(&plan, t, &models, unix, &stop),
             }
             .with_context(|| format!("trial {}", t.trial_id))?;

@@ -88,6 +88,17 @@ impl Default for SafetyLimits {
 }
 
 impl SafetyLimits {
+    /// The stricter of two sets of limits, limit by limit (a protocol's within a rig's).
+    pub fn tightest(&self, other: &SafetyLimits) -> SafetyLimits {
+        let w = |k: usize| self.workspace_mm[k].min(other.workspace_mm[k]);
+        SafetyLimits {
+            max_grip: self.max_grip.min(other.max_grip),
+            max_torque: self.max_torque.min(other.max_torque),
+            max_arm_speed_mm_s: self.max_arm_speed_mm_s.min(other.max_arm_speed_mm_s),
+            workspace_mm: [w(0), w(1), w(2)],
+        }
+    }
+
     pub fn check(&self) -> Check {
         let s = "safety";
         in_range(s, "max_grip", self.max_grip, 0.05, 1.0)?;

@@ -91,9 +91,22 @@ pub fn expand(plan: &Plan) -> Vec<PlannedTrial> {
 #[derive(Debug, thiserror::Error)]
 pub enum BatchError {
     #[error(
-        "{0} on the real backend needs the object put back between trials; only first_time_lift and calibrate_lift run unattended so far (issue 7)"
+        "{0} on the real backend needs the rig set up between trials, by an operator at a terminal (stdin is not one), or pass --unattended if the rig resets itself"
     )]
     NeedsOperator(Kind),
+    #[error(
+        "hand_release.grasp_past_contact: expected a value for {0} on the real backend (the closure past contact that holds it; the simulator's own holding closure is not available on a rig)"
+    )]
+    NoGraspOnHardware(String),
+    #[error(transparent)]
+    Staging(#[from] tmo_hal::sim::serve_control::ControlError),
+    #[error("{field} = {value} asks for more than the hardware file's {limit_field} ({limit})")]
+    BeyondHardware {
+        field: &'static str,
+        value: f64,
+        limit: f64,
+        limit_field: &'static str,
+    },
     #[error(transparent)]
     Sim(#[from] CollectError),
     #[error(transparent)]

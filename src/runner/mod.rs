@@ -15,6 +15,7 @@ pub mod rice_pour;
 pub mod safety;
 pub mod score;
 pub mod sim_trial;
+pub mod staging;
 
 use serde_json::json;
 use tmo_hal::{Arm, Clock, Hand, MarkerTracker, TactileSensor};

@@ -1,9 +1,9 @@
 //! Runs a planned trial on the real rig (or on `tmo sim serve`, which speaks its protocols):
 //! the same runners as the simulator, over the real backends behind the safety limits.
 //!
-//! In progress (issue 7): the first-time lift and its calibration, which end as they began
-//! (object lowered to the table, hand open), so a batch runs trial after trial unattended.
-//! The other kinds need the object put back between trials, by an operator on hardware.
+//! Between trials the rig is set up for the next one ([`super::staging`]); the hand
+//! release finds its grasp from contact (`hand_release.grasp_past_contact`), as there is
+//! no simulator to say which closure holds the object.
 
 use tmo_hal::real::clock::RealClock;
 use tmo_hal::real::jevois_sensor::JevoisSensor;
@@ -12,14 +12,19 @@ use tmo_hal::real::model_o::{ModelOConfig, ModelOHand};
 use tmo_hal::real::ur::UrArm;
 
 use super::batch::{BatchError, PlannedTrial};
-use super::calibrate::{run_calibration, CalibrationParams};
-use super::lift::{run_first_time_lift, LiftParams};
+use super::calibrate::run_calibration;
+use super::hand_release::run_release;
+use super::lift::run_first_time_lift;
 use super::monitor::WatchLimits;
+use super::rail_catch::run_rail;
+use super::rice_pour::run_pour;
 use super::safety::{SafeArm, SafeHand};
-use super::sim_trial::finish_trial;
+use super::sim_trial::{
+    calibration_params, finish_trial, lift_params, pour_params, rail_params, release_params,
+};
 use super::Online;
 use crate::hardware::HardwareFile;
-use crate::protocol::{KindParams, Mode, Plan};
+use crate::protocol::{KindParams, Mode, Plan, SafetyLimits};
 use crate::scenario::{device, Devices};
 use crate::slip::model::ModelFile;
 use crate::trial::Trial;
@@ -38,8 +43,42 @@ fn watch(hw: &HardwareFile) -> WatchLimits {
     }
 }
 
-/// Opens every device the hardware file names, behind `plan`'s safety limits.
-pub fn open_real(hw: &HardwareFile, plan: &Plan) -> Result<RealDevices, BatchError> {
+/// Checks a plan can run on the rig before any device is opened, and returns the limits it
+/// runs behind: the protocol's, never looser than the rig's. A protocol asking for a motion
+/// or force past the rig's limits is refused, as is a hand release without a grasp.
+pub fn check_real_plan(hw: &HardwareFile, plan: &Plan) -> Result<SafetyLimits, BatchError> {
+    if let KindParams::HandRelease(p) = &plan.params {
+        let grasp = p.grasp_past_contact.as_ref();
+        if let Some(o) = plan
+            .objects
+            .iter()
+            .find(|o| grasp.and_then(|g| g.get(o)).is_none())
+        {
+            return Err(BatchError::NoGraspOnHardware(o.clone()));
+        }
+    }
+    for (field, value, limit, limit_field) in plan.params.demands(&hw.safety) {
+        if value > limit {
+            return Err(BatchError::BeyondHardware {
+                field,
+                value,
+                limit,
+                limit_field,
+            });
+        }
+    }
+    Ok(plan.safety.tightest(&hw.safety))
+}
+
+/// The open rig: its file, the limits a batch runs behind, its devices.
+pub struct RealRig {
+    pub hw: HardwareFile,
+    pub limits: SafetyLimits,
+    pub devices: RealDevices,
+}
+
+/// Opens every device the hardware file names, behind `limits`.
+pub fn open_real(hw: HardwareFile, limits: SafetyLimits) -> Result<RealRig, BatchError> {
     let clock = RealClock::new();
     let cams = &hw.cameras;
     let gone_s = (cams.silent_limit_s * DISCONNECTED_FACTOR).max(1.0);
@@ -85,21 +124,18 @@ pub fn open_real(hw: &HardwareFile, plan: &Plan) -> Result<RealDevices, BatchErr
         f64::from(hw.arm.frequency_hz),
     )
     .map_err(device("arm"))?;
-    Ok(Devices {
+    let devices = Devices {
         clock,
-        hand: SafeHand::new(hand, plan.safety),
-        arm: SafeArm::new(arm, plan.safety),
+        hand: SafeHand::new(hand, limits),
+        arm: SafeArm::new(arm, limits),
         markers,
         sensors,
+    };
+    Ok(RealRig {
+        hw,
+        limits,
+        devices,
     })
-}
-
-/// Can `kind` run unattended on the real backend (yet)?
-pub fn runs_unattended(kind: crate::protocol::Kind) -> bool {
-    matches!(
-        kind,
-        crate::protocol::Kind::FirstTimeLift | crate::protocol::Kind::CalibrateLift
-    )
 }
 
 /// Runs one planned trial on open real devices.
@@ -107,8 +143,7 @@ pub fn run_real_trial(
     plan: &Plan,
     planned: &PlannedTrial,
     models: &[(ModelFile, String)],
-    hw: &HardwareFile,
-    devices: &mut RealDevices,
+    rig: &mut RealRig,
     started_unix_s: u64,
     stop: &std::sync::atomic::AtomicBool,
 ) -> Result<Trial, BatchError> {
@@ -120,41 +155,63 @@ pub fn run_real_trial(
         _ => None,
     };
     let mut parameters = std::collections::BTreeMap::new();
-    parameters.insert(
-        "extra_mass_g".into(),
-        format!("{:.1}", planned.extra_mass_g),
-    );
+    let mut put = |k: &str, v: String| {
+        parameters.insert(k.to_string(), v);
+    };
+    let RealRig {
+        hw,
+        limits,
+        devices,
+    } = rig;
     let max_speed = hw.hand.max_speed_per_s;
+    let watch = watch(hw);
+    // The rig's limits are tighter than the protocol's where they differ.
+    let plan = &Plan {
+        safety: *limits,
+        ..plan.clone()
+    };
     let record = match &plan.params {
+        KindParams::HandRelease(p) => {
+            let params = release_params(plan, p, &planned.object, 0.0, max_speed, watch);
+            if params.contact.is_none() {
+                return Err(BatchError::NoGraspOnHardware(planned.object.clone()));
+            }
+            put(
+                "release_speed_per_s",
+                format!("{:.5}", params.release_speed_per_s),
+            );
+            run_release(devices, &params, online, stop)?
+        }
+        KindParams::RailCatch(p) => {
+            let params = rail_params(plan, p, planned, watch);
+            put(
+                "retract_speed_mm_s",
+                format!("{:.4}", params.retract_speed_mm_s),
+            );
+            run_rail(devices, &params, online, stop)?
+        }
+        KindParams::RicePour(p) => {
+            put("pour_rate_g_per_s", format!("{:.3}", p.pour_rate_g_per_s));
+            put("total_g", format!("{:.1}", p.total_g));
+            run_pour(devices, &pour_params(plan, p, watch), online, stop)?
+        }
         KindParams::FirstTimeLift(p) => {
-            let params = LiftParams {
-                deformation_px: p.deformation_px,
-                approach_speed_per_s: p.approach_speed_of_max * max_speed,
-                max_closure: plan.safety.max_grip,
-                lift_mm: p.lift_height_mm,
-                lift_speed_mm_s: p.lift_speed_mm_s,
-                close_step: p.close_step,
-                pause_s: p.pause_s,
-                hold_s: p.hold_s,
-                watch: watch(hw),
-            };
-            run_first_time_lift(devices, &params, online, stop)?
+            put("extra_mass_g", format!("{:.1}", planned.extra_mass_g));
+            run_first_time_lift(
+                devices,
+                &lift_params(plan, p, max_speed, watch),
+                online,
+                stop,
+            )?
         }
         KindParams::CalibrateLift(p) => {
-            let params = CalibrationParams {
-                deformation_px: p.deformation_px,
-                approach_speed_per_s: p.approach_speed_of_max * max_speed,
-                max_closure: plan.safety.max_grip,
-                step: p.step,
-                lift_mm: p.lift_height_mm,
-                lift_speed_mm_s: p.lift_speed_mm_s,
-                hold_s: p.hold_s,
-                max_slide_mm: p.max_slide_mm,
-                watch: watch(hw),
-            };
-            run_calibration(devices, &params, stop)?
+            put("extra_mass_g", format!("{:.1}", planned.extra_mass_g));
+            run_calibration(
+                devices,
+                &calibration_params(plan, p, max_speed, watch),
+                stop,
+            )?
         }
-        _ => return Err(BatchError::NeedsOperator(plan.kind)),
     };
     Ok(finish_trial(
         plan,
