@@ -36,6 +36,11 @@ pub struct ServeArgs {
     object: Option<String>,
     #[arg(long, default_value_t = 1)]
     seed: u64,
+    /// Serve the UR controller at this loopback address on a controller's own ports (RTDE
+    /// 30004, URScript 30002), for clients that cannot be given other ports (ur_rtde).
+    /// Default: any free ports on 127.0.0.1.
+    #[arg(long)]
+    ur_address: Option<std::net::IpAddr>,
     /// Stop after this many seconds (default: until Ctrl-C).
     #[arg(long = "for")]
     for_s: Option<f64>,
@@ -94,8 +99,20 @@ pub fn serve_cmd(args: ServeArgs) -> Result<()> {
         args.hardware.display(),
         hw.cameras.fingertips.len()
     );
-    let rtde = TcpListener::bind("127.0.0.1:0").context("cannot listen for RTDE")?;
-    let script = TcpListener::bind("127.0.0.1:0").context("cannot listen for URScript")?;
+    let (ur_ip, rtde_port, script_port) = match args.ur_address {
+        Some(ip) => {
+            anyhow::ensure!(
+                ip.is_loopback(),
+                "--ur-address: expected a loopback address (127.x.y.z or ::1), got {ip}"
+            );
+            (ip, 30004, 30002)
+        }
+        None => (std::net::Ipv4Addr::LOCALHOST.into(), 0, 0),
+    };
+    let rtde = TcpListener::bind((ur_ip, rtde_port))
+        .with_context(|| format!("cannot listen for RTDE on {ur_ip}:{rtde_port}"))?;
+    let script = TcpListener::bind((ur_ip, script_port))
+        .with_context(|| format!("cannot listen for URScript on {ur_ip}:{script_port}"))?;
     let control = TcpListener::bind("127.0.0.1:0").context("cannot listen for control")?;
     let (rtde_port, script_port) = (rtde.local_addr()?.port(), script.local_addr()?.port());
     let control_addr = control.local_addr()?.to_string();
@@ -143,7 +160,7 @@ pub fn serve_cmd(args: ServeArgs) -> Result<()> {
     if let Some(b) = &devices.bus {
         served.hand.port = b.path.display().to_string();
     }
-    served.arm.host = "127.0.0.1".into();
+    served.arm.host = ur_ip.to_string();
     served.arm.rtde_port = rtde_port;
     served.arm.script_port = script_port;
     let text = format!(
@@ -154,7 +171,7 @@ pub fn serve_cmd(args: ServeArgs) -> Result<()> {
     std::fs::write(&args.out, text)
         .with_context(|| format!("cannot write {}", args.out.display()))?;
     println!(
-        "serving the simulated rig ({object}): cameras {}, markers {}, hand bus {}, UR at 127.0.0.1 (RTDE {rtde_port}, URScript {script_port}), control {control_addr}",
+        "serving the simulated rig ({object}): cameras {}, markers {}, hand bus {}, UR at {ur_ip} (RTDE {rtde_port}, URScript {script_port}), control {control_addr}",
         served
             .cameras
             .fingertips

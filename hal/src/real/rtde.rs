@@ -319,12 +319,13 @@ impl ClientMessage {
     /// Decodes a package the controller received (for the emulated controller).
     pub fn decode(code: u8, p: &[u8]) -> Result<Self, RtdeError> {
         let names = |b: &[u8]| -> Result<Vec<String>, RtdeError> {
-            let t = text(b)?;
-            Ok(if t.is_empty() {
-                Vec::new()
-            } else {
-                t.split(',').map(str::to_string).collect()
-            })
+            // Empty names are skipped: ur_rtde ends its lists with a comma, and the
+            // controller it is written against accepts that.
+            Ok(text(b)?
+                .split(',')
+                .filter(|n| !n.is_empty())
+                .map(str::to_string)
+                .collect())
         };
         Ok(match code {
             code::REQUEST_PROTOCOL_VERSION => {
@@ -544,6 +545,20 @@ mod tests {
         assert_eq!(recipe, 1);
         let types = [VarType::Double, VarType::Vector6d];
         assert_eq!(decode_values(&payload, &types).unwrap(), values);
+    }
+
+    #[test]
+    fn a_recipe_list_ending_in_a_comma_names_no_empty_variable() {
+        // what ur_rtde sends (seen on the wire against `tmo sim serve`)
+        let mut p = 125.0f64.to_be_bytes().to_vec();
+        p.extend(b"timestamp,actual_TCP_pose,");
+        assert_eq!(
+            ClientMessage::decode(code::SETUP_OUTPUTS, &p).unwrap(),
+            ClientMessage::SetupOutputs {
+                frequency_hz: 125.0,
+                variables: vec!["timestamp".into(), "actual_TCP_pose".into()],
+            }
+        );
     }
 
     #[test]

@@ -1,0 +1,66 @@
+//! The vendors' own client libraries against `tmo sim serve` (issue 7): ROBOTIS
+//! DynamixelSDK on the served bus, SDU's ur_rtde on the served UR controller (with a raw
+//! URScript line on its secondary interface), pyserial on the JeVois streams. What each
+//! does is in `scripts/vendor_clients.py`; `scripts/vendor-env.sh` installs them (pinned in
+//! `scripts/vendor-requirements.txt`) into `target/vendor-venv`.
+
+use std::path::Path;
+use std::process::{Child, Command, Stdio};
+use std::time::{Duration, Instant};
+
+struct Server(Child);
+
+impl Drop for Server {
+    fn drop(&mut self) {
+        let _ = self.0.kill();
+        let _ = self.0.wait();
+    }
+}
+
+#[test]
+fn vendor_clients_drive_the_served_simulator() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let env = Command::new("bash")
+        .arg(root.join("scripts/vendor-env.sh"))
+        .output()
+        .unwrap();
+    assert!(
+        env.status.success(),
+        "scripts/vendor-env.sh: {}",
+        String::from_utf8_lossy(&env.stderr)
+    );
+    let python = String::from_utf8(env.stdout).unwrap().trim().to_string();
+
+    let dir = tempfile::tempdir().unwrap();
+    let served = dir.path().join("served.toml");
+    // ur_rtde always dials port 30004: the controller gets a loopback address of its own,
+    // picked from the process id so that two test runs on one machine do not collide.
+    let pid = std::process::id();
+    let address = format!("127.77.{}.{}", (pid >> 8) & 0xff, (pid & 0xff).max(1));
+    let _server = Server(
+        Command::new(env!("CARGO_BIN_EXE_tmo"))
+            .args(["sim", "serve", "--hardware"])
+            .arg(root.join("hardware/tmo.toml"))
+            .arg("--out")
+            .arg(&served)
+            .args(["--ur-address", &address, "--for", "120"])
+            .stdout(Stdio::null())
+            .spawn()
+            .unwrap(),
+    );
+    let deadline = Instant::now() + Duration::from_secs(20);
+    while !served.exists() && Instant::now() < deadline {
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    let out = Command::new(&python)
+        .arg(root.join("scripts/vendor_clients.py"))
+        .arg(&served)
+        .output()
+        .unwrap();
+    let text =
+        String::from_utf8_lossy(&out.stdout).into_owned() + &String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{text}");
+    for client in ["jevois:", "dynamixel:", "ur_rtde:"] {
+        assert!(text.contains(client), "{text}");
+    }
+}
