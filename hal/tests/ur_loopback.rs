@@ -11,19 +11,26 @@ use tmo_hal::sim::serve_ur::{serve_ur, UrServeStats, CONTROLLER_VERSION};
 use tmo_hal::sim::{SimConfig, SimRig};
 use tmo_hal::Arm;
 
-fn serve() -> (
+type Served = (
     u16,
     u16,
     Arc<AtomicBool>,
     std::thread::JoinHandle<UrServeStats>,
-) {
+);
+
+fn serve() -> Served {
+    serve_at(0, 0)
+}
+
+/// A controller on these ports (0: any free ones).
+fn serve_at(rtde_port: u16, script_port: u16) -> Served {
     let stop = Arc::new(AtomicBool::new(false));
     let (tx, rx) = mpsc::channel();
     let flag = stop.clone();
     let server = std::thread::spawn(move || {
         let rig = SimRig::new(SimConfig::default()).unwrap();
-        let rtde = TcpListener::bind("127.0.0.1:0").unwrap();
-        let script = TcpListener::bind("127.0.0.1:0").unwrap();
+        let rtde = TcpListener::bind(("127.0.0.1", rtde_port)).unwrap();
+        let script = TcpListener::bind(("127.0.0.1", script_port)).unwrap();
         tx.send((
             rtde.local_addr().unwrap().port(),
             script.local_addr().unwrap().port(),
@@ -92,6 +99,38 @@ fn a_server_that_goes_away_is_an_error_of_the_next_call() {
         tmo_hal::ErrorKind::Disconnected,
         "{e}"
     );
+}
+
+/// A controller that restarts: the call that meets the lost connection fails; the next one
+/// reconnects, stops the arm first, then does its work.
+#[test]
+fn after_a_lost_connection_the_next_call_reconnects_and_stops_the_arm_first() {
+    let (rtde_port, script_port, stop, server) = serve();
+    let mut arm = UrArm::connect("127.0.0.1", rtde_port, script_port, 125.0).unwrap();
+    arm.tcp_pose().unwrap();
+    stop.store(true, Ordering::Relaxed);
+    server.join().unwrap();
+    let deadline = Instant::now() + Duration::from_secs(3);
+    while Instant::now() < deadline && arm.tcp_pose().is_ok() {
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    assert_eq!(arm.reconnects, 0);
+    // the controller comes back on its ports
+    let (_, _, stop, server) = serve_at(rtde_port, script_port);
+    let pose = arm.tcp_pose().expect("reconnected");
+    assert!((pose.position_mm[2] - SimConfig::default().arm.start_mm[2]).abs() < 1e-6);
+    assert_eq!(arm.reconnects, 1);
+    arm.move_linear([0.0, 0.0, 5.0], 50.0).unwrap();
+    std::thread::sleep(Duration::from_millis(100));
+    drop(arm);
+    stop.store(true, Ordering::Relaxed);
+    let stats = server.join().unwrap();
+    assert_eq!((stats.rtde_clients, stats.script_clients), (1, 1));
+    assert_eq!(
+        stats.script_lines, 2,
+        "stopl on reconnecting, then the movel"
+    );
+    assert_eq!(stats.script_errors, 0);
 }
 
 /// After a move the host did not watch, the next move starts from where the arm is now,

@@ -10,6 +10,7 @@ use tmo_hal::real::jevois_sensor::JevoisSensor;
 use tmo_hal::real::marker_camera::MarkerCamera;
 use tmo_hal::real::model_o::{ModelOConfig, ModelOHand};
 use tmo_hal::real::ur::UrArm;
+use tmo_hal::{Arm, Hand};
 
 use super::batch::{BatchError, PlannedTrial};
 use super::calibrate::run_calibration;
@@ -165,7 +166,7 @@ pub fn run_real_trial(
         safety: *limits,
         ..plan.clone()
     };
-    let record = match &plan.params {
+    let result = match &plan.params {
         KindParams::HandRelease(p) => {
             let params = release_params(plan, p, &planned.object, 0.0, max_speed, watch);
             if params.contact.is_none() {
@@ -175,7 +176,7 @@ pub fn run_real_trial(
                 "release_speed_per_s",
                 format!("{:.5}", params.release_speed_per_s),
             );
-            run_release(devices, &params, online, stop)?
+            run_release(devices, &params, online, stop)
         }
         KindParams::RailCatch(p) => {
             let params = rail_params(plan, p, planned, watch);
@@ -183,12 +184,12 @@ pub fn run_real_trial(
                 "retract_speed_mm_s",
                 format!("{:.4}", params.retract_speed_mm_s),
             );
-            run_rail(devices, &params, online, stop)?
+            run_rail(devices, &params, online, stop)
         }
         KindParams::RicePour(p) => {
             put("pour_rate_g_per_s", format!("{:.3}", p.pour_rate_g_per_s));
             put("total_g", format!("{:.1}", p.total_g));
-            run_pour(devices, &pour_params(plan, p, watch), online, stop)?
+            run_pour(devices, &pour_params(plan, p, watch), online, stop)
         }
         KindParams::FirstTimeLift(p) => {
             put("extra_mass_g", format!("{:.1}", planned.extra_mass_g));
@@ -197,7 +198,7 @@ pub fn run_real_trial(
                 &lift_params(plan, p, max_speed, watch),
                 online,
                 stop,
-            )?
+            )
         }
         KindParams::CalibrateLift(p) => {
             put("extra_mass_g", format!("{:.1}", planned.extra_mass_g));
@@ -205,7 +206,21 @@ pub fn run_real_trial(
                 devices,
                 &calibration_params(plan, p, max_speed, watch),
                 stop,
-            )?
+            )
+        }
+    };
+    // Stop on any fault: a device error ends the batch, but a controller runs its last
+    // script on without its client, so the arm is told to stop (the UR backend reconnects
+    // to do so if the connection was what failed) and the fingers hold. Best effort: the
+    // device that failed may not answer.
+    let record = match result {
+        Ok(r) => r,
+        Err(e) => {
+            let _ = devices.arm.stop();
+            if let Ok(held) = devices.hand.present_positions() {
+                let _ = devices.hand.set_targets(held);
+            }
+            return Err(e.into());
         }
     };
     Ok(finish_trial(

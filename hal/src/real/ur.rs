@@ -1,6 +1,11 @@
 //! The UR5 as the rig's [`Arm`]: state from RTDE (protocol 2, `actual_TCP_pose`, `timestamp`,
-//! `robot_status_bits`), motion by URScript lines on the secondary interface. Any protocol
-//! error or lost connection is an error of the call that met it; the runner then stops.
+//! `robot_status_bits`), motion by URScript lines on the secondary interface.
+//!
+//! Reconnect policy: a lost connection is an error of the call that met it (the runner then
+//! ends its trial). The next call reconnects both interfaces — up to
+//! [`RECONNECT_ATTEMPTS`] tries, 0.25 s apart and doubling — and first sends `stopl`, since a
+//! script the controller was running goes on without its client; only then does the call
+//! proceed. A reconnect that fails is that call's error. Protocol errors do not reconnect.
 
 use std::io::{Read, Write};
 use std::net::{SocketAddr, TcpStream, ToSocketAddrs};
@@ -261,10 +266,37 @@ impl ScriptClient {
     }
 }
 
+/// Tries of a reconnect before the call fails.
+pub const RECONNECT_ATTEMPTS: u32 = 3;
+
+/// Where the controller is.
+#[derive(Debug, Clone)]
+struct Endpoint {
+    host: String,
+    rtde_port: u16,
+    script_port: u16,
+    frequency_hz: f64,
+}
+
+impl Endpoint {
+    fn connect(&self) -> Result<(RtdeClient, ScriptClient), UrError> {
+        let timeout = Duration::from_secs(2);
+        let (h, r, s) = (&self.host, self.rtde_port, self.script_port);
+        let rtde = RtdeClient::connect(&format!("{h}:{r}"), self.frequency_hz, timeout)?;
+        let script = ScriptClient::connect(&format!("{h}:{s}"), timeout)?;
+        Ok((rtde, script))
+    }
+}
+
 /// The arm backend: RTDE for state, URScript for motion.
 pub struct UrArm {
     rtde: RtdeClient,
     script: ScriptClient,
+    endpoint: Endpoint,
+    /// A call lost the connection; the next one reconnects.
+    lost: bool,
+    /// Reconnects made so far.
+    pub reconnects: u32,
     last: Option<ArmState>,
     /// Tool acceleration for every move, m/s^2.
     pub accel_m_s2: f64,
@@ -279,20 +311,68 @@ impl UrArm {
         script_port: u16,
         frequency_hz: f64,
     ) -> Result<Self, UrError> {
-        let timeout = Duration::from_secs(2);
-        let rtde = RtdeClient::connect(&format!("{host}:{rtde_port}"), frequency_hz, timeout)?;
-        let script = ScriptClient::connect(&format!("{host}:{script_port}"), timeout)?;
+        let endpoint = Endpoint {
+            host: host.to_string(),
+            rtde_port,
+            script_port,
+            frequency_hz,
+        };
+        let (rtde, script) = endpoint.connect()?;
         Ok(Self {
             rtde,
             script,
+            endpoint,
+            lost: false,
+            reconnects: 0,
             last: None,
             accel_m_s2: 1.2,
             state_timeout: Duration::from_millis(500),
         })
     }
 
+    /// Reconnects after a lost connection and stops whatever the controller was doing.
+    fn reconnect(&mut self) -> Result<(), UrError> {
+        let mut pause = Duration::from_millis(250);
+        let mut attempt = 1;
+        let (rtde, script) = loop {
+            match self.endpoint.connect() {
+                Ok(c) => break c,
+                Err(e) if attempt >= RECONNECT_ATTEMPTS => return Err(e),
+                Err(_) => {
+                    std::thread::sleep(pause);
+                    pause *= 2;
+                    attempt += 1;
+                }
+            }
+        };
+        (self.rtde, self.script, self.last) = (rtde, script, None);
+        self.script.send(&Command::Stopl { accel_m_s2: 2.0 })?;
+        self.lost = false;
+        self.reconnects += 1;
+        Ok(())
+    }
+
+    /// Runs a call on a connected arm, reconnecting first if the last call lost it.
+    fn connected<T>(
+        &mut self,
+        call: impl FnOnce(&mut Self) -> Result<T, UrError>,
+    ) -> Result<T, UrError> {
+        if self.lost {
+            self.reconnect()?;
+        }
+        let result = call(self);
+        if let Err(e) = &result {
+            self.lost = crate::Error::kind(e) == ErrorKind::Disconnected;
+        }
+        result
+    }
+
     /// The newest state, waiting for one if none arrived yet.
     pub fn state(&mut self) -> Result<ArmState, UrError> {
+        self.connected(Self::read_state)
+    }
+
+    fn read_state(&mut self) -> Result<ArmState, UrError> {
         let wait = if self.last.is_some() {
             Duration::ZERO
         } else {
@@ -323,15 +403,16 @@ impl Arm for UrArm {
         if !(speed_mm_s.is_finite() && speed_mm_s > 0.0) {
             return Err(UrError::Limit(format!("speed {speed_mm_s} mm/s")));
         }
-        let s = self.state()?;
-        let mut pose = s.tcp_pose;
-        for i in 0..3 {
-            pose[i] += offset_mm[i] / 1000.0;
-        }
-        self.script.send(&Command::Movel {
-            pose,
-            accel_m_s2: self.accel_m_s2,
-            speed_m_s: speed_mm_s / 1000.0,
+        self.connected(|arm| {
+            let mut pose = arm.read_state()?.tcp_pose;
+            for i in 0..3 {
+                pose[i] += offset_mm[i] / 1000.0;
+            }
+            arm.script.send(&Command::Movel {
+                pose,
+                accel_m_s2: arm.accel_m_s2,
+                speed_m_s: speed_mm_s / 1000.0,
+            })
         })
     }
 
@@ -339,14 +420,24 @@ impl Arm for UrArm {
         let v = velocity_mm_s.map(|x| x / 1000.0);
         // speedl holds the speed for t seconds; one minute outlasts any trial phase and the
         // runner always ends with stop.
-        self.script.send(&Command::Speedl {
-            velocity: [v[0], v[1], v[2], 0.0, 0.0, 0.0],
-            accel_m_s2: self.accel_m_s2,
-            time_s: 60.0,
+        self.connected(|arm| {
+            arm.script.send(&Command::Speedl {
+                velocity: [v[0], v[1], v[2], 0.0, 0.0, 0.0],
+                accel_m_s2: arm.accel_m_s2,
+                time_s: 60.0,
+            })
         })
     }
 
     fn stop(&mut self) -> Result<(), UrError> {
-        self.script.send(&Command::Stopl { accel_m_s2: 2.0 })
+        // after a lost connection, reconnecting sends the stop
+        let was_lost = self.lost;
+        self.connected(|arm| {
+            if was_lost {
+                Ok(())
+            } else {
+                arm.script.send(&Command::Stopl { accel_m_s2: 2.0 })
+            }
+        })
     }
 }
