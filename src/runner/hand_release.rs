@@ -107,7 +107,9 @@ where
     loop {
         let now = dev.clock.now_s();
         let elapsed = now - phase_t0;
-        if now >= p.max_duration_s || reaction.is_some_and(|r| now >= r.time_s + p.observe_s) {
+        // The time limit counts from the trial's start: a real rig's clock runs on across a
+        // batch, only the simulator's starts at zero with each trial.
+        if now - t0 >= p.max_duration_s || reaction.is_some_and(|r| now >= r.time_s + p.observe_s) {
             break;
         }
         match phase {
@@ -464,7 +466,17 @@ mod tests {
     /// shifts 20 px per unit of closure (the sensors deform). Returns the record and the
     /// targets the hand was sent.
     fn run_contact_grasp(touch: f64, max_closure: f64) -> (RunRecord, Vec<HandPositions>) {
-        let clock = SharedClock::default();
+        run_contact_grasp_from(0.0, touch, max_closure)
+    }
+
+    /// [`run_contact_grasp`] on a clock that reads `start_s` when the trial begins.
+    fn run_contact_grasp_from(
+        start_s: f64,
+        touch: f64,
+        max_closure: f64,
+    ) -> (RunRecord, Vec<HandPositions>) {
+        let mut clock = SharedClock::default();
+        clock.sleep_until(start_s);
         let sent = Arc::new(Mutex::new(Vec::<HandPositions>::new()));
         let mut hand = MockHand::new();
         hand.expect_present_positions()
@@ -485,7 +497,7 @@ mod tests {
                 let mut s = MockSensor::new();
                 let mut next = 0u64;
                 s.expect_next_frame().returning(move || {
-                    let t = next as f64 / 60.0;
+                    let t = start_s + next as f64 / 60.0;
                     if t > clock.now_s() {
                         return Ok(None);
                     }
@@ -561,5 +573,20 @@ mod tests {
         );
         assert!(targets.iter().all(|t| t[0] <= 0.45 + 1e-12));
         assert_eq!(record.armed_s, None);
+    }
+
+    #[test]
+    fn a_trial_late_on_a_batch_clock_gets_its_whole_time_limit() {
+        // the real backend's clock starts with the batch, not with each trial
+        let (early, _) = run_contact_grasp(0.3, 0.95);
+        let (late, _) = run_contact_grasp_from(100.0, 0.3, 0.95);
+        let late_armed = late.armed_s.expect("lifted and released") - 100.0;
+        // the same run, give or take a frame (ticks and frames fall differently at 100 s)
+        assert!(
+            (late_armed - early.armed_s.unwrap()).abs() < 0.02,
+            "{late_armed} vs {:?}",
+            early.armed_s
+        );
+        assert!((late.ended_s - 100.0 - early.ended_s).abs() < 0.02);
     }
 }
