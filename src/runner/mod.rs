@@ -8,6 +8,7 @@ pub mod lift;
 #[cfg(test)]
 pub(crate) mod mocks;
 pub mod monitor;
+pub mod params;
 pub mod rail_catch;
 pub mod real_trial;
 pub mod replay;

@@ -17,12 +17,11 @@ use super::calibrate::run_calibration;
 use super::hand_release::run_release;
 use super::lift::run_first_time_lift;
 use super::monitor::WatchLimits;
+use super::params::{calibration_params, lift_params, pour_params, rail_params, release_params};
 use super::rail_catch::run_rail;
 use super::rice_pour::run_pour;
 use super::safety::{SafeArm, SafeHand};
-use super::sim_trial::{
-    calibration_params, finish_trial, lift_params, pour_params, rail_params, release_params,
-};
+use super::sim_trial::finish_trial;
 use super::Online;
 use crate::hardware::HardwareFile;
 use crate::protocol::{KindParams, Mode, Plan, SafetyLimits};

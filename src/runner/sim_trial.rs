@@ -1,23 +1,23 @@
 //! Runs a planned trial on the simulated rig: the rig each protocol kind needs, the
 //! runner behind the safety limits, and the trial log with its provenance.
 
-use rand::{Rng, SeedableRng};
-use rand_chacha::ChaCha8Rng;
+use rand::Rng;
 use tmo_hal::sim::{HandSetup, ObjectStart, RigSetup, SimConfig, SimRig};
 
 use super::batch::{BatchError, PlannedTrial};
-use super::calibrate::{run_calibration, CalibrationParams};
-use super::hand_release::{run_release, ContactGrasp, ReleaseParams};
-use super::lift::{run_first_time_lift, LiftParams};
-use super::monitor::WatchLimits;
-use super::rail_catch::{run_rail, RailParams};
-use super::rice_pour::{run_pour, PourParams};
+use super::calibrate::run_calibration;
+use super::hand_release::run_release;
+use super::lift::run_first_time_lift;
+use super::params::{
+    calibration_params, lift_params, pour_params, rail_params, release_params, retract_speed_mm_s,
+    trial_rng,
+};
+use super::rail_catch::run_rail;
+use super::rice_pour::run_pour;
 use super::safety::{SafeArm, SafeHand, SafetyLimits};
 use super::Online;
 use crate::collect::{hand_release_rig, CollectError};
-use crate::protocol::{
-    Calibration, FirstTimeLift, HandRelease, KindParams, Mode, Plan, RailCatch, RicePour,
-};
+use crate::protocol::{KindParams, Mode, Plan};
 use crate::scenario::Devices;
 use crate::sim_presets::{self, Preset, PresetOptions};
 use crate::slip::model::ModelFile;
@@ -63,24 +63,6 @@ fn safe_sim_devices(
     }
 }
 
-/// The random parts of a trial a hand-set rig would vary, drawn from its seed (the same on
-/// every backend, so a served-simulator trial meets the sim backend's world).
-pub(crate) fn trial_rng(planned: &PlannedTrial) -> ChaCha8Rng {
-    let mut rng = ChaCha8Rng::seed_from_u64(planned.seed);
-    rng.set_stream(7);
-    rng
-}
-
-/// The rail's retract speed for a trial, drawn from the protocol's range.
-pub(crate) fn retract_speed_mm_s(p: &RailCatch, planned: &PlannedTrial) -> f64 {
-    let [lo, hi] = p.retract_speed_mm_s;
-    if hi > lo {
-        trial_rng(planned).gen_range(lo..hi)
-    } else {
-        lo
-    }
-}
-
 /// The simulated world a planned trial starts in: what `tmo sim serve` is reset to between
 /// trials, and what the sim backend builds.
 pub fn world_for(plan: &Plan, planned: &PlannedTrial) -> Result<SimConfig, BatchError> {
@@ -119,110 +101,6 @@ pub fn world_for(plan: &Plan, planned: &PlannedTrial) -> Result<SimConfig, Batch
             on_table_rig(&base, planned, 0.04)?
         }
     })
-}
-
-/// The hand-release parameters every backend shares; `closure` is the starting grasp when
-/// the protocol does not find it from contact.
-pub(crate) fn release_params(
-    plan: &Plan,
-    p: &HandRelease,
-    object: &str,
-    closure: f64,
-    max_speed_per_s: f64,
-    watch: WatchLimits,
-) -> ReleaseParams {
-    ReleaseParams {
-        closure,
-        contact: p
-            .grasp_past_contact
-            .as_ref()
-            .and_then(|g| g.get(object))
-            .map(|past_contact| ContactGrasp {
-                deformation_px: p.contact_deformation_px,
-                approach_speed_per_s: p.approach_speed_of_max * max_speed_per_s,
-                past_contact,
-                max_closure: plan.safety.max_grip,
-            }),
-        close_speed_per_s: 0.05,
-        lift_mm: p.lift_mm,
-        lift_speed_mm_s: 40.0,
-        hold_s: p.hold_s,
-        release_speed_per_s: p.release_speed_of_max * max_speed_per_s,
-        regrasp: p.regrasp,
-        observe_s: 1.5,
-        max_duration_s: p.max_duration_s,
-        watch,
-    }
-}
-
-pub(crate) fn rail_params(
-    plan: &Plan,
-    p: &RailCatch,
-    planned: &PlannedTrial,
-    watch: WatchLimits,
-) -> RailParams {
-    let speed = retract_speed_mm_s(p, planned);
-    RailParams {
-        retract_speed_mm_s: speed,
-        retract_mm: 10.0,
-        forward_mm: p.forward_mm,
-        forward_speed_mm_s: 20.0,
-        torque_limit: p.initial_torque,
-        torque_step: p.torque_step,
-        max_torque: plan.safety.max_torque,
-        observe_s: 1.5,
-        // slip comes after about 1.2 mm of retraction
-        max_duration_s: (3.0 / speed + 1.5).min(p.max_duration_s),
-        watch,
-    }
-}
-
-pub(crate) fn pour_params(plan: &Plan, p: &RicePour, watch: WatchLimits) -> PourParams {
-    PourParams {
-        regrasp: p.regrasp,
-        max_closure: plan.safety.max_grip,
-        // the pour starts 0.5 s in; watch 1 s after it ends
-        duration_s: (0.5 + p.total_g / p.pour_rate_g_per_s + 1.0).min(p.max_duration_s),
-        watch,
-    }
-}
-
-pub(crate) fn lift_params(
-    plan: &Plan,
-    p: &FirstTimeLift,
-    max_speed_per_s: f64,
-    watch: WatchLimits,
-) -> LiftParams {
-    LiftParams {
-        deformation_px: p.deformation_px,
-        approach_speed_per_s: p.approach_speed_of_max * max_speed_per_s,
-        max_closure: plan.safety.max_grip,
-        lift_mm: p.lift_height_mm,
-        lift_speed_mm_s: p.lift_speed_mm_s,
-        close_step: p.close_step,
-        pause_s: p.pause_s,
-        hold_s: p.hold_s,
-        watch,
-    }
-}
-
-pub(crate) fn calibration_params(
-    plan: &Plan,
-    p: &Calibration,
-    max_speed_per_s: f64,
-    watch: WatchLimits,
-) -> CalibrationParams {
-    CalibrationParams {
-        deformation_px: p.deformation_px,
-        approach_speed_per_s: p.approach_speed_of_max * max_speed_per_s,
-        max_closure: plan.safety.max_grip,
-        step: p.step,
-        lift_mm: p.lift_height_mm,
-        lift_speed_mm_s: p.lift_speed_mm_s,
-        hold_s: p.hold_s,
-        max_slide_mm: p.max_slide_mm,
-        watch,
-    }
 }
 
 /// Runs one planned trial on the simulator and returns its log.
