@@ -96,3 +96,36 @@ fn a_reset_sets_the_next_world_up_behind_the_same_devices() {
     stop.store(true, Ordering::Relaxed);
     assert_eq!(server.join().unwrap(), 1);
 }
+
+#[test]
+fn a_garbled_request_is_answered_with_why_and_the_port_serves_on() {
+    use std::io::{BufRead, BufReader, Write};
+    let listener = TcpListener::bind("127.0.0.1:0").unwrap();
+    let addr = listener.local_addr().unwrap().to_string();
+    let mut port = ControlPort::new(listener).unwrap();
+    let client = std::thread::spawn(move || {
+        let mut raw = std::net::TcpStream::connect(&addr).unwrap();
+        raw.write_all(b"hello\n").unwrap();
+        let mut answer = String::new();
+        BufReader::new(raw).read_line(&mut answer).unwrap();
+        let mut control = SimControlClient::connect(&addr).unwrap();
+        (answer, control.reset(&hand_world(0.1)))
+    });
+    let deadline = Instant::now() + Duration::from_secs(10);
+    let config = loop {
+        assert!(Instant::now() < deadline, "no reset arrived");
+        if let Some((k, config)) = port.poll().unwrap() {
+            port.answer(k, Ok(())).unwrap();
+            break config;
+        }
+        std::thread::sleep(Duration::from_millis(5));
+    };
+    let (answer, reset) = client.join().unwrap();
+    assert!(
+        answer.contains("\"error\"") && answer.contains("reset"),
+        "{answer}"
+    );
+    reset.unwrap();
+    assert_eq!(config, hand_world(0.1));
+    assert_eq!(port.resets, 1);
+}

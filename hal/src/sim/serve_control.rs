@@ -35,8 +35,14 @@ const MAX_LINE: usize = 1 << 20;
 /// The server side, polled by the serve loop (one thread, non-blocking like the others).
 pub struct ControlPort {
     listener: TcpListener,
-    clients: Vec<(TcpStream, Vec<u8>)>,
+    clients: Vec<Client>,
     pub resets: u64,
+}
+
+struct Client {
+    stream: TcpStream,
+    pending: Vec<u8>,
+    open: bool,
 }
 
 impl ControlPort {
@@ -52,30 +58,41 @@ impl ControlPort {
     /// The next reset asked for, if one has arrived; its answer goes back through
     /// [`ControlPort::answer`]. Malformed requests are answered here with their error.
     pub fn poll(&mut self) -> std::io::Result<Option<(usize, SimConfig)>> {
-        while let Ok((s, _)) = self.listener.accept() {
-            s.set_nonblocking(true)?;
-            self.clients.push((s, Vec::new()));
+        self.clients.retain(|c| c.open);
+        while let Ok((stream, _)) = self.listener.accept() {
+            stream.set_nonblocking(true)?;
+            self.clients.push(Client {
+                stream,
+                pending: Vec::new(),
+                open: true,
+            });
         }
         let mut buf = [0u8; 4096];
         for k in 0..self.clients.len() {
-            let (stream, pending) = &mut self.clients[k];
+            let c = &mut self.clients[k];
             loop {
-                match stream.read(&mut buf) {
-                    Ok(0) => break,
-                    Ok(n) => pending.extend_from_slice(&buf[..n]),
+                match c.stream.read(&mut buf) {
+                    Ok(0) => {
+                        c.open = false;
+                        break;
+                    }
+                    Ok(n) => c.pending.extend_from_slice(&buf[..n]),
                     Err(e) if e.kind() == std::io::ErrorKind::WouldBlock => break,
-                    Err(_) => break,
+                    Err(_) => {
+                        c.open = false;
+                        break;
+                    }
                 }
             }
-            if pending.len() > MAX_LINE {
-                pending.clear();
+            if c.pending.len() > MAX_LINE {
+                c.pending.clear();
                 self.answer(k, Err("request longer than 1 MiB".into()))?;
                 continue;
             }
-            let Some(end) = pending.iter().position(|&b| b == b'\n') else {
+            let Some(end) = c.pending.iter().position(|&b| b == b'\n') else {
                 continue;
             };
-            let line: Vec<u8> = pending.drain(..=end).collect();
+            let line: Vec<u8> = c.pending.drain(..=end).collect();
             match serde_json::from_slice::<Request>(&line) {
                 Ok(Request::Reset(config)) => return Ok(Some((k, *config))),
                 Err(e) => {
@@ -103,14 +120,15 @@ impl ControlPort {
         };
         let mut line = serde_json::to_vec(&answer).map_err(std::io::Error::other)?;
         line.push(b'\n');
-        let (stream, _) = &mut self.clients[k];
+        let c = &mut self.clients[k];
         // A few hundred bytes into an idle socket: a blocking write cannot stall the loop.
-        stream.set_nonblocking(false)?;
-        let written = stream.write_all(&line);
-        stream.set_nonblocking(true)?;
-        if written.is_err() {
-            self.clients.remove(k);
-        }
+        let written = c
+            .stream
+            .set_nonblocking(false)
+            .and_then(|()| c.stream.write_all(&line))
+            .and_then(|()| c.stream.set_nonblocking(true));
+        // a client that cannot be answered is dropped at the next poll
+        c.open &= written.is_ok();
         Ok(())
     }
 }
