@@ -337,3 +337,85 @@ fn rail_catch_runs_on_the_real_backend_against_the_served_rail_rig() {
         .iter()
         .any(|e| e.topic == "/command/hand" && e.data["torque_limit"].as_f64() > Some(0.8)));
 }
+
+/// On a rig that is not the served simulator an operator sets each trial up: `tmo run`
+/// says what to put where and waits for Enter on its terminal. Here the test is the
+/// operator: it reads the prompt, sets the served world up through the control port as a
+/// person would by hand, and presses Enter on the pseudo-terminal that is tmo's stdin.
+#[test]
+fn an_operator_at_a_terminal_sets_each_trial_up() {
+    use std::io::{BufRead, BufReader, Write};
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    common::collect_and_train(d, &["--trials", "8", "--seed", "5"], "train", "global.json");
+    let _server = serve_in(d, &[]);
+    let served = std::fs::read_to_string(d.join("served.toml")).unwrap();
+    let control = tmo::hardware::load(&d.join("served.toml"))
+        .unwrap()
+        .served_simulator
+        .unwrap()
+        .control;
+    let cut = served.find("[served_simulator]").unwrap();
+    std::fs::write(d.join("rig.toml"), &served[..cut]).unwrap();
+    std::fs::write(
+        d.join("pour.toml"),
+        "kind = \"rice_pour\"\nrepetitions = 2\nmodels = [\"global.json\"]\nstrategies = [\"2x2\"]\n[rice_pour]\ntotal_g = 80.0\n",
+    )
+    .unwrap();
+    let plan = tmo::protocol::load(&d.join("pour.toml"), 3).unwrap();
+    let planned = tmo::runner::batch::expand(&plan);
+
+    let (mut keys, terminal, terminal_path) = tmo_hal::sim::serve_jevois::open_pty().unwrap();
+    let mut run = Command::new(env!("CARGO_BIN_EXE_tmo"))
+        .current_dir(d)
+        .args([
+            "run",
+            "pour.toml",
+            "--backend",
+            "real",
+            "--hardware",
+            "rig.toml",
+        ])
+        .args(["--out", "pour"])
+        .stdin(
+            std::fs::File::options()
+                .read(true)
+                .write(true)
+                .open(&terminal_path)
+                .unwrap(),
+        )
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    drop(terminal);
+    let mut world = tmo_hal::sim::serve_control::SimControlClient::connect(&control).unwrap();
+    let mut prompts = Vec::new();
+    for line in BufReader::new(run.stderr.take().unwrap()).lines() {
+        let line = line.unwrap();
+        if let Some((id, what)) = line.split_once(": ") {
+            if what.ends_with("Then press Enter (Ctrl-C stops the batch).") {
+                let t = planned.iter().find(|t| t.trial_id == id).unwrap();
+                world
+                    .reset(&tmo::runner::sim_trial::world_for(&plan, t).unwrap())
+                    .unwrap();
+                keys.write_all(b"\n").unwrap();
+                prompts.push(line);
+            }
+        }
+    }
+    let status = run.wait().unwrap();
+    assert!(status.success(), "{prompts:?}");
+    assert_eq!(prompts.len(), 2, "{prompts:?}");
+    assert!(
+        prompts[0].starts_with("trial-00000: put crisps_can (empty)"),
+        "{prompts:?}"
+    );
+    let rows = outcome_rows(d, "pour");
+    assert_eq!(rows.len(), 2);
+    assert!(
+        rows.iter()
+            .all(|r| r["fault"].is_null() && r["dropped"] == false),
+        "{rows:?}"
+    );
+}
