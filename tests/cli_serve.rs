@@ -251,16 +251,26 @@ fn hand_release_and_rice_pour_run_on_the_real_backend_against_the_served_simulat
 
     std::fs::write(
         d.join("pour.toml"),
-        "kind = \"rice_pour\"\nrepetitions = 1\nmodels = [\"global.json\"]\nstrategies = [\"2x2\"]\n[rice_pour]\ntotal_g = 120.0\n",
+        "kind = \"rice_pour\"\nrepetitions = 1\nmodels = [\"global.json\"]\nstrategies = [\"2x2\"]\n[rice_pour]\ntotal_g = 120.0\ngrasp_past_contact = 0.01\n",
     )
     .unwrap();
     common::ok(&run_real(d, "pour.toml", "pour"));
     let rows = outcome_rows(d, "pour");
     assert_eq!(rows.len(), 1);
+    // held or dropped is the experiment's outcome; a fault would be the rig's
     assert!(
-        rows[0]["fault"].is_null() && rows[0]["dropped"] == false,
+        rows[0]["fault"].is_null() && rows[0]["dropped"].is_boolean(),
         "{rows:?}"
     );
+    // the hand closed on the container from contact before the pour
+    let trial = tmo::trial::read_trial(&d.join("pour/trial-00000.mcap")).unwrap();
+    let phases: Vec<&str> = trial
+        .events
+        .iter()
+        .filter(|e| e.topic == "/phase")
+        .filter_map(|e| e.data["phase"].as_str())
+        .collect();
+    assert_eq!(phases, ["approaching", "contact", "pouring"]);
 
     // the rig's own limits bind the protocol: a lift faster than the rig allows is refused
     let served = std::fs::read_to_string(d.join("served.toml")).unwrap();
@@ -359,7 +369,7 @@ fn an_operator_at_a_terminal_sets_each_trial_up() {
     std::fs::write(d.join("rig.toml"), &served[..cut]).unwrap();
     std::fs::write(
         d.join("pour.toml"),
-        "kind = \"rice_pour\"\nrepetitions = 2\nmodels = [\"global.json\"]\nstrategies = [\"2x2\"]\n[rice_pour]\ntotal_g = 80.0\n",
+        "kind = \"rice_pour\"\nrepetitions = 2\nmodels = [\"global.json\"]\nstrategies = [\"2x2\"]\n[rice_pour]\ntotal_g = 80.0\ngrasp_past_contact = 0.01\n",
     )
     .unwrap();
     let plan = tmo::protocol::load(&d.join("pour.toml"), 3).unwrap();
@@ -408,14 +418,14 @@ fn an_operator_at_a_terminal_sets_each_trial_up() {
     assert!(status.success(), "{prompts:?}");
     assert_eq!(prompts.len(), 2, "{prompts:?}");
     assert!(
-        prompts[0].starts_with("trial-00000: put crisps_can (empty)"),
+        prompts[0].starts_with("trial-00000: hold crisps_can (empty)"),
         "{prompts:?}"
     );
     let rows = outcome_rows(d, "pour");
     assert_eq!(rows.len(), 2);
     assert!(
         rows.iter()
-            .all(|r| r["fault"].is_null() && r["dropped"] == false),
+            .all(|r| r["fault"].is_null() && r["dropped"].is_boolean()),
         "{rows:?}"
     );
 }

@@ -234,6 +234,7 @@ fn responses_keep_a_filling_can_in_the_hand() {
             regrasp: 0.02,
             max_closure: 0.95,
             duration_s: 0.5 + 400.0 / 40.0 + 1.0,
+            contact: None,
             watch: Default::default(),
         };
         let record = run_pour(

@@ -432,17 +432,24 @@ pub fn validate(
             *c = resolved;
         }
     }
-    if let KindParams::HandRelease(HandRelease {
-        grasp_past_contact: Some(PerObject::Each(table)),
-        ..
-    }) = &params
-    {
+    let grasp_table = match &params {
+        KindParams::HandRelease(HandRelease {
+            grasp_past_contact: Some(PerObject::Each(table)),
+            ..
+        }) => Some(("hand_release.grasp_past_contact", table)),
+        KindParams::RicePour(RicePour {
+            grasp_past_contact: Some(PerObject::Each(table)),
+            ..
+        }) => Some(("rice_pour.grasp_past_contact", table)),
+        _ => None,
+    };
+    if let Some((field, table)) = grasp_table {
         if let Some(o) = objects
             .iter()
             .find(|o| !table.contains_key(*o) && !table.contains_key("default"))
         {
             return Err(err(
-                "hand_release.grasp_past_contact",
+                field,
                 format!("expected a value for {o} (or a `default`), one for each object"),
             ));
         }

@@ -208,6 +208,14 @@ pub struct RicePour {
     /// On slip: tighten by this fraction of the range.
     pub regrasp: f64,
     pub max_duration_s: f64,
+    /// The light grasp as found on any rig (an operator holds the empty container between
+    /// the open fingers): close until contact, then this much further, fraction of the
+    /// range (one value, or per object). Without it the trial starts from the grasp the
+    /// hand has (the simulator's: 1.2 x the friction the object needs); the real backend
+    /// needs it.
+    pub grasp_past_contact: Option<PerObject>,
+    pub contact_deformation_px: f64,
+    pub approach_speed_of_max: f64,
 }
 
 impl Default for RicePour {
@@ -217,6 +225,9 @@ impl Default for RicePour {
             total_g: 400.0,
             regrasp: 0.02,
             max_duration_s: 60.0,
+            grasp_past_contact: None,
+            contact_deformation_px: 0.5,
+            approach_speed_of_max: 0.01,
         }
     }
 }
@@ -372,27 +383,11 @@ impl KindParams {
                 in_range(s, "lift_mm", p.lift_mm, 0.0, 300.0)?;
                 in_range(s, "hold_s", p.hold_s, 0.0, 60.0)?;
                 in_range(s, "max_duration_s", p.max_duration_s, 1.0, 600.0)?;
-                let past = match &p.grasp_past_contact {
-                    None => vec![],
-                    Some(PerObject::All(v)) => vec![*v],
-                    Some(PerObject::Each(m)) => m.values().copied().collect(),
-                };
-                for v in past {
-                    in_range(s, "grasp_past_contact", v, 0.0, 0.5)?;
-                }
-                in_range(
+                contact_grasp_check(
                     s,
-                    "contact_deformation_px",
+                    p.grasp_past_contact.as_ref(),
                     p.contact_deformation_px,
-                    0.01,
-                    20.0,
-                )?;
-                in_range(
-                    s,
-                    "approach_speed_of_max",
                     p.approach_speed_of_max,
-                    1e-4,
-                    0.5,
                 )
             }
             KindParams::RicePour(p) => {
@@ -400,7 +395,13 @@ impl KindParams {
                 in_range(s, "pour_rate_g_per_s", p.pour_rate_g_per_s, 0.1, 1000.0)?;
                 in_range(s, "total_g", p.total_g, 1.0, 2000.0)?;
                 in_range(s, "regrasp", p.regrasp, 0.0, 0.2)?;
-                in_range(s, "max_duration_s", p.max_duration_s, 1.0, 600.0)
+                in_range(s, "max_duration_s", p.max_duration_s, 1.0, 600.0)?;
+                contact_grasp_check(
+                    s,
+                    p.grasp_past_contact.as_ref(),
+                    p.contact_deformation_px,
+                    p.approach_speed_of_max,
+                )
             }
             KindParams::FirstTimeLift(p) => {
                 let s = "first_time_lift";
@@ -438,6 +439,25 @@ impl KindParams {
             }
         }
     }
+}
+
+/// The fields of a grasp from contact (hand release, rice pour).
+fn contact_grasp_check(
+    s: &'static str,
+    past_contact: Option<&PerObject>,
+    deformation_px: f64,
+    approach_speed_of_max: f64,
+) -> Check {
+    let past = match past_contact {
+        None => vec![],
+        Some(PerObject::All(v)) => vec![*v],
+        Some(PerObject::Each(m)) => m.values().copied().collect(),
+    };
+    for v in past {
+        in_range(s, "grasp_past_contact", v, 0.0, 0.5)?;
+    }
+    in_range(s, "contact_deformation_px", deformation_px, 0.01, 20.0)?;
+    in_range(s, "approach_speed_of_max", approach_speed_of_max, 1e-4, 0.5)
 }
 
 /// The paper's objects for each kind.

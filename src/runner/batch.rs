@@ -95,9 +95,9 @@ pub enum BatchError {
     )]
     NeedsOperator(Kind),
     #[error(
-        "hand_release.grasp_past_contact: expected a value for {0} on the real backend (the closure past contact that holds it; the simulator's own holding closure is not available on a rig)"
+        "{0}.grasp_past_contact: expected a value for {1} on the real backend (the closure past contact that holds it; a rig has no simulator to say which grasp does)"
     )]
-    NoGraspOnHardware(String),
+    NoGraspOnHardware(&'static str, String),
     #[error(transparent)]
     Staging(#[from] tmo_hal::sim::serve_control::ControlError),
     #[error("{field} = {value} asks for more than the hardware file's {limit_field} ({limit})")]

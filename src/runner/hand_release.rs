@@ -9,12 +9,12 @@ use std::sync::atomic::AtomicBool;
 
 use tmo_hal::{Arm, Clock, Hand, MarkerTracker, TactileSensor};
 
+pub use super::approach::ContactGrasp;
+use super::approach::{ApproachStep, ContactApproach};
 use super::monitor::{FrameMonitor, Verdict, WatchLimits};
 use super::{event, Fault, Online, RunRecord};
 use crate::online::classify::Reaction;
-use crate::online::contact::ContactGauge;
 use crate::scenario::{device, Devices, Recording, ScenarioError};
-use crate::slip::features::FeatureSpec;
 use serde_json::json;
 
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -35,17 +35,6 @@ pub struct ReleaseParams {
     pub observe_s: f64,
     pub max_duration_s: f64,
     pub watch: WatchLimits,
-}
-
-/// The backend-neutral "closed until stable": approach until every sensor's deformation
-/// reaches `deformation_px` (as the first-time lift does), then close `past_contact` more.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct ContactGrasp {
-    pub deformation_px: f64,
-    pub approach_speed_per_s: f64,
-    pub past_contact: f64,
-    /// Never close past this (no contact by then is a fault).
-    pub max_closure: f64,
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
@@ -84,13 +73,11 @@ where
     let mut events = vec![];
     // Where the closing ramp starts and ends; with a contact grasp, set at contact.
     let (mut close_from, mut closure) = ([start[0], start[1], start[2]], p.closure);
-    let mut gauge = None;
+    let mut approach = None;
     if let Some(c) = p.contact {
         phase = Phase::Approaching;
-        gauge = Some(ContactGauge::new(
-            dev.sensors.len(),
-            FeatureSpec::new(0).max_pin_step_px as f64,
-        ));
+        let from = start[..3].iter().copied().fold(f64::INFINITY, f64::min);
+        approach = Some(ContactApproach::new(c, dev.sensors.len(), from, t0));
         events.push(event(
             t0,
             "/phase",
@@ -113,25 +100,23 @@ where
             break;
         }
         match phase {
-            Phase::Approaching => {
-                let c = p.contact.expect("approaching only with a contact grasp");
-                let from = close_from.iter().copied().fold(f64::INFINITY, f64::min);
-                let q = (from + c.approach_speed_per_s * elapsed).min(c.max_closure);
-                dev.hand
-                    .set_targets([q, q, q, start[3]])
-                    .map_err(device("hand"))?;
-                let d = gauge
-                    .as_ref()
-                    .and_then(|g| g.least_deformed())
-                    .unwrap_or(0.0);
-                if d >= c.deformation_px {
-                    closure = (q + c.past_contact).min(c.max_closure);
-                    close_from = [q; 3];
+            Phase::Approaching => match approach.as_ref().map(|a| a.step(now)) {
+                Some(ApproachStep::Close(q)) => {
+                    dev.hand
+                        .set_targets([q, q, q, start[3]])
+                        .map_err(device("hand"))?;
+                }
+                Some(ApproachStep::Contact {
+                    closure: q,
+                    grasp,
+                    deformation_px,
+                }) => {
+                    (closure, close_from) = (grasp, [q; 3]);
                     (phase, phase_t0) = (Phase::Closing, now);
                     events.push(event(
                         now,
                         "/phase",
-                        json!({"phase": "contact", "closure": q, "deformation_px": d}),
+                        json!({"phase": "contact", "closure": q, "deformation_px": deformation_px}),
                     ));
                     events.push(event(now, "/phase", json!({"phase": phase})));
                     events.push(event(
@@ -139,14 +124,16 @@ where
                         "/command/hand",
                         json!({"ramp_to": closure, "speed_per_s": p.close_speed_per_s}),
                     ));
-                } else if q >= c.max_closure {
-                    let f = Fault::NoContact { deformation_px: d };
+                }
+                Some(ApproachStep::NoContact { deformation_px }) => {
+                    let f = Fault::NoContact { deformation_px };
                     events.push(event(now, "/fault", json!(f)));
                     fault = Some(f);
                     dev.hold_hand(now, &mut events)?;
                     break;
                 }
-            }
+                None => unreachable!("approaching only with a contact grasp"),
+            },
             Phase::Closing => {
                 let q = |i: usize| (close_from[i] + p.close_speed_per_s * elapsed).min(closure);
                 dev.hand
@@ -188,10 +175,8 @@ where
             _ => {}
         }
         let (first_new, now) = dev.tick(&mut rec)?;
-        if let Some(g) = gauge.as_mut() {
-            for f in &rec.frames[first_new..] {
-                g.observe(f);
-            }
+        if let Some(a) = approach.as_mut() {
+            a.observe(&rec.frames[first_new..]);
         }
         let armed = phase == Phase::Releasing;
         match monitor.feed(&rec.frames[first_new..], now, armed, stop, &mut events) {

@@ -1,6 +1,7 @@
 //! Protocol runners: one state machine per protocol kind over the HAL traits, generic over
 //! backends (issue 4, in progress).
 
+pub mod approach;
 pub mod batch;
 pub mod calibrate;
 pub mod hand_release;

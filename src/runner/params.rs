@@ -5,14 +5,17 @@
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
+use super::approach::ContactGrasp;
 use super::batch::PlannedTrial;
 use super::calibrate::CalibrationParams;
-use super::hand_release::{ContactGrasp, ReleaseParams};
+use super::hand_release::ReleaseParams;
 use super::lift::LiftParams;
 use super::monitor::WatchLimits;
 use super::rail_catch::RailParams;
 use super::rice_pour::PourParams;
-use crate::protocol::{Calibration, FirstTimeLift, HandRelease, Plan, RailCatch, RicePour};
+use crate::protocol::{
+    Calibration, FirstTimeLift, HandRelease, PerObject, Plan, RailCatch, RicePour,
+};
 
 /// The random parts of a trial a hand-set rig would vary, drawn from its seed (the same on
 /// every backend, so a served-simulator trial meets the sim backend's world).
@@ -32,6 +35,24 @@ pub(crate) fn retract_speed_mm_s(p: &RailCatch, planned: &PlannedTrial) -> f64 {
     }
 }
 
+/// The grasp from contact a protocol asks for `object`, if it gives one.
+fn contact_grasp(
+    plan: &Plan,
+    past_contact: Option<&PerObject>,
+    object: &str,
+    deformation_px: f64,
+    approach_speed_per_s: f64,
+) -> Option<ContactGrasp> {
+    past_contact
+        .and_then(|g| g.get(object))
+        .map(|past_contact| ContactGrasp {
+            deformation_px,
+            approach_speed_per_s,
+            past_contact,
+            max_closure: plan.safety.max_grip,
+        })
+}
+
 /// The hand-release parameters every backend shares; `closure` is the starting grasp when
 /// the protocol does not find it from contact.
 pub(crate) fn release_params(
@@ -44,16 +65,13 @@ pub(crate) fn release_params(
 ) -> ReleaseParams {
     ReleaseParams {
         closure,
-        contact: p
-            .grasp_past_contact
-            .as_ref()
-            .and_then(|g| g.get(object))
-            .map(|past_contact| ContactGrasp {
-                deformation_px: p.contact_deformation_px,
-                approach_speed_per_s: p.approach_speed_of_max * max_speed_per_s,
-                past_contact,
-                max_closure: plan.safety.max_grip,
-            }),
+        contact: contact_grasp(
+            plan,
+            p.grasp_past_contact.as_ref(),
+            object,
+            p.contact_deformation_px,
+            p.approach_speed_of_max * max_speed_per_s,
+        ),
         close_speed_per_s: 0.05,
         lift_mm: p.lift_mm,
         lift_speed_mm_s: 40.0,
@@ -88,8 +106,21 @@ pub(crate) fn rail_params(
     }
 }
 
-pub(crate) fn pour_params(plan: &Plan, p: &RicePour, watch: WatchLimits) -> PourParams {
+pub(crate) fn pour_params(
+    plan: &Plan,
+    p: &RicePour,
+    object: &str,
+    max_speed_per_s: f64,
+    watch: WatchLimits,
+) -> PourParams {
     PourParams {
+        contact: contact_grasp(
+            plan,
+            p.grasp_past_contact.as_ref(),
+            object,
+            p.contact_deformation_px,
+            p.approach_speed_of_max * max_speed_per_s,
+        ),
         regrasp: p.regrasp,
         max_closure: plan.safety.max_grip,
         // the pour starts 0.5 s in; watch 1 s after it ends

@@ -45,16 +45,21 @@ fn watch(hw: &HardwareFile) -> WatchLimits {
 
 /// Checks a plan can run on the rig before any device is opened, and returns the limits it
 /// runs behind: the protocol's, never looser than the rig's. A protocol asking for a motion
-/// or force past the rig's limits is refused, as is a hand release without a grasp.
+/// or force past the rig's limits is refused, as is a hand release or rice pour without a
+/// grasp from contact.
 pub fn check_real_plan(hw: &HardwareFile, plan: &Plan) -> Result<SafetyLimits, BatchError> {
-    if let KindParams::HandRelease(p) = &plan.params {
-        let grasp = p.grasp_past_contact.as_ref();
+    let grasp = match &plan.params {
+        KindParams::HandRelease(p) => Some(("hand_release", p.grasp_past_contact.as_ref())),
+        KindParams::RicePour(p) => Some(("rice_pour", p.grasp_past_contact.as_ref())),
+        _ => None,
+    };
+    if let Some((section, grasp)) = grasp {
         if let Some(o) = plan
             .objects
             .iter()
             .find(|o| grasp.and_then(|g| g.get(o)).is_none())
         {
-            return Err(BatchError::NoGraspOnHardware(o.clone()));
+            return Err(BatchError::NoGraspOnHardware(section, o.clone()));
         }
     }
     for (field, value, limit, limit_field) in plan.params.demands(&hw.safety) {
@@ -169,7 +174,10 @@ pub fn run_real_trial(
         KindParams::HandRelease(p) => {
             let params = release_params(plan, p, &planned.object, 0.0, max_speed, watch);
             if params.contact.is_none() {
-                return Err(BatchError::NoGraspOnHardware(planned.object.clone()));
+                return Err(BatchError::NoGraspOnHardware(
+                    "hand_release",
+                    planned.object.clone(),
+                ));
             }
             put(
                 "release_speed_per_s",
@@ -188,7 +196,12 @@ pub fn run_real_trial(
         KindParams::RicePour(p) => {
             put("pour_rate_g_per_s", format!("{:.3}", p.pour_rate_g_per_s));
             put("total_g", format!("{:.1}", p.total_g));
-            run_pour(devices, &pour_params(plan, p, watch), online, stop)
+            run_pour(
+                devices,
+                &pour_params(plan, p, &planned.object, max_speed, watch),
+                online,
+                stop,
+            )
         }
         KindParams::FirstTimeLift(p) => {
             put("extra_mass_g", format!("{:.1}", planned.extra_mass_g));

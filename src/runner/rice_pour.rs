@@ -7,8 +7,9 @@ use std::sync::atomic::AtomicBool;
 use serde_json::json;
 use tmo_hal::{Arm, Clock, Hand, MarkerTracker, TactileSensor};
 
+use super::approach::{ApproachStep, ContactApproach, ContactGrasp};
 use super::monitor::{FrameMonitor, Verdict, WatchLimits};
-use super::{event, Online, RunRecord, SETTLE_S};
+use super::{event, Fault, Online, RunRecord, SETTLE_S};
 use crate::online::classify::Reaction;
 use crate::scenario::{device, Devices, Recording, ScenarioError};
 
@@ -18,10 +19,17 @@ pub struct PourParams {
     pub regrasp: f64,
     /// Never close past this.
     pub max_closure: f64,
-    /// How long the pour (and the trial) lasts, s.
+    /// How long the pour lasts (from when the grasp is set), s.
     pub duration_s: f64,
+    /// Close on the object from contact first (on a rig, where an operator holds the empty
+    /// container between the open fingers); without it the trial starts from the grasp the
+    /// hand already has.
+    pub contact: Option<ContactGrasp>,
     pub watch: WatchLimits,
 }
+
+/// The operator lets go once the hand holds the container: this long after the grasp.
+const LET_GO_S: f64 = 1.0;
 
 pub fn run_pour<C, H, A, M, S>(
     dev: &mut Devices<C, H, A, M, S>,
@@ -43,9 +51,74 @@ where
     dev.hand.set_targets(targets).map_err(device("hand"))?;
     let mut events = vec![event(t0, "/command/hand", json!({ "targets": targets }))];
     let (mut first, mut fault): (Option<Reaction>, _) = (None, None);
-    while dev.clock.now_s() - t0 < p.duration_s {
+    let mut pour_t0 = t0;
+    if let Some(c) = p.contact {
+        let from = targets[..3].iter().copied().fold(f64::INFINITY, f64::min);
+        let mut approach = ContactApproach::new(c, dev.sensors.len(), from, t0);
+        events.push(event(t0, "/phase", json!({"phase": "approaching"})));
+        let grasped = loop {
+            let now = dev.clock.now_s();
+            match approach.step(now) {
+                ApproachStep::Close(q) => {
+                    targets[..3].fill(q);
+                    dev.hand.set_targets(targets).map_err(device("hand"))?;
+                }
+                ApproachStep::Contact {
+                    closure,
+                    grasp,
+                    deformation_px,
+                } => {
+                    events.push(event(
+                        now,
+                        "/phase",
+                        json!({"phase": "contact", "closure": closure, "deformation_px": deformation_px}),
+                    ));
+                    targets[..3].fill(grasp);
+                    dev.hand.set_targets(targets).map_err(device("hand"))?;
+                    events.push(event(now, "/command/hand", json!({ "targets": targets })));
+                    break Ok(now);
+                }
+                ApproachStep::NoContact { deformation_px } => {
+                    let f = Fault::NoContact { deformation_px };
+                    events.push(event(now, "/fault", json!(f)));
+                    break Err(f);
+                }
+            }
+            let (first_new, now) = dev.tick(&mut rec)?;
+            approach.observe(&rec.frames[first_new..]);
+            if let Verdict::Abort(f) =
+                monitor.feed(&rec.frames[first_new..], now, false, stop, &mut events)
+            {
+                break Err(f);
+            }
+        };
+        match grasped {
+            Ok(at) => {
+                // the pour begins once the operator has let go
+                while dev.clock.now_s() < at + LET_GO_S {
+                    let (first_new, now) = dev.tick(&mut rec)?;
+                    if let Verdict::Abort(f) =
+                        monitor.feed(&rec.frames[first_new..], now, false, stop, &mut events)
+                    {
+                        fault = Some(f);
+                        break;
+                    }
+                }
+                pour_t0 = dev.clock.now_s();
+                events.push(event(pour_t0, "/phase", json!({"phase": "pouring"})));
+            }
+            Err(f) => fault = Some(f),
+        }
+        if fault.is_some() {
+            let now = dev.clock.now_s();
+            dev.hold_hand(now, &mut events)?;
+        }
+    }
+    // a grasp that failed leaves nothing to pour into
+    let pouring = fault.is_none();
+    while pouring && dev.clock.now_s() - pour_t0 < p.duration_s {
         let (first_new, now) = dev.tick(&mut rec)?;
-        let armed = now - t0 >= SETTLE_S;
+        let armed = now - pour_t0 >= SETTLE_S;
         match monitor.feed(&rec.frames[first_new..], now, armed, stop, &mut events) {
             Verdict::Continue => {}
             Verdict::Abort(f) => {
@@ -68,7 +141,7 @@ where
     dev.arm.stop().map_err(device("arm"))?;
     Ok(RunRecord {
         recording: rec,
-        armed_s: Some(t0 + SETTLE_S),
+        armed_s: pouring.then_some(pour_t0 + SETTLE_S),
         reaction: first,
         fault,
         ended_s: dev.clock.now_s(),

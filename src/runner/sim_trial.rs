@@ -169,7 +169,7 @@ pub fn run_sim_trial(
             put("total_g", format!("{:.1}", p.total_g));
             run_pour(
                 &mut devices,
-                &pour_params(plan, p, Default::default()),
+                &pour_params(plan, p, &planned.object, max_speed, Default::default()),
                 online,
                 stop,
             )?

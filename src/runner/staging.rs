@@ -80,7 +80,7 @@ pub fn instructions(plan: &Plan, planned: &PlannedTrial) -> String {
             "put {o} on the rail, pressed against the fingertip, clear of the end stops"
         ),
         KindParams::RicePour(p) => format!(
-            "put {o} (empty) in the hand's light grasp, hand at {deg} deg, and be ready to pour {:.0} g at {:.0} g/s from 0.5 s after Enter",
+            "hold {o} (empty) between the open fingers, hand at {deg} deg; the hand closes on it: let go once it holds, and pour {:.0} g at {:.0} g/s from a second later",
             p.total_g, p.pour_rate_g_per_s
         ),
         KindParams::FirstTimeLift(_) | KindParams::CalibrateLift(_) => format!(
