@@ -5,7 +5,7 @@
 mod common;
 
 use std::path::Path;
-use std::process::{Child, Command, Stdio};
+use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
 use tmo_hal::real::clock::RealClock;
@@ -16,14 +16,7 @@ use tmo_hal::real::ur::UrArm;
 use tmo_hal::{Arm, Hand, MarkerTracker, TactileSensor};
 
 /// Kills the server however the test ends.
-struct Server(Child);
-
-impl Drop for Server {
-    fn drop(&mut self) {
-        let _ = self.0.kill();
-        let _ = self.0.wait();
-    }
-}
+use common::Server;
 
 #[test]
 fn the_real_backends_drive_the_served_simulator() {

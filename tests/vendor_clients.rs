@@ -4,18 +4,13 @@
 //! does is in `scripts/vendor_clients.py`; `scripts/vendor-env.sh` installs them (pinned in
 //! `scripts/vendor-requirements.txt`) into `target/vendor-venv`.
 
+mod common;
+
 use std::path::Path;
-use std::process::{Child, Command, Stdio};
+use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
-struct Server(Child);
-
-impl Drop for Server {
-    fn drop(&mut self) {
-        let _ = self.0.kill();
-        let _ = self.0.wait();
-    }
-}
+use common::Server;
 
 #[test]
 fn vendor_clients_drive_the_served_simulator() {

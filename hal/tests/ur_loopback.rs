@@ -6,7 +6,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{mpsc, Arc};
 use std::time::{Duration, Instant};
 
-use tmo_hal::real::ur::UrArm;
+use tmo_hal::real::ur::{UrArm, UrError};
 use tmo_hal::sim::serve_ur::{serve_ur, UrServeStats, CONTROLLER_VERSION};
 use tmo_hal::sim::{SimConfig, SimRig};
 use tmo_hal::Arm;
@@ -40,6 +40,18 @@ fn serve_at(rtde_port: u16, script_port: u16) -> Served {
     });
     let (r, s) = rx.recv().unwrap();
     (r, s, stop, server)
+}
+
+/// The first error reading the arm's pose within 3 s.
+fn first_error(arm: &mut UrArm) -> Option<UrError> {
+    let deadline = Instant::now() + Duration::from_secs(3);
+    while Instant::now() < deadline {
+        std::thread::sleep(Duration::from_millis(20));
+        if let Err(e) = arm.tcp_pose() {
+            return Some(e);
+        }
+    }
+    None
 }
 
 #[test]
@@ -85,15 +97,7 @@ fn a_server_that_goes_away_is_an_error_of_the_next_call() {
     stop.store(true, Ordering::Relaxed);
     server.join().unwrap();
     // the listener and connections are gone: state stops, then reads fail
-    let deadline = Instant::now() + Duration::from_secs(3);
-    let mut failed = None;
-    while Instant::now() < deadline && failed.is_none() {
-        std::thread::sleep(Duration::from_millis(20));
-        if let Err(e) = arm.tcp_pose() {
-            failed = Some(e);
-        }
-    }
-    let e = failed.expect("an error once the controller is gone");
+    let e = first_error(&mut arm).expect("an error once the controller is gone");
     assert_eq!(
         tmo_hal::Error::kind(&e),
         tmo_hal::ErrorKind::Disconnected,
@@ -110,10 +114,7 @@ fn after_a_lost_connection_the_next_call_reconnects_and_stops_the_arm_first() {
     arm.tcp_pose().unwrap();
     stop.store(true, Ordering::Relaxed);
     server.join().unwrap();
-    let deadline = Instant::now() + Duration::from_secs(3);
-    while Instant::now() < deadline && arm.tcp_pose().is_ok() {
-        std::thread::sleep(Duration::from_millis(20));
-    }
+    first_error(&mut arm).expect("an error once the controller is gone");
     assert_eq!(arm.reconnects, 0);
     // the controller comes back on its ports
     let (_, _, stop, server) = serve_at(rtde_port, script_port);

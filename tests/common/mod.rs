@@ -3,7 +3,7 @@
 #![allow(dead_code)] // each test file uses its own subset
 
 use std::path::Path;
-use std::process::{Command, Output};
+use std::process::{Child, Command, Output};
 
 /// Runs `tmo args...` in `dir`.
 pub fn tmo(dir: &Path, args: &[&str]) -> Output {
@@ -54,4 +54,14 @@ pub fn collect_and_train(d: &Path, collect: &[&str], trials_dir: &str, model: &s
             model,
         ],
     ));
+}
+
+/// A process the test started (`tmo sim serve`), stopped when the test ends however it ends.
+pub struct Server(pub Child);
+
+impl Drop for Server {
+    fn drop(&mut self) {
+        let _ = self.0.kill();
+        let _ = self.0.wait();
+    }
 }

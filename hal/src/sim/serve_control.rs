@@ -7,12 +7,13 @@
 //! answer is `{"ok": true}` or `{"error": "<why>"}`. The served ports, sockets and the UR
 //! controller's clock carry on, as a real rig's do while the operator works.
 
-use std::io::{BufRead, BufReader, Read, Write};
+use std::io::{BufRead, BufReader, Write};
 use std::net::{TcpListener, TcpStream, ToSocketAddrs};
 use std::time::Duration;
 
 use serde::{Deserialize, Serialize};
 
+use super::serve_ur::read_available;
 use super::SimConfig;
 
 #[derive(Debug, Serialize, Deserialize)]
@@ -67,23 +68,9 @@ impl ControlPort {
                 open: true,
             });
         }
-        let mut buf = [0u8; 4096];
         for k in 0..self.clients.len() {
             let c = &mut self.clients[k];
-            loop {
-                match c.stream.read(&mut buf) {
-                    Ok(0) => {
-                        c.open = false;
-                        break;
-                    }
-                    Ok(n) => c.pending.extend_from_slice(&buf[..n]),
-                    Err(e) if e.kind() == std::io::ErrorKind::WouldBlock => break,
-                    Err(_) => {
-                        c.open = false;
-                        break;
-                    }
-                }
-            }
+            c.open &= read_available(&mut c.stream, &mut c.pending);
             if c.pending.len() > MAX_LINE {
                 c.pending.clear();
                 self.answer(k, Err("request longer than 1 MiB".into()))?;

@@ -240,20 +240,7 @@ impl UrEmulator {
         rtde_conns.retain(|c| c.open);
 
         for c in script_conns.iter_mut() {
-            loop {
-                match c.stream.read(&mut buf) {
-                    Ok(0) => {
-                        c.open = false;
-                        break;
-                    }
-                    Ok(n) => c.pending.extend_from_slice(&buf[..n]),
-                    Err(e) if e.kind() == std::io::ErrorKind::WouldBlock => break,
-                    Err(_) => {
-                        c.open = false;
-                        break;
-                    }
-                }
-            }
+            c.open &= read_available(&mut c.stream, &mut c.pending);
             while let Some(end) = c.pending.iter().position(|b| *b == b'\n') {
                 let line: Vec<u8> = c.pending.drain(..=end).collect();
                 stats.script_lines += 1;
@@ -283,6 +270,19 @@ impl UrEmulator {
         }
         script_conns.retain(|c| c.open);
         Ok(())
+    }
+}
+
+/// Reads what a non-blocking client has sent into `pending`; false once it has gone.
+pub(super) fn read_available(stream: &mut TcpStream, pending: &mut Vec<u8>) -> bool {
+    let mut buf = [0u8; 4096];
+    loop {
+        match stream.read(&mut buf) {
+            Ok(0) => return false,
+            Ok(n) => pending.extend_from_slice(&buf[..n]),
+            Err(e) if e.kind() == std::io::ErrorKind::WouldBlock => return true,
+            Err(_) => return false,
+        }
     }
 }
 
