@@ -16,28 +16,12 @@ use tmo_hal::real::ur::UrArm;
 use tmo_hal::{Arm, Hand, MarkerTracker, TactileSensor};
 
 /// Kills the server however the test ends.
-use common::Server;
 
 #[test]
 fn the_real_backends_drive_the_served_simulator() {
     let dir = tempfile::tempdir().unwrap();
     let served = dir.path().join("served.toml");
-    let hw = Path::new(env!("CARGO_MANIFEST_DIR")).join("hardware/tmo.toml");
-    let _server = Server(
-        Command::new(env!("CARGO_BIN_EXE_tmo"))
-            .args(["sim", "serve", "--hardware"])
-            .arg(&hw)
-            .arg("--out")
-            .arg(&served)
-            .args(["--for", "60"])
-            .stdout(Stdio::null())
-            .spawn()
-            .unwrap(),
-    );
-    let deadline = Instant::now() + Duration::from_secs(20);
-    while !served.exists() && Instant::now() < deadline {
-        std::thread::sleep(Duration::from_millis(20));
-    }
+    let _server = common::serve_sim(dir.path(), &[]);
     let hw = tmo::hardware::load(&served).unwrap();
     let clock = RealClock::new();
 
@@ -109,36 +93,6 @@ fn the_real_backends_drive_the_served_simulator() {
     assert!(q[..3].iter().all(|v| (v - 0.3).abs() < 2e-3), "{q:?}");
 }
 
-/// `tmo sim serve --hardware hardware/tmo.toml --out served.toml` in `d` (plus `extra`),
-/// once its served hardware file is written. A loaded CI machine can starve the emulator's
-/// real-time loop for a few hundred ms, which real cameras do not do: the served file's
-/// watchdog is given room.
-fn serve_in(d: &Path, extra: &[&str]) -> Server {
-    let hw = Path::new(env!("CARGO_MANIFEST_DIR")).join("hardware/tmo.toml");
-    let server = Server(
-        Command::new(env!("CARGO_BIN_EXE_tmo"))
-            .current_dir(d)
-            .args(["sim", "serve", "--hardware"])
-            .arg(&hw)
-            .args(["--out", "served.toml", "--for", "300"])
-            .args(extra)
-            .stdout(Stdio::null())
-            .spawn()
-            .unwrap(),
-    );
-    let deadline = Instant::now() + Duration::from_secs(20);
-    while !d.join("served.toml").exists() && Instant::now() < deadline {
-        std::thread::sleep(Duration::from_millis(20));
-    }
-    let served = std::fs::read_to_string(d.join("served.toml")).unwrap();
-    std::fs::write(
-        d.join("served.toml"),
-        served.replace("silent_limit_s = 0.25", "silent_limit_s = 2.0"),
-    )
-    .unwrap();
-    server
-}
-
 /// `tmo run PROTOCOL --backend real --hardware served.toml --out OUT` in `d`.
 fn run_real(d: &Path, protocol: &str, out: &str) -> std::process::Output {
     common::tmo(
@@ -168,7 +122,7 @@ fn lift_protocols_run_on_the_real_backend_against_the_served_simulator() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     common::collect_and_train(d, &["--trials", "8", "--seed", "5"], "train", "global.json");
-    let _server = serve_in(d, &[]);
+    let _server = common::serve_sim(d, &[]);
     let quick = "lift_height_mm = 20\nlift_speed_mm_s = 40\nhold_s = 0.5\nmasses_g = [0]\n";
     std::fs::write(
         d.join("cal.toml"),
@@ -203,7 +157,7 @@ fn hand_release_and_rice_pour_run_on_the_real_backend_against_the_served_simulat
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     common::collect_and_train(d, &["--trials", "8", "--seed", "5"], "train", "global.json");
-    let _server = serve_in(d, &[]);
+    let _server = common::serve_sim(d, &[]);
     let release = "kind = \"hand_release\"\nrepetitions = 2\nobjects = [\"crisps_can\", \"banana\"]\ngrasps_deg = [0]\nmodels = [\"global.json\"]\nstrategies = [\"2x2\"]\n[outcome]\ndrop_limit_mm = 30.0\n[hand_release]\nlift_mm = 40.0\nrelease_speed_of_max = 0.02\n";
     // without a grasp the real backend has nothing to close to: refused before any device
     std::fs::write(d.join("bare.toml"), release).unwrap();
@@ -318,7 +272,7 @@ fn rail_catch_runs_on_the_real_backend_against_the_served_rail_rig() {
             "rail.json",
         ],
     ));
-    let _server = serve_in(d, &["--rig", "rail"]);
+    let _server = common::serve_sim(d, &["--rig", "rail"]);
     let hw = tmo::hardware::load(&d.join("served.toml")).unwrap();
     assert_eq!(hw.cameras.fingertips.len(), 1, "one finger on the rail");
     std::fs::write(
@@ -351,7 +305,7 @@ fn an_operator_at_a_terminal_sets_each_trial_up() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     common::collect_and_train(d, &["--trials", "8", "--seed", "5"], "train", "global.json");
-    let _server = serve_in(d, &[]);
+    let _server = common::serve_sim(d, &[]);
     let served = std::fs::read_to_string(d.join("served.toml")).unwrap();
     let control = tmo::hardware::load(&d.join("served.toml"))
         .unwrap()

@@ -7,10 +7,7 @@
 mod common;
 
 use std::path::Path;
-use std::process::{Command, Stdio};
-use std::time::{Duration, Instant};
-
-use common::Server;
+use std::process::Command;
 
 #[test]
 fn vendor_clients_drive_the_served_simulator() {
@@ -32,21 +29,7 @@ fn vendor_clients_drive_the_served_simulator() {
     // picked from the process id so that two test runs on one machine do not collide.
     let pid = std::process::id();
     let address = format!("127.77.{}.{}", (pid >> 8) & 0xff, (pid & 0xff).max(1));
-    let _server = Server(
-        Command::new(env!("CARGO_BIN_EXE_tmo"))
-            .args(["sim", "serve", "--hardware"])
-            .arg(root.join("hardware/tmo.toml"))
-            .arg("--out")
-            .arg(&served)
-            .args(["--ur-address", &address, "--for", "120"])
-            .stdout(Stdio::null())
-            .spawn()
-            .unwrap(),
-    );
-    let deadline = Instant::now() + Duration::from_secs(20);
-    while !served.exists() && Instant::now() < deadline {
-        std::thread::sleep(Duration::from_millis(20));
-    }
+    let _server = common::serve_sim(dir.path(), &["--ur-address", &address]);
     let out = Command::new(&python)
         .arg(root.join("scripts/vendor_clients.py"))
         .arg(&served)
