@@ -59,9 +59,16 @@ impl ContactApproach {
         }
     }
 
+    /// The fingers' target at `now`: closing at the set speed, never past the limit.
+    pub fn target(&self, now: f64) -> f64 {
+        let g = &self.grasp;
+        (self.from + g.approach_speed_per_s * (now - self.t0)).min(g.max_closure)
+    }
+
+    /// What to do at `now`, given the frames observed so far.
     pub fn step(&self, now: f64) -> ApproachStep {
         let g = &self.grasp;
-        let q = (self.from + g.approach_speed_per_s * (now - self.t0)).min(g.max_closure);
+        let q = self.target(now);
         let d = self.gauge.least_deformed().unwrap_or(0.0);
         if d >= g.deformation_px {
             ApproachStep::Contact {

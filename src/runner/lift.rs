@@ -14,12 +14,11 @@ use std::sync::atomic::AtomicBool;
 use serde_json::json;
 use tmo_hal::{Arm, Clock, Hand, MarkerTracker, TactileSensor};
 
+use super::approach::{ApproachStep, ContactApproach, ContactGrasp};
 use super::monitor::{FrameMonitor, Verdict, WatchLimits};
 use super::{event, Fault, Online, RunRecord};
 use crate::online::classify::Reaction;
-use crate::online::contact::ContactGauge;
 use crate::scenario::{device, Devices, Recording, ScenarioError};
-use crate::slip::features::FeatureSpec;
 use crate::trial::TrialEvent;
 
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -159,13 +158,17 @@ where
             .copied()
             .fold(f64::INFINITY, f64::min);
         self.phase(t0, "approaching", json!({ "speed_per_s": speed_per_s }));
-        let mut gauge = ContactGauge::new(
-            self.dev.sensors.len(),
-            FeatureSpec::new(0).max_pin_step_px as f64,
-        );
+        let grasp = ContactGrasp {
+            deformation_px: goal_px,
+            approach_speed_per_s: speed_per_s,
+            past_contact: 0.0,
+            max_closure,
+        };
+        let mut approach = ContactApproach::new(grasp, self.dev.sensors.len(), from, t0);
         loop {
-            let now = self.dev.clock.now_s();
-            let q = (from + speed_per_s * (now - t0)).min(max_closure);
+            // the target is set, then the frames that arrive with it are judged
+            let set_at = self.dev.clock.now_s();
+            let q = approach.target(set_at);
             self.dev
                 .hand
                 .set_targets([q, q, q, self.start[3]])
@@ -174,19 +177,23 @@ where
             if let Verdict::Abort(f) = v {
                 return Ok(Err(f));
             }
-            for f in &self.rec.frames[first_new..] {
-                gauge.observe(f);
-            }
-            let d = gauge.least_deformed().unwrap_or(0.0);
-            if d >= goal_px {
-                self.phase(now, "contact", json!({ "closure": q, "deformation_px": d }));
-                self.grip(q)?;
-                return Ok(Ok(q));
-            }
-            if q >= max_closure {
-                let f = Fault::NoContact { deformation_px: d };
-                self.events.push(event(now, "/fault", json!(f)));
-                return Ok(Err(f));
+            approach.observe(&self.rec.frames[first_new..]);
+            match approach.step(set_at) {
+                ApproachStep::Close(_) => {}
+                ApproachStep::Contact {
+                    closure: q,
+                    deformation_px: d,
+                    ..
+                } => {
+                    self.phase(now, "contact", json!({ "closure": q, "deformation_px": d }));
+                    self.grip(q)?;
+                    return Ok(Ok(q));
+                }
+                ApproachStep::NoContact { deformation_px } => {
+                    let f = Fault::NoContact { deformation_px };
+                    self.events.push(event(now, "/fault", json!(f)));
+                    return Ok(Err(f));
+                }
             }
         }
     }
