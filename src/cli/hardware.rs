@@ -35,6 +35,18 @@ pub fn run(command: HardwareCommand) -> Result<()> {
                 "  arm at {} (RTDE {}, {} Hz; URScript {})",
                 hw.arm.host, hw.arm.rtde_port, hw.arm.frequency_hz, hw.arm.script_port
             );
+            let s = &hw.safety;
+            println!(
+                "  safety: grip <= {}, torque <= {}, arm <= {} mm/s within {:?} mm",
+                s.max_grip, s.max_torque, s.max_arm_speed_mm_s, s.workspace_mm
+            );
+            match &hw.served_simulator {
+                Some(served) => println!(
+                    "  the served simulator: each trial's world is set up through {}",
+                    served.control
+                ),
+                None => println!("  between trials an operator sets the rig up (or --unattended)"),
+            }
             Ok(())
         }
     }
