@@ -37,7 +37,7 @@ enum Command {
     Train(TrainArgs),
     /// Scores a model on recorded trials (never down-sampled).
     Evaluate(EvaluateArgs),
-    /// Runs a protocol's batch of trials on the simulator.
+    /// Runs a protocol's batch of trials: on the simulator, over recorded trials, or on the real rig.
     Run(cli::run::RunArgs),
     /// The paper's tables (and figures) from recorded batches, sweeps and evaluations.
     Report(cli::report::ReportArgs),
