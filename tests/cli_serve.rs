@@ -375,4 +375,48 @@ fn an_operator_at_a_terminal_sets_each_trial_up() {
             .all(|r| r["fault"].is_null() && r["dropped"].is_boolean()),
         "{rows:?}"
     );
+
+    // an operator who walks away (the terminal closes) starts no trial
+    let (keys, terminal, terminal_path) = tmo_hal::sim::serve_jevois::open_pty().unwrap();
+    let mut run = Command::new(env!("CARGO_BIN_EXE_tmo"))
+        .current_dir(d)
+        .args([
+            "run",
+            "pour.toml",
+            "--backend",
+            "real",
+            "--hardware",
+            "rig.toml",
+        ])
+        .args(["--out", "pour2"])
+        .stdin(
+            std::fs::File::options()
+                .read(true)
+                .write(true)
+                .open(&terminal_path)
+                .unwrap(),
+        )
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    drop(terminal);
+    let mut lines = BufReader::new(run.stderr.take().unwrap()).lines();
+    for line in lines.by_ref() {
+        if line
+            .unwrap()
+            .ends_with("Then press Enter (Ctrl-C stops the batch).")
+        {
+            break;
+        }
+    }
+    drop(keys);
+    let rest: Vec<String> = lines.map(|l| l.unwrap()).collect();
+    assert_eq!(run.wait().unwrap().code(), Some(2), "{rest:?}");
+    assert!(
+        rest.iter()
+            .any(|l| l.contains("terminal closed before trial-00000")),
+        "{rest:?}"
+    );
+    assert!(!d.join("pour2/trial-00000.mcap").exists());
 }

@@ -201,9 +201,18 @@ pub fn run(args: RunArgs) -> Result<u8> {
                 .duration_since(std::time::UNIX_EPOCH)
                 .map_or(0, |d| d.as_secs());
             if let Some((staging, _)) = real.as_mut() {
-                bar.suspend(|| staging.stage(&plan, t, &stop))
+                let ready = bar
+                    .suspend(|| staging.stage(&plan, t, &stop))
                     .with_context(|| format!("setting up trial {}", t.trial_id))?;
-                if stop.load(std::sync::atomic::Ordering::Relaxed) {
+                let stopped = stop.load(std::sync::atomic::Ordering::Relaxed);
+                anyhow::ensure!(
+                    ready || stopped,
+                    "the operator's terminal closed before {}: {} finished trial(s) are in {}; run again with --resume to finish",
+                    t.trial_id,
+                    ran + kept,
+                    out.display()
+                );
+                if stopped {
                     bar.finish_and_clear();
                     eprintln!(
                         "interrupted before {}: {} finished trial(s) are in {}; run again with --resume to finish",

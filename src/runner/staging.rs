@@ -44,7 +44,8 @@ impl Staging {
         Ok(Staging::Operator)
     }
 
-    /// Sets the rig up for `planned`; `Ok(false)` if `stop` was set while waiting.
+    /// Sets the rig up for `planned`; `Ok(false)` if it was not (`stop` was set, or the
+    /// operator's terminal closed, while waiting).
     pub fn stage(
         &mut self,
         plan: &Plan,

@@ -6,11 +6,8 @@
 use std::collections::BTreeMap;
 use std::fs::File;
 use std::io::{Read, Write};
-use std::os::fd::{AsFd, OwnedFd};
+use std::os::fd::OwnedFd;
 use std::path::PathBuf;
-
-use nix::fcntl::{fcntl, FcntlArg, OFlag};
-use nix::sys::termios;
 
 use super::SimHand;
 use crate::real::dynamixel::{address, instruction, Decoder, Packet, BROADCAST_ID};
@@ -44,27 +41,13 @@ pub struct PtyServoBus {
     pub stats: BusStats,
 }
 
-fn io(e: nix::Error) -> std::io::Error {
-    std::io::Error::from(e)
-}
-
 impl PtyServoBus {
     pub fn open(mut hand: SimHand, cfg: ModelOConfig) -> std::io::Result<Self> {
-        let pty = nix::pty::openpty(None, None).map_err(io)?;
-        let mut t = termios::tcgetattr(pty.slave.as_fd()).map_err(io)?;
-        termios::cfmakeraw(&mut t);
-        termios::tcsetattr(pty.slave.as_fd(), termios::SetArg::TCSANOW, &t).map_err(io)?;
-        let path = nix::unistd::ttyname(pty.slave.as_fd()).map_err(io)?;
-        let flags = fcntl(pty.master.as_fd(), FcntlArg::F_GETFL).map_err(io)?;
-        fcntl(
-            pty.master.as_fd(),
-            FcntlArg::F_SETFL(OFlag::from_bits_truncate(flags) | OFlag::O_NONBLOCK),
-        )
-        .map_err(io)?;
+        let (master, slave, path) = super::serve_jevois::open_pty()?;
         let targets = hand.present_positions().unwrap_or_default();
         Ok(Self {
-            master: File::from(pty.master),
-            _slave: pty.slave,
+            master,
+            _slave: slave,
             path,
             hand,
             cfg,
