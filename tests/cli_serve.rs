@@ -295,6 +295,35 @@ fn rail_catch_runs_on_the_real_backend_against_the_served_rail_rig() {
         .any(|e| e.topic == "/command/hand" && e.data["torque_limit"].as_f64() > Some(0.8)));
 }
 
+/// `tmo run pour.toml --backend real --hardware rig.toml --out OUT` in `d` with a terminal
+/// for its stdin: the process, and the terminal's keyboard end.
+fn run_at_terminal(d: &Path, out: &str) -> (std::process::Child, std::fs::File) {
+    let (keys, terminal, terminal_path) = tmo_hal::sim::serve_jevois::open_pty().unwrap();
+    let stdin = std::fs::File::options()
+        .read(true)
+        .write(true)
+        .open(&terminal_path)
+        .unwrap();
+    let run = Command::new(env!("CARGO_BIN_EXE_tmo"))
+        .current_dir(d)
+        .args([
+            "run",
+            "pour.toml",
+            "--backend",
+            "real",
+            "--hardware",
+            "rig.toml",
+        ])
+        .args(["--out", out])
+        .stdin(stdin)
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    drop(terminal);
+    (run, keys)
+}
+
 /// On a rig that is not the served simulator an operator sets each trial up: `tmo run`
 /// says what to put where and waits for Enter on its terminal. Here the test is the
 /// operator: it reads the prompt, sets the served world up through the control port as a
@@ -322,30 +351,7 @@ fn an_operator_at_a_terminal_sets_each_trial_up() {
     let plan = tmo::protocol::load(&d.join("pour.toml"), 3).unwrap();
     let planned = tmo::runner::batch::expand(&plan);
 
-    let (mut keys, terminal, terminal_path) = tmo_hal::sim::serve_jevois::open_pty().unwrap();
-    let mut run = Command::new(env!("CARGO_BIN_EXE_tmo"))
-        .current_dir(d)
-        .args([
-            "run",
-            "pour.toml",
-            "--backend",
-            "real",
-            "--hardware",
-            "rig.toml",
-        ])
-        .args(["--out", "pour"])
-        .stdin(
-            std::fs::File::options()
-                .read(true)
-                .write(true)
-                .open(&terminal_path)
-                .unwrap(),
-        )
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
-    drop(terminal);
+    let (mut run, mut keys) = run_at_terminal(d, "pour");
     let mut world = tmo_hal::sim::serve_control::SimControlClient::connect(&control).unwrap();
     let mut prompts = Vec::new();
     for line in BufReader::new(run.stderr.take().unwrap()).lines() {
@@ -377,30 +383,7 @@ fn an_operator_at_a_terminal_sets_each_trial_up() {
     );
 
     // an operator who walks away (the terminal closes) starts no trial
-    let (keys, terminal, terminal_path) = tmo_hal::sim::serve_jevois::open_pty().unwrap();
-    let mut run = Command::new(env!("CARGO_BIN_EXE_tmo"))
-        .current_dir(d)
-        .args([
-            "run",
-            "pour.toml",
-            "--backend",
-            "real",
-            "--hardware",
-            "rig.toml",
-        ])
-        .args(["--out", "pour2"])
-        .stdin(
-            std::fs::File::options()
-                .read(true)
-                .write(true)
-                .open(&terminal_path)
-                .unwrap(),
-        )
-        .stdout(Stdio::null())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
-    drop(terminal);
+    let (mut run, keys) = run_at_terminal(d, "pour2");
     let mut lines = BufReader::new(run.stderr.take().unwrap()).lines();
     for line in lines.by_ref() {
         if line
