@@ -72,11 +72,11 @@ pub fn run(args: RunArgs) -> Result<u8> {
     let real_rig = match &args.hardware {
         Some(path) if args.backend == Backend::Real => {
             let hw = tmo::hardware::load(path)?;
-            let limits = check_real_plan(&hw, &plan)
+            check_real_plan(&hw, &mut plan)
                 .with_context(|| format!("{} on {}", args.protocol.display(), path.display()))?;
             let staging = Staging::for_batch(&hw, plan.kind, args.unattended)
                 .with_context(|| args.protocol.display().to_string())?;
-            Some((path.clone(), hw, limits, staging))
+            Some((path.clone(), hw, staging))
         }
         _ => None,
     };
@@ -180,8 +180,8 @@ pub fn run(args: RunArgs) -> Result<u8> {
     );
     // The real rig is opened once for the batch; the simulator builds a rig per trial.
     let mut real = match real_rig {
-        Some((path, hw, limits, staging)) => {
-            let rig = open_real(hw, limits)
+        Some((path, hw, staging)) => {
+            let rig = open_real(hw, plan.safety)
                 .with_context(|| format!("opening the devices of {}", path.display()))?;
             Some((staging, rig))
         }

@@ -43,11 +43,11 @@ fn watch(hw: &HardwareFile) -> WatchLimits {
     }
 }
 
-/// Checks a plan can run on the rig before any device is opened, and returns the limits it
-/// runs behind: the protocol's, never looser than the rig's. A protocol asking for a motion
+/// Checks a plan can run on the rig before any device is opened, and tightens its safety
+/// limits to the rig's where the rig's are stricter. A protocol asking for a motion
 /// or force past the rig's limits is refused, as is a hand release or rice pour without a
 /// grasp from contact.
-pub fn check_real_plan(hw: &HardwareFile, plan: &Plan) -> Result<SafetyLimits, BatchError> {
+pub fn check_real_plan(hw: &HardwareFile, plan: &mut Plan) -> Result<(), BatchError> {
     let grasp = match &plan.params {
         KindParams::HandRelease(p) => Some(("hand_release", p.grasp_past_contact.as_ref())),
         KindParams::RicePour(p) => Some(("rice_pour", p.grasp_past_contact.as_ref())),
@@ -72,13 +72,13 @@ pub fn check_real_plan(hw: &HardwareFile, plan: &Plan) -> Result<SafetyLimits, B
             });
         }
     }
-    Ok(plan.safety.tightest(&hw.safety))
+    plan.safety = plan.safety.tightest(&hw.safety);
+    Ok(())
 }
 
-/// The open rig: its file, the limits a batch runs behind, its devices.
+/// The open rig: its file and its devices.
 pub struct RealRig {
     pub hw: HardwareFile,
-    pub limits: SafetyLimits,
     pub devices: RealDevices,
 }
 
@@ -131,14 +131,10 @@ pub fn open_real(hw: HardwareFile, limits: SafetyLimits) -> Result<RealRig, Batc
         markers,
         sensors,
     };
-    Ok(RealRig {
-        hw,
-        limits,
-        devices,
-    })
+    Ok(RealRig { hw, devices })
 }
 
-/// Runs one planned trial on open real devices.
+/// Runs one planned trial on open real devices; `plan` has passed [`check_real_plan`].
 pub fn run_real_trial(
     plan: &Plan,
     planned: &PlannedTrial,
@@ -158,27 +154,13 @@ pub fn run_real_trial(
     let mut put = |k: &str, v: String| {
         parameters.insert(k.to_string(), v);
     };
-    let RealRig {
-        hw,
-        limits,
-        devices,
-    } = rig;
+    let RealRig { hw, devices } = rig;
     let max_speed = hw.hand.max_speed_per_s;
     let watch = watch(hw);
-    // The rig's limits are tighter than the protocol's where they differ.
-    let plan = &Plan {
-        safety: *limits,
-        ..plan.clone()
-    };
     let result = match &plan.params {
         KindParams::HandRelease(p) => {
+            // the grasp comes from contact: check_real_plan made sure the protocol gives one
             let params = release_params(plan, p, &planned.object, 0.0, max_speed, watch);
-            if params.contact.is_none() {
-                return Err(BatchError::NoGraspOnHardware(
-                    "hand_release",
-                    planned.object.clone(),
-                ));
-            }
             put(
                 "release_speed_per_s",
                 format!("{:.5}", params.release_speed_per_s),
