@@ -38,6 +38,11 @@ pub enum CollectError {
     Scenario(#[from] ScenarioError),
 }
 
+/// How high a collect-mode hand trial lifts the object before the release: high enough
+/// that a released object slides for more than 15 frames before it lands (the paper
+/// labels up to 15), and above the 80 mm drop limit.
+pub const COLLECT_LIFT_MM: f64 = 120.0;
+
 /// Seed of trial `index` of a batch seeded with `batch_seed` (documented so a single trial
 /// can be re-run alone).
 pub fn trial_seed(batch_seed: u64, index: u64) -> u64 {
@@ -90,8 +95,8 @@ pub fn collect_trial(
             let script = Script::GraspLiftRelease {
                 closure,
                 close_speed_per_s: 0.05,
-                lift_mm: 30.0,
-                lift_speed_mm_s: 20.0,
+                lift_mm: COLLECT_LIFT_MM,
+                lift_speed_mm_s: 20.0, // the duration below assumes this speed
                 hold_s,
                 release_speed_per_s: 0.01,
             };
@@ -105,7 +110,7 @@ pub fn collect_trial(
             }
             let duration = (closure - contact + 0.02) / 0.05
                 + 0.3
-                + 1.5
+                + COLLECT_LIFT_MM / 20.0
                 + 0.2
                 + hold_s
                 + (closure - contact) / 0.01
@@ -141,9 +146,11 @@ pub fn collect_trial(
         "sim_truth_slip_onsets_s".into(),
         times(&events.slip_onsets_s),
     );
-    parameters.insert(
-        "sim_truth_drop_s".into(),
-        events.drop_s.map_or(String::new(), |t| format!("{t:.4}")),
+    crate::runner::sim_trial::put_truth(
+        &mut |k: &str, v: String| {
+            parameters.insert(k.into(), v);
+        },
+        &events,
     );
     let (tmo_version, git_revision) = TrialMeta::code_version();
     parameters.insert("duration_s".into(), format!("{duration:.3}"));

@@ -371,7 +371,7 @@ fn an_operator_at_a_terminal_sets_each_trial_up() {
     assert!(status.success(), "{prompts:?}");
     assert_eq!(prompts.len(), 2, "{prompts:?}");
     assert!(
-        prompts[0].starts_with("trial-00000: hold crisps_can (empty)"),
+        prompts[0].starts_with("trial-00000: hold crisps_can_empty between"),
         "{prompts:?}"
     );
     let rows = outcome_rows(d, "pour");

@@ -34,8 +34,9 @@ pub struct CollectArgs {
     /// Objects, used in turn (default: the paper's five training objects, or the rail object).
     #[arg(long, value_delimiter = ',')]
     objects: Vec<String>,
-    /// Grasp angles in degrees, each used for a full round of objects.
-    #[arg(long, value_delimiter = ',', default_value = "0,180")]
+    /// Grasp angles in degrees, each used for a full round of objects (default: the 0 deg
+    /// grasp the paper trained on; 180 deg is the unseen grasp of the online test).
+    #[arg(long, value_delimiter = ',', default_value = "0")]
     grasps: Vec<f64>,
     /// Batch seed; trial i uses seed * 1000003 + i.
     #[arg(long, default_value_t = 1)]

@@ -2,22 +2,31 @@
 //! time the hand reacted, so sim, replay and real trials are scored by the same code
 //! (SPEC.md, "Trial outcome definitions"):
 //!
-//! - onset: the marker-track slip onset ([`slip_onset`]);
+//! - onset: the change point of the relative track before it falls past the drop
+//!   threshold ([`find_onset`]); the track is the object marker's height minus the hand
+//!   marker's, so an arm that moves is not slip;
 //! - FP: the hand reacted before the onset (whatever followed; `dropped` records a fall),
-//!   by more than the marker's own lag: the onset sample is the first one 1 mm down, which
-//!   comes 27-65 ms (measured on the simulator) after the fall really began, so a tactile
-//!   reaction inside that window is not early;
+//!   by more than the marker's own lag: a 60 Hz marker with 0.3 mm of noise sees a fall
+//!   one or two samples after it began, so a tactile reaction inside that window is not
+//!   early;
 //! - FN: the object was dropped: it fell more than the drop limit below its held height;
 //! - TP: the hand reacted after the onset and the object came to rest held;
+//! - held, no measurable slip: the hand reacted and the object never fell past the drop
+//!   threshold: a catch so prompt that the markers cannot tell it from a reaction to
+//!   nothing, reported on its own rather than as an FP;
 //! - D: object height (relative to the hand) at the onset minus at rest after the catch.
 //!
 //! A trial with no onset and no reaction is a `NoSlip` trial (nothing to catch).
+//!
+//! On the simulator, [`truth_verdict`] gives a second verdict from ground truth (when gross
+//! slip began, how far the object fell, whether it dropped), for a diagnostic of how often
+//! the marker scoring agrees with it; it is never a feature or a label.
 
 pub mod lift;
 
 use tmo_hal::MarkerSample;
 
-use crate::slip::labels::{slip_onset, OnsetSpec};
+use crate::slip::labels::{find_onset, OnsetSpec};
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "snake_case")]
@@ -25,7 +34,22 @@ pub enum Verdict {
     TruePositive,
     FalsePositive,
     FalseNegative,
+    /// Reacted, and the object never fell measurably.
+    HeldNoSlip,
     NoSlip,
+}
+
+impl Verdict {
+    /// What a person reads in a table.
+    pub fn label(self) -> &'static str {
+        match self {
+            Verdict::TruePositive => "TP",
+            Verdict::FalsePositive => "FP",
+            Verdict::FalseNegative => "FN",
+            Verdict::HeldNoSlip => "held, no measurable slip",
+            Verdict::NoSlip => "no slip",
+        }
+    }
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -74,7 +98,7 @@ pub fn score_catch(
     reaction_s: Option<f64>,
     spec: &CatchSpec,
 ) -> CatchOutcome {
-    let onset_s = slip_onset(track, &spec.onset);
+    let onset_s = find_onset(track, &spec.onset).map(|o| o.time_s);
     // Held height: the median before the onset (or before the reaction, or over the track).
     let until = onset_s.or(reaction_s).unwrap_or(f64::INFINITY);
     let mut before: Vec<f64> = track
@@ -97,7 +121,7 @@ pub fn score_catch(
     let verdict = match (onset_s, reaction_s) {
         // An early reaction is the detector's error whatever followed; `dropped` says that.
         (Some(o), Some(r)) if r < o - spec.marker_lag_s => Verdict::FalsePositive,
-        (None, Some(_)) => Verdict::FalsePositive,
+        (None, Some(_)) => Verdict::HeldNoSlip,
         (_, _) if dropped => Verdict::FalseNegative,
         (Some(_), Some(_)) if at_rest.is_some() => Verdict::TruePositive,
         // reacted but never came to rest, or slipped with no reaction and not yet dropped
@@ -117,6 +141,43 @@ pub fn score_catch(
             _ => None,
         },
     }
+}
+
+/// What the simulator knows of a trial (its ground truth), as a trial log records it.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct TruthRecord {
+    /// Onset of the first slip that fell measurably (see `MEASURABLE_FALL_MM`).
+    pub measurable_slip_s: Option<f64>,
+    pub drop_s: Option<f64>,
+}
+
+/// The verdict ground truth gives, by the same rules as [`score_catch`]: an early reaction
+/// is an FP whatever followed; a drop is an FN; a reaction with no measurable slip is
+/// "held, no measurable slip"; a reaction at or after the onset that held is a TP.
+pub fn truth_verdict(truth: &TruthRecord, reaction_s: Option<f64>) -> Verdict {
+    match (truth.measurable_slip_s, reaction_s) {
+        (Some(o), Some(r)) if r < o => Verdict::FalsePositive,
+        _ if truth.drop_s.is_some() => Verdict::FalseNegative,
+        (Some(_), Some(_)) => Verdict::TruePositive,
+        (Some(_), None) => Verdict::FalseNegative,
+        (None, Some(_)) => Verdict::HeldNoSlip,
+        (None, None) => Verdict::NoSlip,
+    }
+}
+
+/// Over pairs of (marker verdict, truth verdict if known): how many have a truth verdict,
+/// and in how many the two agree; `None` when none has one.
+pub fn truth_agreement(
+    pairs: impl IntoIterator<Item = (Verdict, Option<Verdict>)>,
+) -> Option<(usize, usize)> {
+    let (mut n, mut agree) = (0, 0);
+    for (marker, truth) in pairs {
+        if let Some(t) = truth {
+            n += 1;
+            agree += usize::from(t == marker);
+        }
+    }
+    (n > 0).then_some((n, agree))
 }
 
 /// When the object had fallen more than the drop limit below its held height (the median
@@ -245,17 +306,57 @@ mod tests {
         assert_eq!(early.verdict, Verdict::FalsePositive);
         assert!(early.latency_s.unwrap() < 0.0);
         // within the marker's lag before its onset: the fall had begun
-        let prompt = score_catch(&track(Some(1.0), 25.0, 3.0), Some(1.0), &spec);
+        let prompt = score_catch(&track(Some(1.0), 25.0, 3.0), Some(0.97), &spec);
         assert_eq!(prompt.verdict, Verdict::TruePositive);
         assert!(prompt.latency_s.unwrap() < 0.0);
         let never = score_catch(&track(None, 0.0, 3.0), Some(0.5), &spec);
-        assert_eq!(never.verdict, Verdict::FalsePositive);
+        assert_eq!(never.verdict, Verdict::HeldNoSlip);
 
         let fell = score_catch(&track(Some(1.0), f64::INFINITY, 2.0), Some(1.2), &spec);
         assert_eq!(fell.verdict, Verdict::FalseNegative);
         assert!(fell.dropped && fell.slip_distance_mm.is_none());
         let unanswered = score_catch(&track(Some(1.0), f64::INFINITY, 2.0), None, &spec);
         assert_eq!(unanswered.verdict, Verdict::FalseNegative);
+    }
+
+    #[test]
+    fn a_prompt_catch_under_a_millimetre_is_held_not_a_false_positive() {
+        // slipping from 1.0 s, caught 0.6 mm down by a reaction 5 ms later: the markers
+        // never see it cross the 1 mm threshold
+        let o = score_catch(
+            &track(Some(1.0), 0.6, 3.0),
+            Some(1.005),
+            &CatchSpec::default(),
+        );
+        assert_eq!(o.verdict, Verdict::HeldNoSlip);
+        assert!(o.onset_s.is_none() && !o.dropped && o.slip_distance_mm.is_none());
+    }
+
+    #[test]
+    fn truth_verdicts_follow_the_same_rules() {
+        let slip = TruthRecord {
+            measurable_slip_s: Some(1.0),
+            drop_s: None,
+        };
+        assert_eq!(truth_verdict(&slip, Some(1.02)), Verdict::TruePositive);
+        assert_eq!(truth_verdict(&slip, Some(0.9)), Verdict::FalsePositive);
+        assert_eq!(truth_verdict(&slip, None), Verdict::FalseNegative);
+        let dropped = TruthRecord {
+            drop_s: Some(1.3),
+            ..slip
+        };
+        assert_eq!(truth_verdict(&dropped, Some(1.1)), Verdict::FalseNegative);
+        let still = TruthRecord::default();
+        assert_eq!(truth_verdict(&still, Some(2.0)), Verdict::HeldNoSlip);
+        assert_eq!(truth_verdict(&still, None), Verdict::NoSlip);
+        use Verdict::*;
+        let pairs = [
+            (TruePositive, Some(TruePositive)),
+            (FalsePositive, Some(HeldNoSlip)),
+            (NoSlip, None),
+        ];
+        assert_eq!(truth_agreement(pairs), Some((2, 1)));
+        assert_eq!(truth_agreement([(NoSlip, None)]), None);
     }
 
     #[test]

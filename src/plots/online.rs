@@ -247,6 +247,7 @@ mod tests {
             slip_distance_mm: d,
             fault: None,
             responses: 1,
+            truth_verdict: None,
         }
     }
 

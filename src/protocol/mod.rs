@@ -454,6 +454,17 @@ pub fn validate(
             ));
         }
     }
+    if let (KindParams::HandRelease(p), Mode::Collect) = (&params, file.mode) {
+        if p.lift_mm < 100.0 {
+            return Err(err(
+                "hand_release.lift_mm",
+                format!(
+                    "expected at least 100 mm in collect mode, so that a released object slides for the 15 frames the labels may use before it lands, got {}",
+                    p.lift_mm
+                ),
+            ));
+        }
+    }
     if let (KindParams::HandRelease(p), Mode::Online) = (&params, file.mode) {
         if p.lift_mm <= file.outcome.drop_limit_mm {
             return Err(err(

@@ -471,7 +471,8 @@ pub fn default_objects(kind: Kind) -> Vec<String> {
             "mustard_bottle",
             "banana",
         ],
-        Kind::RicePour => &["crisps_can"],
+        // the paper pours rice into the empty can
+        Kind::RicePour => &["crisps_can_empty"],
         Kind::FirstTimeLift | Kind::CalibrateLift => &["crisps_can_empty"],
     };
     names.iter().map(|s| s.to_string()).collect()

@@ -74,6 +74,7 @@ pub fn tables(inputs: &Inputs) -> Vec<Table> {
     out.extend(rice_pour(inputs));
     out.extend(calibration(inputs));
     out.extend(first_time_lift(inputs));
+    out.extend(truth_agreement(inputs));
     out
 }
 
@@ -175,7 +176,15 @@ pub fn rail(inputs: &Inputs) -> Option<Table> {
     let mut t = Table::new(
         "rail_catch",
         &title,
-        &["N frames", "trials", "caught", "FP", "dropped", "d (mm)"],
+        &[
+            "N frames",
+            "trials",
+            "caught",
+            "FP",
+            "held no slip",
+            "dropped",
+            "d (mm)",
+        ],
     );
     let frames = |r: &OutcomeRow| r.strategy.parse::<Strategy>().map_or(0, |s| s.frames);
     for (n, rs) in group(&rows, frames) {
@@ -184,6 +193,7 @@ pub fn rail(inputs: &Inputs) -> Option<Table> {
             Cell::Count(rs.len() as u64),
             rate(&rs, verdict(Verdict::TruePositive)),
             rate(&rs, verdict(Verdict::FalsePositive)),
+            rate(&rs, verdict(Verdict::HeldNoSlip)),
             rate(&rs, |r| r.dropped),
             Cell::mean_sd(&distances(&rs), 1),
         ]);
@@ -200,6 +210,7 @@ fn catch_row(label: [String; 3], rs: &[&OutcomeRow]) -> Vec<Cell> {
         rate(rs, verdict(Verdict::TruePositive)),
         rate(rs, verdict(Verdict::FalsePositive)),
         rate(rs, verdict(Verdict::FalseNegative)),
+        rate(rs, verdict(Verdict::HeldNoSlip)),
         Cell::mean_sd(&distances(rs), 1),
     ]
 }
@@ -221,6 +232,7 @@ pub fn hand_online(inputs: &Inputs) -> Option<Table> {
             "TP",
             "FP",
             "FN",
+            "held no slip",
             "D (mm)",
         ],
     );
@@ -244,7 +256,7 @@ pub fn per_object(inputs: &Inputs) -> Option<Table> {
     let mut t = Table::new(
         "hand_objects",
         &title,
-        &["object", "strategy", "TP", "FP", "FN"],
+        &["object", "strategy", "TP", "FP", "FN", "held no slip"],
     );
     for ((object, strategy), rs) in group(&rows, |r| (r.object.clone(), r.strategy.clone())) {
         t.push(vec![
@@ -253,9 +265,35 @@ pub fn per_object(inputs: &Inputs) -> Option<Table> {
             rate(&rs, verdict(Verdict::TruePositive)),
             rate(&rs, verdict(Verdict::FalsePositive)),
             rate(&rs, verdict(Verdict::FalseNegative)),
+            rate(&rs, verdict(Verdict::HeldNoSlip)),
         ]);
     }
     Some(t)
+}
+
+/// kind | trials with ground truth | marker verdict agrees (simulated catch trials only).
+pub fn truth_agreement(inputs: &Inputs) -> Option<Table> {
+    let mut t = Table::new(
+        "truth_agreement",
+        "Simulator only: marker-scored verdicts against ground truth",
+        &["kind", "trials", "agree"],
+    );
+    for kind in [Kind::RailCatch, Kind::HandRelease, Kind::RicePour] {
+        let rows: Vec<&OutcomeRow> = inputs
+            .catch_rows(kind)
+            .into_iter()
+            .filter(|r| r.fault.is_none() && r.truth_verdict.is_some())
+            .collect();
+        if rows.is_empty() {
+            continue;
+        }
+        t.push(vec![
+            Cell::text(kind.to_string()),
+            Cell::Count(rows.len() as u64),
+            rate(&rows, |r| r.truth_verdict == Some(r.verdict)),
+        ]);
+    }
+    (!t.rows.is_empty()).then_some(t)
 }
 
 /// object | strategy | trials | responses | dropped.

@@ -5,7 +5,7 @@ use std::collections::BTreeMap;
 use std::path::Path;
 
 use crate::outcome::lift::{overgrasp, rise, score_lift, LiftSpec, LiftWindow};
-use crate::outcome::{score_catch, CatchOutcome, CatchSpec, Verdict};
+use crate::outcome::{score_catch, truth_verdict, CatchOutcome, CatchSpec, TruthRecord, Verdict};
 use crate::runner::calibrate::lifted;
 use crate::trial::Trial;
 
@@ -27,6 +27,21 @@ pub struct OutcomeRow {
     pub fault: Option<String>,
     /// Reactions of the hand (the detector's events in the log).
     pub responses: usize,
+    /// The verdict by the simulator's ground truth (diagnostic; simulated trials only).
+    #[serde(default)]
+    pub truth_verdict: Option<Verdict>,
+}
+
+/// The ground truth a simulated trial's log records, if it records one.
+pub fn truth_record(trial: &Trial) -> Option<TruthRecord> {
+    let time = |k: &str| -> Option<Option<f64>> {
+        let v = param(trial, k)?;
+        Some(v.parse().ok())
+    };
+    Some(TruthRecord {
+        measurable_slip_s: time("sim_truth_measurable_slip_s")?,
+        drop_s: time("sim_truth_drop_s")?,
+    })
 }
 
 pub fn score_trial(trial: &Trial, spec: &CatchSpec) -> OutcomeRow {
@@ -47,6 +62,7 @@ pub fn score_trial(trial: &Trial, spec: &CatchSpec) -> OutcomeRow {
         slip_distance_mm: o.slip_distance_mm,
         fault: param("fault"),
         responses: responses(trial),
+        truth_verdict: truth_record(trial).map(|t| truth_verdict(&t, reaction_s)),
     }
 }
 

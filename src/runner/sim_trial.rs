@@ -196,6 +196,7 @@ pub fn run_sim_trial(
             .collect::<Vec<_>>()
             .join(","),
     );
+    put_truth(&mut put, &events);
     let sensors = rig.tactile_sensors().len() as u8;
     Ok(finish_trial(
         plan,
@@ -206,6 +207,20 @@ pub fn run_sim_trial(
         ("sim", sensors, config.tactip.pins),
         started_unix_s,
     ))
+}
+
+/// The ground truth the truth verdict reads (empty text for "never").
+pub(crate) fn put_truth(put: &mut impl FnMut(&str, String), events: &tmo_hal::sim::TruthEvents) {
+    let time = |t: Option<f64>| t.map_or(String::new(), |t| format!("{t:.4}"));
+    put(
+        "sim_truth_measurable_slip_s",
+        time(events.measurable_slip_s),
+    );
+    put("sim_truth_drop_s", time(events.drop_s));
+    put(
+        "sim_truth_max_fall_mm",
+        format!("{:.2}", events.max_fall_mm),
+    );
 }
 
 /// The trial log of a finished run: what every backend records about it.

@@ -81,8 +81,10 @@ pub fn instructions(plan: &Plan, planned: &PlannedTrial) -> String {
             "put {o} on the rail, pressed against the fingertip, clear of the end stops"
         ),
         KindParams::RicePour(p) => format!(
-            "hold {o} (empty) between the open fingers, hand at {deg} deg; the hand closes on it: let go once it holds, and pour {:.0} g at {:.0} g/s from a second later",
-            p.total_g, p.pour_rate_g_per_s
+            "hold {o}{} between the open fingers, hand at {deg} deg; the hand closes on it: let go once it holds, and pour {:.0} g at {:.0} g/s from a second later",
+            if o.ends_with("_empty") { "" } else { " (emptied)" },
+            p.total_g,
+            p.pour_rate_g_per_s
         ),
         KindParams::FirstTimeLift(_) | KindParams::CalibrateLift(_) => format!(
             "stand {o} with {:.0} g added on the table between the open fingers",

@@ -7,7 +7,7 @@ use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 
 use super::features::{frame_features, FeatureSpec};
-use super::labels::{label_frames, slip_onset, OnsetSpec};
+use super::labels::{label_frames, slip_window, OnsetSpec};
 use super::Class;
 use crate::trial::Trial;
 
@@ -78,14 +78,14 @@ impl Dataset {
         let mut row = Vec::with_capacity(features.len());
         for (ti, trial) in trials.iter().enumerate() {
             ds.trial_ids.push(trial.meta.trial_id.clone());
-            let onset = slip_onset(&trial.markers, &labels.onset);
+            let (onset, slip_end) = slip_window(&trial.markers, &trial.meta.object, &labels.onset);
             if onset.is_none() {
                 ds.trials_without_onset.push(trial.meta.trial_id.clone());
             }
             for sensor in 0..trial.meta.sensors {
                 let frames: Vec<_> = trial.frames.iter().filter(|f| f.sensor == sensor).collect();
                 let times: Vec<f64> = frames.iter().map(|f| f.time_s).collect();
-                let classes = label_frames(&times, onset, labels.n_slip);
+                let classes = label_frames(&times, onset, slip_end, labels.n_slip);
                 let first_slip = classes.iter().position(|c| *c == Some(Class::Slip));
                 ds.skipped_frames += usize::from(!frames.is_empty());
                 for k in 1..frames.len() {

@@ -1,14 +1,21 @@
 //! Labels from the marker track (paper, "Single Finger"; SPEC.md "Slip detection method" 3).
 //!
-//! The slip onset is found from marker heights, never from simulator truth: the first marker
-//! sample at which the object is more than `drop_threshold_mm` below its held height and stays
-//! so, still falling, for the next `confirm_samples` samples. Heights are taken relative to the
-//! hand marker when the track has one, so an object carried by a moving arm is "held". The held
-//! height is the median of the `hold_window_s` before the sample, which tolerates marker noise.
+//! The slip onset is found from marker heights, never from simulator truth. Slip is *detected*
+//! at the first marker sample at which the object is more than `drop_threshold_mm` below its
+//! held height and stays so, still falling, for the next `confirm_samples` samples. Its
+//! *onset* is the change point before that: the first sample of the run, ending in the
+//! detection, in which the track (a centred 3-sample mean, which cuts the noise of two
+//! markers by sqrt 3) is more than `resolution_mm` below the held height (and the sample
+//! itself half that). So an object that
+//! began to fall 0.6 mm before the 1 mm mark gets its onset there, not one or two samples
+//! late. Heights are taken relative to the hand marker when the track has one, so an object
+//! carried by a moving arm is "held". The held height is the median of the `hold_window_s`
+//! before the detection, which tolerates marker noise.
 //!
-//! Frames of each sensor that arrive at or after the onset are `slip`, up to `n_slip` of them;
-//! earlier frames are `static`; later ones are not used. A track with no onset labels every
-//! frame static.
+//! Frames of each sensor that arrive at or after the onset are `slip`, up to `n_slip` of them
+//! and only while the object is still slipping ([`slip_end`]: not once it has come to rest on
+//! a table or an end stop, or slid out of the grasp); earlier frames are `static`; later ones
+//! are not used. A track with no onset labels every frame static.
 
 use tmo_hal::MarkerSample;
 
@@ -21,6 +28,21 @@ pub struct OnsetSpec {
     pub confirm_samples: usize,
     /// Measure the object relative to the hand marker.
     pub relative_to_hand: bool,
+    /// Smallest fall below the held height that the change point counts as motion, mm:
+    /// about twice the noise of the smoothed relative track (0.3 mm per marker).
+    #[serde(default = "default_resolution_mm")]
+    pub resolution_mm: f64,
+    /// Samples over which the object must move less than the resolution to be at rest.
+    #[serde(default = "default_rest_samples")]
+    pub rest_samples: usize,
+}
+
+fn default_resolution_mm() -> f64 {
+    0.5
+}
+
+fn default_rest_samples() -> usize {
+    6
 }
 
 impl Default for OnsetSpec {
@@ -30,20 +52,54 @@ impl Default for OnsetSpec {
             hold_window_s: 0.5,
             confirm_samples: 5,
             relative_to_hand: true,
+            resolution_mm: default_resolution_mm(),
+            rest_samples: default_rest_samples(),
         }
     }
 }
 
+/// The heights the onset rules read: relative to the hand (or not), as the spec says.
+fn heights(track: &[MarkerSample], spec: &OnsetSpec) -> Vec<f64> {
+    track
+        .iter()
+        .map(|m| {
+            if spec.relative_to_hand {
+                m.object_mm - m.hand_mm
+            } else {
+                m.object_mm
+            }
+        })
+        .collect()
+}
+
+/// Centred 3-sample mean (the ends use what they have).
+fn smoothed(h: &[f64]) -> Vec<f64> {
+    (0..h.len())
+        .map(|i| {
+            let lo = i.saturating_sub(1);
+            let hi = (i + 2).min(h.len());
+            h[lo..hi].iter().sum::<f64>() / (hi - lo) as f64
+        })
+        .collect()
+}
+
+/// A detected slip: when it started (the change point), when it was detected (the sample
+/// past the drop threshold) and the held height before it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Onset {
+    pub time_s: f64,
+    pub detected_s: f64,
+    pub held_mm: f64,
+}
+
 /// Time of the marker sample where slip starts, if the object fell.
 pub fn slip_onset(track: &[MarkerSample], spec: &OnsetSpec) -> Option<f64> {
-    let height = |m: &MarkerSample| {
-        if spec.relative_to_hand {
-            m.object_mm - m.hand_mm
-        } else {
-            m.object_mm
-        }
-    };
-    let h: Vec<f64> = track.iter().map(height).collect();
+    find_onset(track, spec).map(|o| o.time_s)
+}
+
+/// The slip onset with its detection and held height, if the object fell.
+pub fn find_onset(track: &[MarkerSample], spec: &OnsetSpec) -> Option<Onset> {
+    let h = heights(track, spec);
     let mut window: Vec<f64> = Vec::new();
     let mut start = 0;
     for i in 0..h.len() {
@@ -64,23 +120,98 @@ pub fn slip_onset(track: &[MarkerSample], spec: &OnsetSpec) -> Option<f64> {
             return None;
         }
         if h[i..=end].iter().all(|&x| x < limit) && h[end] < h[i] {
-            return Some(track[i].time_s);
+            let smooth = smoothed(&h);
+            // The mean also reads the next sample: the raw sample must have moved too, or
+            // the last held sample would count as falling.
+            let moved = held - spec.resolution_mm;
+            let mut k = i;
+            while k > start && smooth[k - 1] < moved && h[k - 1] < held - spec.resolution_mm / 2.0 {
+                k -= 1;
+            }
+            return Some(Onset {
+                time_s: track[k].time_s,
+                detected_s: track[i].time_s,
+                held_mm: held,
+            });
         }
     }
     None
 }
 
+/// When slip that began at `onset` stopped being slip on the fingers: the first sample from
+/// which the object moved less than the resolution over the next `rest_samples` samples (it
+/// landed, reached an end stop or was held again), or at which it had slid more than
+/// `max_slide_mm` below its held height (out of the grasp: half its length, for objects of
+/// known size). `None` while it was still slipping when the track ended.
+pub fn slip_end(
+    track: &[MarkerSample],
+    onset: &Onset,
+    spec: &OnsetSpec,
+    max_slide_mm: Option<f64>,
+) -> Option<f64> {
+    let h = smoothed(&heights(track, spec));
+    let first = track.iter().position(|m| m.time_s >= onset.detected_s)?;
+    let n = spec.rest_samples.max(2);
+    for j in first..h.len() {
+        if max_slide_mm.is_some_and(|m| onset.held_mm - h[j] > m) {
+            return Some(track[j].time_s);
+        }
+        let window = &h[j..(j + n).min(h.len())];
+        if window.len() == n {
+            let (lo, hi) = window
+                .iter()
+                .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &x| {
+                    (lo.min(x), hi.max(x))
+                });
+            if hi - lo < spec.resolution_mm {
+                return Some(track[j].time_s);
+            }
+        }
+    }
+    None
+}
+
+/// How far an object of the library can slide below its held height before it has left the
+/// fingers: half its length along the slip axis (the contact spans its length about the
+/// grasp point). `None` for objects the library does not know.
+pub fn max_slide_for(object: &str) -> Option<f64> {
+    static LIBRARY: std::sync::OnceLock<tmo_hal::sim::ObjectLibrary> = std::sync::OnceLock::new();
+    LIBRARY
+        .get_or_init(tmo_hal::sim::ObjectLibrary::built_in)
+        .get(object)
+        .ok()
+        .map(|o| o.length_mm / 2.0)
+}
+
+/// The onset and end of slip in a trial's marker track, as labels use them.
+pub fn slip_window(
+    track: &[MarkerSample],
+    object: &str,
+    spec: &OnsetSpec,
+) -> (Option<f64>, Option<f64>) {
+    match find_onset(track, spec) {
+        Some(o) => (
+            Some(o.time_s),
+            slip_end(track, &o, spec, max_slide_for(object)),
+        ),
+        None => (None, None),
+    }
+}
+
 /// Labels for frames arriving at `frame_times_s` (one sensor, in order): `Some(class)` for
-/// frames used, `None` for frames after the `n_slip` slip frames.
+/// frames used, `None` for frames after the `n_slip` slip frames or at or after the slip's
+/// end (`slip_end_s`).
 pub fn label_frames(
     frame_times_s: &[f64],
     onset_s: Option<f64>,
+    slip_end_s: Option<f64>,
     n_slip: usize,
 ) -> Vec<Option<Class>> {
     let mut slip_seen = 0;
     frame_times_s
         .iter()
         .map(|&t| match onset_s {
+            Some(_) if slip_end_s.is_some_and(|end| t >= end) => None,
             Some(onset) if t >= onset => {
                 slip_seen += 1;
                 (slip_seen <= n_slip).then_some(Class::Slip)
@@ -124,6 +255,68 @@ mod tests {
         assert!((onset - 61.0 / 60.0).abs() < 1e-9, "{onset}");
     }
 
+    /// Held at 0, then sliding down at `speed` mm/s from `start_s`, with +-0.3 mm of
+    /// deterministic noise on the object marker.
+    fn slow_slide(start_s: f64, speed: f64, stop_after_mm: f64) -> Vec<MarkerSample> {
+        (0..180)
+            .map(|i| {
+                let t = i as f64 / 60.0;
+                let fall = ((t - start_s).max(0.0) * speed).min(stop_after_mm);
+                let noise = 0.6 * (((i * 7919) % 17) as f64 / 17.0 - 0.5);
+                MarkerSample {
+                    time_s: t,
+                    object_mm: 100.0 - fall + noise,
+                    hand_mm: 200.0,
+                }
+            })
+            .collect()
+    }
+
+    #[test]
+    fn the_onset_is_the_change_point_before_the_millimetre_mark() {
+        // 30 mm/s: the object takes 33 ms (2 samples) to fall 1 mm, and 17 ms to pass the
+        // 0.5 mm resolution
+        let t = slow_slide(1.0, 30.0, 50.0);
+        let o = find_onset(&t, &OnsetSpec::default()).unwrap();
+        assert!(o.detected_s >= 1.0 + 1.0 / 30.0, "{o:?}");
+        assert!(o.time_s < o.detected_s, "{o:?}");
+        assert!((o.time_s - 1.0).abs() <= 2.0 / 60.0 + 1e-9, "{o:?}");
+        // a coarser resolution walks back less far
+        let coarse = OnsetSpec {
+            resolution_mm: 0.95,
+            ..Default::default()
+        };
+        let c = find_onset(&t, &coarse).unwrap();
+        assert!(c.time_s >= o.time_s, "{c:?} {o:?}");
+    }
+
+    #[test]
+    fn slip_ends_when_the_object_lands_or_leaves_the_grasp() {
+        // slides 20 mm at 60 mm/s from 1 s, then rests (landed): ends about 1.33 s
+        let t = slow_slide(1.0, 60.0, 20.0);
+        let spec = OnsetSpec::default();
+        let o = find_onset(&t, &spec).unwrap();
+        let end = slip_end(&t, &o, &spec, None).unwrap();
+        assert!((1.25..1.40).contains(&end), "{end}");
+        // out of the grasp after 10 mm
+        let out = slip_end(&t, &o, &spec, Some(10.0)).unwrap();
+        assert!((1.1..1.22).contains(&out), "{out}");
+        // a slide still going when the track ends has no end
+        let going = slow_slide(1.0, 60.0, 1000.0);
+        let o = find_onset(&going, &spec).unwrap();
+        assert_eq!(slip_end(&going, &o, &spec, None), None);
+    }
+
+    #[test]
+    fn no_frame_after_the_slip_ended_is_labelled_slip() {
+        let times: Vec<f64> = (0..20).map(|i| i as f64 * 0.1).collect();
+        let labels = label_frames(&times, Some(0.5), Some(0.85), 15);
+        use Class::*;
+        assert!(labels[..5].iter().all(|l| *l == Some(Static)));
+        assert!(labels[5..9].iter().all(|l| *l == Some(Slip)));
+        assert!(labels[9..].iter().all(|l| l.is_none()), "{labels:?}");
+    }
+
     #[test]
     fn a_held_object_has_no_onset() {
         assert_eq!(slip_onset(&track(None, 3.0), &OnsetSpec::default()), None);
@@ -159,7 +352,7 @@ mod tests {
     #[test]
     fn frames_after_onset_are_slip_up_to_n_slip() {
         let times = [0.1, 0.2, 0.3, 0.4, 0.5, 0.6];
-        let labels = label_frames(&times, Some(0.25), 2);
+        let labels = label_frames(&times, Some(0.25), None, 2);
         use Class::*;
         assert_eq!(
             labels,
@@ -172,7 +365,7 @@ mod tests {
                 None
             ]
         );
-        assert!(label_frames(&times, None, 2)
+        assert!(label_frames(&times, None, None, 2)
             .iter()
             .all(|l| *l == Some(Static)));
     }

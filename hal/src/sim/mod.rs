@@ -24,7 +24,7 @@ pub use config::{
     RigSetup, ServoParams, SimConfig, TactipParams,
 };
 pub use objects::{ObjectLibrary, ObjectSpec};
-pub use world::{TruthEvents, TruthState};
+pub use world::{TruthEvents, TruthState, MEASURABLE_FALL_MM};
 
 use crate::error::{Error, ErrorKind, ErrorType};
 use crate::traits::{Arm, Clock, Hand, MarkerTracker, TactileSensor};

@@ -53,7 +53,16 @@ pub struct TruthEvents {
     /// Times the grasp stuck again after slipping.
     pub catches_s: Vec<f64>,
     pub drop_s: Option<f64>,
+    /// Onset of the first slip in which the object fell more than
+    /// [`MEASURABLE_FALL_MM`] below where the grasp last held it (relative to the hand).
+    pub measurable_slip_s: Option<f64>,
+    /// Furthest the object fell below where the grasp last held it, relative to the hand, mm.
+    pub max_fall_mm: f64,
 }
+
+/// The fall (mm, relative to the hand) below which a slip counts as not measurable: the
+/// marker scorer's default resolution, so truth and marker verdicts ask the same question.
+pub const MEASURABLE_FALL_MM: f64 = 0.5;
 
 struct SensorUnit {
     optics: SensorOptics,
@@ -118,6 +127,8 @@ pub(crate) struct World {
     sensors: Vec<SensorUnit>,
     markers: MarkerUnit,
     events: TruthEvents,
+    /// Object height relative to the hand when the grasp last held it, mm.
+    held_relative_mm: Option<f64>,
 }
 
 fn series(k: &[f64]) -> f64 {
@@ -250,6 +261,7 @@ impl World {
             sensors,
             markers,
             events: TruthEvents::default(),
+            held_relative_mm: None,
             cfg,
         };
         world.update_normal_forces();
@@ -500,6 +512,7 @@ impl World {
                 self.stuck = false;
             }
         }
+        self.track_fall();
         if self.events.drop_s.is_none() && (!self.in_grasp || self.held_mm - self.z_mm > drop_limit)
         {
             self.events.drop_s = Some(now);
@@ -509,6 +522,23 @@ impl World {
         self.update_skins(dt, sliding_down);
         self.capture_frames(now);
         self.capture_markers(now);
+    }
+
+    /// Ground truth of how far the object has fallen in the grasp (diagnostics only).
+    fn track_fall(&mut self) {
+        let relative = self.z_mm - self.hand_z();
+        if self.stuck && self.in_grasp {
+            self.held_relative_mm = Some(relative);
+            return;
+        }
+        let Some(held) = self.held_relative_mm else {
+            return;
+        };
+        let fall = held - relative;
+        self.events.max_fall_mm = self.events.max_fall_mm.max(fall);
+        if fall > MEASURABLE_FALL_MM && self.events.measurable_slip_s.is_none() {
+            self.events.measurable_slip_s = self.events.slip_onsets_s.last().copied();
+        }
     }
 
     fn update_skins(&mut self, dt: f64, sliding_down_mm_s: f64) {

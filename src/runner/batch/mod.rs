@@ -5,6 +5,9 @@
 //! resumed batch runs exactly the trials that are missing and gets the same ones an
 //! uninterrupted run would have. A log is written under its name only when complete.
 
+pub mod rows;
+pub mod run;
+
 use std::path::{Path, PathBuf};
 
 use crate::collect::{trial_seed, CollectError};
@@ -113,6 +116,28 @@ pub enum BatchError {
     SimRig(#[from] tmo_hal::sim::SimError),
     #[error(transparent)]
     Scenario(#[from] ScenarioError),
+    #[error("{path}: {source}")]
+    Io {
+        path: PathBuf,
+        source: std::io::Error,
+    },
+    #[error("{path}: {message}")]
+    Csv { path: PathBuf, message: String },
+    #[error("model file {0} not found: train one from collected trials with `tmo train TRIALS --out {0}` (README, \"step by step\"), or run `tmo reproduce --preset quick`, which collects, trains and runs every protocol")]
+    MissingModel(PathBuf),
+    #[error("{dir} already holds {trials} trial(s) of a batch: pass --resume to finish it, or choose another --out")]
+    AlreadyThere { dir: PathBuf, trials: usize },
+    #[error("trial {trial_id}: {source}")]
+    InTrial {
+        trial_id: String,
+        source: Box<BatchError>,
+    },
+    #[error(transparent)]
+    Log(#[from] crate::trial::TrialError),
+    #[error(transparent)]
+    Model(#[from] crate::slip::model::ModelFileError),
+    #[error("first_time_lift.calibration: {0}")]
+    Calibration(#[from] crate::runner::score::GMinError),
 }
 
 /// How outcomes are scored for a plan.

@@ -1,0 +1,245 @@
+//! The batch loop shared by `tmo run` and `tmo reproduce`: every planned trial that has no
+//! log yet is run (the simulator builds a rig per trial; a real rig is opened once by the
+//! caller and set up between trials), its log written under its name only when complete,
+//! and every trial, run now or earlier, scored from its log.
+//!
+//! Ctrl-C (the `stop` flag) ends the running trial safely; its log is kept beside the batch
+//! as aborted and the loop returns [`BatchEnd::Interrupted`], so a resumed batch runs
+//! exactly the trials that are missing.
+
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, Ordering};
+
+use super::rows::ScoredRows;
+use super::{aborted_trial_path, catch_spec, expand, trial_path, BatchError, Manifest};
+use crate::protocol::{Kind, KindParams, Plan};
+use crate::runner::real_trial::{run_real_trial, RealRig};
+use crate::runner::score::{self, GMinTable};
+use crate::runner::sim_trial::run_sim_trial;
+use crate::runner::staging::Staging;
+use crate::slip::model::ModelFile;
+use crate::trial::{read_trial, sha256_hex, write_trial};
+
+/// Where and how a batch runs.
+pub struct BatchRequest<'a> {
+    pub plan: &'a Plan,
+    pub out: &'a Path,
+    /// Finish a batch whose directory already holds some of its trials.
+    pub resume: bool,
+}
+
+/// The rig a batch drives: the simulator (one world per trial) or an open real rig.
+pub enum BatchRig {
+    Sim,
+    Real { staging: Staging, rig: Box<RealRig> },
+}
+
+/// A finished batch: its scored rows and the files written.
+pub struct BatchSummary {
+    pub manifest: Manifest,
+    pub rows: ScoredRows,
+    pub ran: usize,
+    pub kept: usize,
+    pub wall_s: f64,
+    /// `outcomes.csv`, `outcomes.json`, `g_min.json` for a calibration, `batch.json`.
+    pub outputs: Vec<PathBuf>,
+    /// A first-time lift without a calibration table: no overgrasp.
+    pub without_calibration: bool,
+}
+
+pub enum BatchEnd {
+    Finished(BatchSummary),
+    /// Stopped by the `stop` flag, or by an operator's terminal that closed.
+    Interrupted {
+        finished: usize,
+        /// The trial that was running, if it had started.
+        aborted_log: Option<PathBuf>,
+        before_trial: String,
+        operator_gone: bool,
+    },
+}
+
+pub(crate) fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), BatchError> {
+    let tmp = path.with_extension("writing");
+    let io = |source| BatchError::Io {
+        path: path.to_path_buf(),
+        source,
+    };
+    std::fs::write(&tmp, bytes).map_err(io)?;
+    std::fs::rename(&tmp, path).map_err(io)
+}
+
+/// Loads each of the plan's models with its SHA-256 (recorded in every trial).
+pub fn load_models(plan: &Plan) -> Result<Vec<(ModelFile, String)>, BatchError> {
+    plan.models
+        .iter()
+        .map(|path| {
+            let bytes = std::fs::read(path).map_err(|source| {
+                if source.kind() == std::io::ErrorKind::NotFound {
+                    BatchError::MissingModel(path.clone())
+                } else {
+                    BatchError::Io {
+                        path: path.clone(),
+                        source,
+                    }
+                }
+            })?;
+            Ok((ModelFile::load(path)?, sha256_hex(&bytes)))
+        })
+        .collect()
+}
+
+/// Runs (or finishes) the batch `req` asks for and scores it; `bar` shows trial progress
+/// (its length is set here; pass a hidden bar for none).
+pub fn run_batch(
+    req: &BatchRequest,
+    rig: &mut BatchRig,
+    stop: &AtomicBool,
+    bar: &indicatif::ProgressBar,
+) -> Result<BatchEnd, BatchError> {
+    let plan = req.plan;
+    let out = req.out;
+    let g_min = match &plan.params {
+        KindParams::FirstTimeLift(p) => {
+            p.calibration.as_deref().map(GMinTable::load).transpose()?
+        }
+        _ => None,
+    };
+    let models = load_models(plan)?;
+    let trials = expand(plan);
+    let existing = trials
+        .iter()
+        .filter(|t| trial_path(out, t).exists())
+        .count();
+    if existing > 0 && !req.resume {
+        return Err(BatchError::AlreadyThere {
+            dir: out.to_path_buf(),
+            trials: existing,
+        });
+    }
+    std::fs::create_dir_all(out).map_err(|source| BatchError::Io {
+        path: out.to_path_buf(),
+        source,
+    })?;
+    let manifest = Manifest {
+        protocol: plan.source.display().to_string(),
+        protocol_sha256: plan.source_sha256.clone(),
+        kind: plan.kind,
+        mode: plan.mode,
+        seed: plan.seed,
+        repetitions: plan.repetitions,
+        backend: match rig {
+            BatchRig::Real { .. } => "real".into(),
+            BatchRig::Sim => "sim".into(),
+        },
+        trials: trials.iter().map(|t| t.trial_id.clone()).collect(),
+    };
+    write_atomic(
+        &out.join("batch.json"),
+        serde_json::to_string_pretty(&manifest)
+            .expect("a manifest serialises")
+            .as_bytes(),
+    )?;
+
+    let spec = catch_spec(plan);
+    let onset_mm = plan.outcome.onset_threshold_mm;
+    bar.set_length(trials.len() as u64);
+    let started = std::time::Instant::now();
+    let mut rows = ScoredRows::default();
+    let (mut ran, mut kept) = (0, 0);
+    for t in &trials {
+        let path = trial_path(out, t);
+        // Outcomes are always scored from the log as written, so a resumed batch and an
+        // uninterrupted one agree to the last bit.
+        if path.exists() {
+            kept += 1;
+        } else {
+            let unix = std::time::SystemTime::now()
+                .duration_since(std::time::UNIX_EPOCH)
+                .map_or(0, |d| d.as_secs());
+            if let BatchRig::Real { staging, .. } = rig {
+                let ready = bar.suspend(|| staging.stage(plan, t, stop))?;
+                let stopped = stop.load(Ordering::Relaxed);
+                if !ready || stopped {
+                    return Ok(BatchEnd::Interrupted {
+                        finished: ran + kept,
+                        aborted_log: None,
+                        before_trial: t.trial_id.clone(),
+                        operator_gone: !ready && !stopped,
+                    });
+                }
+            }
+            let trial = match rig {
+                BatchRig::Real { rig, .. } => run_real_trial(plan, t, &models, rig, unix, stop),
+                BatchRig::Sim => run_sim_trial(plan, t, &models, unix, stop),
+            }
+            .map_err(|e| BatchError::InTrial {
+                trial_id: t.trial_id.clone(),
+                source: Box::new(e),
+            })?;
+            if stop.load(Ordering::Relaxed) {
+                let aborted = aborted_trial_path(out, t);
+                write_trial(&aborted, &trial)?;
+                return Ok(BatchEnd::Interrupted {
+                    finished: ran + kept,
+                    aborted_log: Some(aborted),
+                    before_trial: t.trial_id.clone(),
+                    operator_gone: false,
+                });
+            }
+            write_trial(&path, &trial)?;
+            ran += 1;
+        }
+        let trial = read_trial(&path)?;
+        let message = match &plan.params {
+            KindParams::FirstTimeLift(_) => {
+                let row = score::score_first_time_lift(&trial, onset_mm, g_min.as_ref());
+                let m = if row.success { "lifted" } else { "not lifted" };
+                rows.lift.push(row);
+                m.to_string()
+            }
+            KindParams::CalibrateLift(p) => {
+                let row = score::score_calibration(&trial, onset_mm, p.max_slide_mm);
+                let m = row
+                    .g_min
+                    .map_or("no g_min".into(), |g| format!("g_min {g:.3}"));
+                rows.calibration.push(row);
+                m
+            }
+            _ => {
+                let row = score::score_trial(&trial, &spec);
+                let m = row.verdict.label().to_string();
+                rows.catch.push(row);
+                m
+            }
+        };
+        bar.set_message(format!("{}: {message}", t.trial_id));
+        bar.inc(1);
+    }
+
+    let csv_path = out.join("outcomes.csv");
+    let json_path = out.join("outcomes.json");
+    rows.write(&csv_path, &json_path)?;
+    let mut outputs = vec![csv_path, json_path];
+    if plan.kind == Kind::CalibrateLift {
+        let table = GMinTable::from_rows(&rows.calibration);
+        let path = out.join("g_min.json");
+        write_atomic(
+            &path,
+            serde_json::to_string_pretty(&table)
+                .expect("a table serialises")
+                .as_bytes(),
+        )?;
+        outputs.push(path);
+    }
+    outputs.push(out.join("batch.json"));
+    Ok(BatchEnd::Finished(BatchSummary {
+        manifest,
+        rows,
+        ran,
+        kept,
+        wall_s: started.elapsed().as_secs_f64(),
+        outputs,
+        without_calibration: plan.kind == Kind::FirstTimeLift && g_min.is_none(),
+    }))
+}
