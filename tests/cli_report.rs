@@ -168,7 +168,7 @@ fn every_figure_is_drawn_from_simulator_batches() {
         assert!(w >= 800 && h >= 500, "{stem}.png is {w}x{h}");
     }
     assert!(
-        d.join("sweep/fig5_f1_logreg.png").is_file(),
+        d.join("sweep/sweep_fig5_f1_logreg.png").is_file(),
         "tmo sweep draws Fig. 5 itself"
     );
 }

@@ -349,7 +349,12 @@ pub fn sweep(args: SweepArgs) -> Result<()> {
         .parent()
         .filter(|p| !p.as_os_str().is_empty())
         .unwrap_or(std::path::Path::new("."));
-    let figures = tmo::plots::offline::sweep_heatmaps(&rows, plot_dir)?;
+    // Named after the CSV, so two sweeps in one directory keep their own figures.
+    let prefix = args
+        .out
+        .file_stem()
+        .map_or(String::new(), |s| format!("{}_", s.to_string_lossy()));
+    let figures = tmo::plots::offline::sweep_heatmaps(&rows, plot_dir, &prefix)?;
     let names: Vec<String> = figures.iter().map(|p| p.display().to_string()).collect();
     println!("wrote {}", names.join(", "));
     Ok(())

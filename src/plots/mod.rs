@@ -125,8 +125,14 @@ pub fn draw_all(inputs: &Inputs, dir: &Path) -> Result<Vec<PathBuf>, PlotError> 
         source,
     })?;
     let mut out = Vec::new();
-    for s in &inputs.sweeps {
-        out.extend(offline::sweep_heatmaps(&s.rows, dir)?);
+    for (k, s) in inputs.sweeps.iter().enumerate() {
+        // Several sweeps in one report each get their own figures.
+        let prefix = if inputs.sweeps.len() > 1 {
+            format!("sweep{}_", k + 1)
+        } else {
+            String::new()
+        };
+        out.extend(offline::sweep_heatmaps(&s.rows, dir, &prefix)?);
     }
     if !inputs.trial_dirs.is_empty() {
         let threshold = inputs.models.iter().find_map(|(_, m)| m.threshold());

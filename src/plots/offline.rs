@@ -101,46 +101,56 @@ fn heatmap<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, g: &HeatGrid) -> D
         ),
         None => g.classifier.clone(),
     };
-    let n_max = *g.n_slips.last().unwrap_or(&1) as f64;
-    let n_min = *g.n_slips.first().unwrap_or(&1) as f64;
-    let d_step = if g.downsamples.len() > 1 {
-        g.downsamples[1] - g.downsamples[0]
-    } else {
-        0.1
-    };
-    let (d_min, d_max) = (
-        g.downsamples.first().copied().unwrap_or(0.1),
-        g.downsamples.last().copied().unwrap_or(1.0),
-    );
+    // Cells sit on the grid's indices, not its values, so lists with gaps (odd n_slip
+    // only, uneven d steps) draw as a solid block; the axis labels give the values.
+    let (cols, rows) = (g.n_slips.len(), g.downsamples.len());
     let mut chart = ChartBuilder::on(&chart_area)
         .caption(title, (FONT, 20))
         .margin(12)
         .x_label_area_size(45)
         .y_label_area_size(60)
         .build_cartesian_2d(
-            (n_min - 0.5)..(n_max + 0.5),
-            (d_min - d_step / 2.0)..(d_max + d_step / 2.0),
+            (-0.5)..(cols as f64 - 0.5),
+            (-0.5)..(rows as f64 - 0.5),
         )?;
+    let n_label = |v: &f64| {
+        let k = v.round();
+        if (v - k).abs() > 0.01 || k < 0.0 {
+            return String::new();
+        }
+        g.n_slips
+            .get(k as usize)
+            .map_or(String::new(), |n| n.to_string())
+    };
+    let d_label = |v: &f64| {
+        let k = v.round();
+        if (v - k).abs() > 0.01 || k < 0.0 {
+            return String::new();
+        }
+        g.downsamples
+            .get(k as usize)
+            .map_or(String::new(), |d| format!("{d:.1}"))
+    };
     chart
         .configure_mesh()
         .light_line_style(TRANSPARENT)
         .disable_mesh()
         .x_desc("n_slip (frames labelled slip after onset)")
         .y_desc("down-sampling d (static frames kept)")
-        .x_labels(g.n_slips.len().min(20))
-        .y_labels(g.downsamples.len().min(12))
-        .x_label_formatter(&|v| format!("{v:.0}"))
-        .y_label_formatter(&|v| format!("{v:.1}"))
+        .x_labels(cols.clamp(2, 20) + 1)
+        .y_labels(rows.clamp(2, 12) + 1)
+        .x_label_formatter(&n_label)
+        .y_label_formatter(&d_label)
         .label_style((FONT, 14))
         .axis_desc_style((FONT, 15))
         .draw()?;
     for (i, row) in g.f1.iter().enumerate() {
         for (j, v) in row.iter().enumerate() {
             let Some(v) = v else { continue };
-            let (x, y) = (g.n_slips[j] as f64, g.downsamples[i]);
+            let (x, y) = (j as f64, i as f64);
             let t = (v - lo) / span;
             chart.draw_series(std::iter::once(Rectangle::new(
-                [(x - 0.5, y - d_step / 2.0), (x + 0.5, y + d_step / 2.0)],
+                [(x - 0.5, y - 0.5), (x + 0.5, y + 0.5)],
                 viridis(t).filled(),
             )))?;
             let ink = if t > 0.6 { BLACK } else { WHITE };
@@ -183,15 +193,19 @@ fn heatmap<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, g: &HeatGrid) -> D
     Ok(())
 }
 
-/// One heatmap per classifier in the sweep: `fig5_f1_<classifier>.{svg,png}`.
-pub fn sweep_heatmaps(rows: &[SweepRow], dir: &Path) -> Result<Vec<PathBuf>, PlotError> {
+/// One heatmap per classifier in the sweep: `<prefix>fig5_f1_<classifier>.{svg,png}`.
+pub fn sweep_heatmaps(
+    rows: &[SweepRow],
+    dir: &Path,
+    prefix: &str,
+) -> Result<Vec<PathBuf>, PlotError> {
     let classifiers: BTreeSet<&str> = rows.iter().map(|r| r.classifier.as_str()).collect();
     let mut out = Vec::new();
     for c in classifiers {
         let Some(g) = HeatGrid::from_rows(rows, c) else {
             continue;
         };
-        let stem = dir.join(format!("fig5_f1_{}", slug(c)));
+        let stem = dir.join(format!("{prefix}fig5_f1_{}", slug(c)));
         out.extend(crate::svg_and_png!(stem, SIZE, |root| heatmap(&root, &g)));
     }
     Ok(out)
