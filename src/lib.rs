@@ -10,6 +10,7 @@ pub mod plots;
 pub mod protocol;
 pub mod replay;
 pub mod report;
+pub mod reproduce;
 pub mod runner;
 pub mod scenario;
 pub mod sim_presets;

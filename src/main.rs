@@ -43,6 +43,8 @@ enum Command {
     Report(cli::report::ReportArgs),
     /// What models and strategies would have done on recorded trials (replay backend).
     Replay(cli::replay::ReplayArgs),
+    /// The paper's experiments end to end, and a findings table against the paper.
+    Reproduce(cli::reproduce::ReproduceArgs),
     /// Trains and scores every cell of a classifier x n_slip x down-sampling grid (paper Fig. 5).
     Sweep(SweepArgs),
 }
@@ -69,6 +71,9 @@ fn run(cli: Cli) -> Result<u8> {
     if let Command::Run(args) = cli.command {
         return cli::run::run(args);
     }
+    if let Command::Reproduce(args) = cli.command {
+        return cli::reproduce::run(args);
+    }
     match cli.command {
         Command::Sim(command) => cli::sim::run(command),
         Command::Hardware(command) => cli::hardware::run(command),
@@ -78,7 +83,7 @@ fn run(cli: Cli) -> Result<u8> {
         Command::Sweep(args) => cli::sweep::sweep(args),
         Command::Run(_) => unreachable!("handled above"),
         Command::Report(args) => cli::report::report(args),
-        Command::Replay(_) => unreachable!("handled above"),
+        Command::Replay(_) | Command::Reproduce(_) => unreachable!("handled above"),
     }?;
     Ok(0)
 }

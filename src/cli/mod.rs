@@ -3,6 +3,7 @@
 pub mod hardware;
 pub mod replay;
 pub mod report;
+pub mod reproduce;
 pub mod run;
 pub mod serve;
 pub mod sim;

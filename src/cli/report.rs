@@ -1,4 +1,4 @@
-//! `tmo report INPUT... [--format md|csv|json] [--out DIR] [--plots DIR]`.
+//! `tmo report INPUT... [--format md|csv|json|html] [--out DIR] [--plots DIR]`.
 
 use std::path::PathBuf;
 
@@ -13,7 +13,8 @@ pub struct ReportArgs {
     inputs: Vec<PathBuf>,
     #[arg(long, value_enum, default_value = "md")]
     format: Format,
-    /// Also write each table to DIR/<table>.<md|csv|json>.
+    /// Also write each table to DIR/<table>.<md|csv|json> (with html: the page to
+    /// DIR/report.html, figures inline when --plots draws them).
     #[arg(long)]
     out: Option<PathBuf>,
     /// Draw the figures (SVG and PNG) into DIR.
@@ -26,6 +27,7 @@ fn extension(f: Format) -> &'static str {
         Format::Md => "md",
         Format::Csv => "csv",
         Format::Json => "json",
+        Format::Html => "html",
     }
 }
 
@@ -37,6 +39,9 @@ pub fn report(args: ReportArgs) -> Result<()> {
         "nothing to report: the inputs hold no finished trials, sweep cells or evaluations \
          (directories of collected trials give figures only: add --plots DIR)"
     );
+    if args.format == Format::Html {
+        return html_report(&args, &inputs, &tables);
+    }
     if !tables.is_empty() {
         print!("{}", report::render(&tables, args.format)?);
     }
@@ -55,6 +60,34 @@ pub fn report(args: ReportArgs) -> Result<()> {
         written.extend(tmo::plots::draw_all(&inputs, dir)?);
     }
     for p in &written {
+        eprintln!("wrote {}", p.display());
+    }
+    Ok(())
+}
+
+/// One self-contained page: to DIR/report.html with --out, else to standard output.
+fn html_report(
+    args: &ReportArgs,
+    inputs: &report::inputs::Inputs,
+    tables: &[report::Table],
+) -> Result<()> {
+    let figures = match &args.plots {
+        Some(dir) => tmo::plots::draw_all(inputs, dir)?,
+        None => Vec::new(),
+    };
+    let page = report::html::tables_page("tmo report", tables, &figures);
+    match &args.out {
+        Some(dir) => {
+            std::fs::create_dir_all(dir)
+                .with_context(|| format!("cannot create {}", dir.display()))?;
+            let path = dir.join("report.html");
+            std::fs::write(&path, page)
+                .with_context(|| format!("cannot write {}", path.display()))?;
+            eprintln!("wrote {}", path.display());
+        }
+        None => print!("{page}"),
+    }
+    for p in &figures {
         eprintln!("wrote {}", p.display());
     }
     Ok(())

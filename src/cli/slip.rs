@@ -10,7 +10,6 @@ use tmo::slip::labels::OnsetSpec;
 use tmo::slip::metrics::Scores;
 use tmo::slip::model::{self, ClassifierKind, Hyperparameters, ModelFile, TrialRef};
 use tmo::slip::tuning::{self, TuneSpec};
-use tmo::trial::load_trials;
 
 #[derive(Subcommand)]
 pub enum DatasetCommand {
@@ -113,42 +112,12 @@ pub fn label_spec(args: &LabelArgs) -> Result<LabelSpec> {
     })
 }
 
-/// Loads trials and builds their labelled rows; all trials must have the same pin count.
+/// Loads trials and builds their labelled rows, noting trials without a slip onset.
 pub fn load_dataset(
     paths: &[PathBuf],
     labels: &LabelSpec,
 ) -> Result<(Dataset, Vec<TrialRef>, FeatureSpec)> {
-    let loaded = load_trials(paths)?;
-    anyhow::ensure!(
-        !loaded.is_empty(),
-        "no trial logs (.mcap) found in {}",
-        paths
-            .iter()
-            .map(|p| p.display().to_string())
-            .collect::<Vec<_>>()
-            .join(", ")
-    );
-    let pins = loaded[0].2.meta.pins;
-    for (path, _, t) in &loaded {
-        anyhow::ensure!(
-            t.meta.pins == pins,
-            "{}: {} pins per sensor, but {} has {pins}",
-            path.display(),
-            t.meta.pins,
-            loaded[0].0.display()
-        );
-    }
-    let features = FeatureSpec::new(pins);
-    let refs = loaded
-        .iter()
-        .map(|(p, h, t)| TrialRef {
-            trial_id: t.meta.trial_id.clone(),
-            path: p.display().to_string(),
-            sha256: h.clone(),
-        })
-        .collect();
-    let trials: Vec<_> = loaded.into_iter().map(|(_, _, t)| t).collect();
-    let ds = Dataset::from_trials(&trials, &features, labels);
+    let (ds, refs, features) = tmo::slip::dataset::load_labelled(paths, labels)?;
     if !ds.trials_without_onset.is_empty() {
         eprintln!(
             "note: no slip onset in the marker track of {} trial(s): {}",
@@ -270,23 +239,14 @@ pub fn evaluate(args: EvaluateArgs) -> Result<()> {
         print_scores(&format!("sensor {s}"), scores);
     }
     if let Some(out) = &args.out {
-        let bytes = std::fs::read(&args.model)
-            .with_context(|| format!("cannot read {}", args.model.display()))?;
-        let evaluation = tmo::slip::evaluation::Evaluation {
-            format: tmo::slip::evaluation::EVALUATION_FORMAT.into(),
-            model: args.model.display().to_string(),
-            model_sha256: tmo::trial::sha256_hex(&bytes),
-            classifier: model.classifier.name().to_string(),
-            scope: model.scope,
-            n_slip: model.labels.n_slip,
-            trials: refs.len(),
-            rows: ds.len(),
+        let evaluation = tmo::slip::evaluation::Evaluation::of(
+            &args.model,
+            &model,
+            refs.len(),
+            ds.len(),
             overall,
-            per_sensor: per_sensor
-                .into_iter()
-                .map(|(sensor, scores)| tmo::slip::evaluation::SensorScores { sensor, scores })
-                .collect(),
-        };
+            per_sensor,
+        )?;
         std::fs::write(out, serde_json::to_string_pretty(&evaluation)?)
             .with_context(|| format!("cannot write {}", out.display()))?;
         println!("wrote {}", out.display());

@@ -109,10 +109,7 @@ fn heatmap<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, g: &HeatGrid) -> D
         .margin(12)
         .x_label_area_size(45)
         .y_label_area_size(60)
-        .build_cartesian_2d(
-            (-0.5)..(cols as f64 - 0.5),
-            (-0.5)..(rows as f64 - 0.5),
-        )?;
+        .build_cartesian_2d((-0.5)..(cols as f64 - 0.5), (-0.5)..(rows as f64 - 0.5))?;
     let n_label = |v: &f64| {
         let k = v.round();
         if (v - k).abs() > 0.01 || k < 0.0 {

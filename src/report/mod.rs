@@ -2,6 +2,7 @@
 //! Markdown, CSV or JSON. Rates carry their counts and a Wilson 95 % interval.
 
 pub mod build;
+pub mod html;
 pub mod inputs;
 pub mod stats;
 
@@ -204,6 +205,8 @@ pub enum Format {
     Md,
     Csv,
     Json,
+    /// One self-contained page (figures inline when `tmo report --plots` drew them).
+    Html,
 }
 
 /// All tables in one document: Markdown sections, CSV blocks (each after a `# name`
@@ -232,6 +235,7 @@ pub fn render(tables: &[Table], format: Format) -> Result<String, ReportError> {
                 .collect::<Result<_, serde_json::Error>>()?;
             serde_json::to_string_pretty(&map)? + "\n"
         }
+        Format::Html => html::tables_page("tmo report", tables, &[]),
     })
 }
 

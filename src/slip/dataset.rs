@@ -11,6 +11,66 @@ use super::labels::{label_frames, slip_window, OnsetSpec};
 use super::Class;
 use crate::trial::Trial;
 
+#[derive(Debug, thiserror::Error)]
+pub enum LoadError {
+    #[error(transparent)]
+    Trial(#[from] crate::trial::TrialError),
+    #[error("no trial logs (.mcap) found in {0}")]
+    NoTrials(String),
+    #[error("{path}: {found} pins per sensor, but {first} has {expected}")]
+    Pins {
+        path: std::path::PathBuf,
+        found: usize,
+        first: std::path::PathBuf,
+        expected: usize,
+    },
+}
+
+/// Loads trial logs (files or directories of them) and labels their frames; every trial
+/// must have the same pin count. Returns the rows, a reference to each trial (path and
+/// SHA-256, for the model's provenance) and the feature layout.
+pub fn load_labelled(
+    paths: &[std::path::PathBuf],
+    labels: &LabelSpec,
+) -> Result<(Dataset, Vec<super::model::TrialRef>, FeatureSpec), LoadError> {
+    let loaded = crate::trial::load_trials(paths)?;
+    let Some(first) = loaded.first() else {
+        return Err(LoadError::NoTrials(
+            paths
+                .iter()
+                .map(|p| p.display().to_string())
+                .collect::<Vec<_>>()
+                .join(", "),
+        ));
+    };
+    let pins = first.2.meta.pins;
+    for (path, _, t) in &loaded {
+        if t.meta.pins != pins {
+            return Err(LoadError::Pins {
+                path: path.clone(),
+                found: t.meta.pins,
+                first: first.0.clone(),
+                expected: pins,
+            });
+        }
+    }
+    let features = FeatureSpec::new(pins);
+    let refs = loaded
+        .iter()
+        .map(|(p, h, t)| super::model::TrialRef {
+            trial_id: t.meta.trial_id.clone(),
+            path: p.display().to_string(),
+            sha256: h.clone(),
+        })
+        .collect();
+    let trials: Vec<_> = loaded.into_iter().map(|(_, _, t)| t).collect();
+    Ok((
+        Dataset::from_trials(&trials, &features, labels),
+        refs,
+        features,
+    ))
+}
+
 /// How frames are labelled.
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct LabelSpec {

@@ -28,3 +28,33 @@ pub struct SensorScores {
     pub sensor: u8,
     pub scores: Scores,
 }
+
+impl Evaluation {
+    /// The evaluation of the model file at `path` (hashed here, so the file is named by
+    /// its content) over `trials` trials and `rows` rows.
+    pub fn of(
+        path: &std::path::Path,
+        model: &super::model::ModelFile,
+        trials: usize,
+        rows: usize,
+        overall: Scores,
+        per_sensor: Vec<(u8, Scores)>,
+    ) -> Result<Self, std::io::Error> {
+        let bytes = std::fs::read(path)?;
+        Ok(Self {
+            format: EVALUATION_FORMAT.into(),
+            model: path.display().to_string(),
+            model_sha256: crate::trial::sha256_hex(&bytes),
+            classifier: model.classifier.name().to_string(),
+            scope: model.scope,
+            n_slip: model.labels.n_slip,
+            trials,
+            rows,
+            overall,
+            per_sensor: per_sensor
+                .into_iter()
+                .map(|(sensor, scores)| SensorScores { sensor, scores })
+                .collect(),
+        })
+    }
+}

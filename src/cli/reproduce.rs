@@ -1,0 +1,132 @@
+//! `tmo reproduce`: the paper's experiments in one command, and the findings table.
+
+use std::path::PathBuf;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+
+use anyhow::{Context, Result};
+use tmo::reproduce::{self, Backend, End, Options, Preset, Progress};
+
+use super::run::EXIT_INTERRUPTED;
+
+#[derive(Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum PresetArg {
+    /// Scaled down: about a minute on two cores.
+    Quick,
+    /// The paper's counts and grids.
+    Paper,
+}
+
+#[derive(Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum BackendArg {
+    #[value(alias = "mock")]
+    Sim,
+    Real,
+}
+
+#[derive(clap::Args)]
+pub struct ReproduceArgs {
+    #[arg(long, value_enum, default_value = "quick")]
+    preset: PresetArg,
+    /// Where every step's outputs and the findings report go.
+    #[arg(long, default_value = "results/paper")]
+    out: PathBuf,
+    /// Finish or update a reproduction in --out: steps whose inputs are unchanged are kept.
+    #[arg(long)]
+    resume: bool,
+    #[arg(long, value_enum, default_value = "sim")]
+    backend: BackendArg,
+    /// With `--backend real`: the hand rig's hardware file.
+    #[arg(long)]
+    hardware: Option<PathBuf>,
+    /// With `--backend real`: the single-finger rail rig's hardware file.
+    #[arg(long)]
+    rail_hardware: Option<PathBuf>,
+    /// With `--backend real`: no operator step between trials (the rig resets itself).
+    #[arg(long)]
+    unattended: bool,
+}
+
+pub fn run(args: ReproduceArgs) -> Result<u8> {
+    let backend = match args.backend {
+        BackendArg::Sim => Backend::Sim,
+        BackendArg::Real => {
+            let (Some(hand), Some(rail)) = (args.hardware.clone(), args.rail_hardware.clone())
+            else {
+                anyhow::bail!("--backend real needs --hardware FILE (the hand rig) and --rail-hardware FILE (the single-finger rail rig); `tmo sim serve` writes one for the simulator (--rig rail for the rail)");
+            };
+            Backend::Real {
+                hand,
+                rail,
+                unattended: args.unattended,
+            }
+        }
+    };
+    let options = Options {
+        out: args.out.clone(),
+        preset: match args.preset {
+            PresetArg::Quick => Preset::Quick,
+            PresetArg::Paper => Preset::Paper,
+        },
+        resume: args.resume,
+        backend,
+    };
+    let stop = Arc::new(AtomicBool::new(false));
+    let flag = stop.clone();
+    ctrlc::set_handler(move || flag.store(true, Ordering::Relaxed))
+        .context("cannot install the Ctrl-C handler")?;
+
+    let multi = indicatif::MultiProgress::new();
+    let steps = multi.add(indicatif::ProgressBar::new(0));
+    steps.set_style(
+        indicatif::ProgressStyle::with_template(
+            "reproduce step {pos}/{len} [{bar:20}] {elapsed}: {msg}",
+        )
+        .expect("valid template")
+        .progress_chars("=> "),
+    );
+    let work = multi.add(indicatif::ProgressBar::new(0));
+    work.set_style(
+        indicatif::ProgressStyle::with_template("  [{bar:30}] {pos}/{len} (eta {eta}) {msg}")
+            .expect("valid template")
+            .progress_chars("=> "),
+    );
+    let progress = Progress { steps, work };
+    let started = std::time::Instant::now();
+    let end = reproduce::reproduce(&options, &stop, &progress);
+    progress.work.finish_and_clear();
+    progress.steps.finish_and_clear();
+    match end? {
+        End::Interrupted { step } => {
+            eprintln!(
+                "interrupted in step {step}: finished steps and trials are kept in {}; run again with --resume to finish",
+                options.out.display()
+            );
+            std::process::exit(EXIT_INTERRUPTED);
+        }
+        End::Finished { ran, kept, report } => {
+            println!(
+                "reproduce ({} preset): {} step(s) run, {} already done, in {:.1} s",
+                options.preset.name(),
+                ran.len(),
+                kept.len(),
+                started.elapsed().as_secs_f64()
+            );
+            println!("{}", report.summary_line());
+            if let Some((n, agree)) = report.truth_agreement {
+                println!(
+                    "marker-scored verdicts agree with the simulator's ground truth in {agree} of {n} catch trials ({:.1} %)",
+                    100.0 * agree as f64 / n.max(1) as f64
+                );
+            }
+            println!(
+                "wrote {} (open it in a browser), {}, {} and every step's outputs under {}",
+                report.html.display(),
+                report.md.display(),
+                report.json.display(),
+                options.out.display()
+            );
+        }
+    }
+    Ok(0)
+}

@@ -1,0 +1,114 @@
+//! Self-contained HTML: one page with its style inline and figures embedded as SVG, so it
+//! opens in any browser from disk, with no server and nothing fetched.
+
+use std::path::{Path, PathBuf};
+
+use super::Table;
+
+/// Escapes text for HTML.
+pub fn escape(s: &str) -> String {
+    s.replace('&', "&amp;")
+        .replace('<', "&lt;")
+        .replace('>', "&gt;")
+        .replace('"', "&quot;")
+}
+
+const STYLE: &str = "body{font-family:system-ui,sans-serif;margin:2em auto;max-width:80em;padding:0 1em;color:#222}\
+table{border-collapse:collapse;margin:0.5em 0 1.5em;font-size:0.9em}\
+th,td{border:1px solid #ccc;padding:0.25em 0.6em;text-align:left;vertical-align:top}\
+th{background:#f3f3f3}tr:nth-child(even) td{background:#fafafa}\
+.yes{background:#d4f4d4!important}.partly{background:#fff3c4!important}.no{background:#f8d4d4!important}\
+.not_measured{background:#e8e8e8!important}figure{display:inline-block;margin:0.5em;max-width:48%}\
+figure svg{max-width:100%;height:auto}figcaption{font-size:0.85em;color:#555}code{font-size:0.9em}";
+
+/// A table as HTML, title above.
+pub fn table(t: &Table) -> String {
+    let mut out = format!("<h3>{}</h3>\n<table>\n<tr>", escape(&t.title));
+    for c in &t.columns {
+        out += &format!("<th>{}</th>", escape(c));
+    }
+    out += "</tr>\n";
+    for r in &t.rows {
+        out += "<tr>";
+        for c in r {
+            out += &format!("<td>{}</td>", escape(&c.display()));
+        }
+        out += "</tr>\n";
+    }
+    out + "</table>\n"
+}
+
+/// The SVG figures among `paths`, inline, each with its file name as caption.
+pub fn figures(paths: &[PathBuf]) -> String {
+    let mut out = String::new();
+    for p in paths
+        .iter()
+        .filter(|p| p.extension().is_some_and(|e| e == "svg"))
+    {
+        let Ok(svg) = std::fs::read_to_string(p) else {
+            continue;
+        };
+        let start = svg.find("<svg").unwrap_or(0);
+        let name = p
+            .file_name()
+            .map_or(String::new(), |n| n.to_string_lossy().into_owned());
+        out += &format!(
+            "<figure>{}<figcaption>{}</figcaption></figure>\n",
+            &svg[start..],
+            escape(&name)
+        );
+    }
+    out
+}
+
+/// A whole page around `body` (already HTML).
+pub fn page(title: &str, body: &str) -> String {
+    format!(
+        "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>{}</title><style>{STYLE}</style></head>\n<body>\n<h1>{}</h1>\n{body}</body></html>\n",
+        escape(title),
+        escape(title)
+    )
+}
+
+/// Tables (and figures, if any) as one page.
+pub fn tables_page(title: &str, tables: &[Table], figure_paths: &[PathBuf]) -> String {
+    let mut body: String = tables.iter().map(table).collect();
+    if !figure_paths.is_empty() {
+        body += "<h2>Figures</h2>\n";
+        body += &figures(figure_paths);
+    }
+    page(title, &body)
+}
+
+/// Writes `html` to `path`.
+pub fn write(path: &Path, html: &str) -> std::io::Result<()> {
+    std::fs::write(path, html)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::report::Cell;
+
+    #[test]
+    fn a_table_page_is_escaped_and_self_contained() {
+        let mut t = Table::new("t", "A <table>", &["what", "caught"]);
+        t.push(vec![
+            Cell::text("a&b"),
+            Cell::Rate {
+                count: 8,
+                trials: 10,
+            },
+        ]);
+        let dir = tempfile::tempdir().unwrap();
+        let svg = dir.path().join("f.svg");
+        std::fs::write(&svg, "<?xml version=\"1.0\"?>\n<svg xmlns=\"http://www.w3.org/2000/svg\"><text>x</text></svg>").unwrap();
+        let html = tables_page("Report", &[t], &[svg, dir.path().join("f.png")]);
+        assert!(html.starts_with("<!DOCTYPE html>"));
+        assert!(html.contains("<h3>A &lt;table&gt;</h3>"));
+        assert!(html.contains("<td>a&amp;b</td><td>8/10 (80 %; 49–94)</td>"));
+        assert!(html.contains("<figure><svg xmlns"));
+        assert!(!html.contains("<?xml"));
+        assert!(!html.contains("src=\"http") && !html.contains("href=\"http"));
+    }
+}

@@ -1,0 +1,705 @@
+//! The steps of a reproduction, in the paper's order, and the counts each preset runs.
+//!
+//! Batch steps write a protocol file into their directory and run it through the batch loop
+//! `tmo run` uses (so each can be rerun by hand with `tmo run DIR/protocol.toml`); offline
+//! steps call the sweep, search, training and evaluation code of `tmo sweep`, `tmo train`
+//! and `tmo evaluate`.
+
+use std::path::{Path, PathBuf};
+use std::sync::atomic::AtomicBool;
+
+use super::{io, read_record, Backend, ReproduceError};
+use crate::protocol::Kind;
+use crate::runner::batch::run::{run_batch, BatchEnd, BatchRequest, BatchRig};
+use crate::slip::dataset::{load_labelled, LabelSpec, Scope};
+use crate::slip::evaluation::Evaluation;
+use crate::slip::labels::OnsetSpec;
+use crate::slip::model::{ClassifierKind, Hyperparameters, ModelFile, TrainSpec};
+use crate::slip::sweep::{run_sweep, HyperChoice, SweepRow, SweepSpec};
+use crate::slip::tuning::{self, TuneSpec};
+
+/// C of the paper's best SVM, used for the sweep's cells (the rail model's own C and gamma
+/// are then searched for).
+pub const SWEEP_C: f64 = 3.989;
+/// gamma of the sweep's RBF cells. Our features are standardised per column before the
+/// kernel (the paper does not say how it scaled them), so the paper's 1.104 does not carry
+/// over; 0.02 is near 1/60, scikit-learn's "scale" default for 60 standardised features.
+pub const SWEEP_GAMMA: f64 = 0.02;
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Preset {
+    /// A scaled-down run for a first look (about a minute on two cores).
+    Quick,
+    /// The paper's counts.
+    Paper,
+}
+
+/// How much each step runs.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Counts {
+    /// Rail collect trials in each of train and test (paper 50 + 50).
+    pub rail_collect: u32,
+    pub sweep_downsample: Vec<f64>,
+    pub sweep_n_slip: Vec<usize>,
+    pub search_iterations: usize,
+    pub search_folds: usize,
+    /// Online rail trials per strategy (paper 50).
+    pub rail_online: u32,
+    /// Collect trials per training object in each of train and test (paper 10 + 10).
+    pub hand_collect: u32,
+    /// Trials per scope x strategy x grasp (paper 10).
+    pub hand_online: u32,
+    /// Trials per object x strategy (paper 10).
+    pub objects: u32,
+    /// Rice pours (paper 5).
+    pub pour: u32,
+    /// Calibration sweeps per mass.
+    pub calibrate: u32,
+    /// First-time lifts per mass (paper 10).
+    pub lift: u32,
+}
+
+impl Preset {
+    pub fn name(self) -> &'static str {
+        match self {
+            Preset::Quick => "quick",
+            Preset::Paper => "paper",
+        }
+    }
+
+    pub fn counts(self) -> Counts {
+        match self {
+            Preset::Paper => Counts {
+                rail_collect: 50,
+                sweep_downsample: (1..=10).map(|k| k as f64 / 10.0).collect(),
+                sweep_n_slip: (1..=15).collect(),
+                search_iterations: 20,
+                search_folds: 3,
+                rail_online: 50,
+                hand_collect: 10,
+                hand_online: 10,
+                objects: 10,
+                pour: 5,
+                calibrate: 3,
+                lift: 10,
+            },
+            Preset::Quick => Counts {
+                rail_collect: 25,
+                sweep_downsample: vec![0.2, 0.4, 0.7, 1.0],
+                sweep_n_slip: vec![1, 3, 5, 7, 9, 11, 13, 15],
+                search_iterations: 8,
+                search_folds: 3,
+                rail_online: 20,
+                hand_collect: 4,
+                hand_online: 3,
+                objects: 3,
+                pour: 3,
+                calibrate: 1,
+                lift: 3,
+            },
+        }
+    }
+}
+
+/// What every step can see.
+pub struct Context<'a> {
+    pub out: &'a Path,
+    pub preset: &'a Preset,
+    pub backend: &'a Backend,
+    pub stop: &'a AtomicBool,
+    pub bar: &'a indicatif::ProgressBar,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Step {
+    RailCollect,
+    RailSweep,
+    RailModel,
+    RailOnline,
+    HandCollect,
+    HandModels,
+    HandOnline,
+    Objects,
+    RicePour,
+    Calibrate,
+    FirstTimeLift,
+}
+
+const PAPER_OBJECTS: [&str; 11] = [
+    "crisps_can",
+    "windex_bottle",
+    "bleach_bottle",
+    "mustard_bottle",
+    "banana",
+    "soup_can",
+    "softball",
+    "jello_box",
+    "coffee_can",
+    "foam_brick",
+    "toy_cat",
+];
+
+fn quoted(items: &[&str]) -> String {
+    items
+        .iter()
+        .map(|s| format!("\"{s}\""))
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
+impl Step {
+    pub const ALL: [Step; 11] = [
+        Step::RailCollect,
+        Step::RailSweep,
+        Step::RailModel,
+        Step::RailOnline,
+        Step::HandCollect,
+        Step::HandModels,
+        Step::HandOnline,
+        Step::Objects,
+        Step::RicePour,
+        Step::Calibrate,
+        Step::FirstTimeLift,
+    ];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Step::RailCollect => "rail_collect",
+            Step::RailSweep => "rail_sweep",
+            Step::RailModel => "rail_model",
+            Step::RailOnline => "rail_online",
+            Step::HandCollect => "hand_collect",
+            Step::HandModels => "hand_models",
+            Step::HandOnline => "hand_online",
+            Step::Objects => "hand_objects",
+            Step::RicePour => "rice_pour",
+            Step::Calibrate => "calibrate_lift",
+            Step::FirstTimeLift => "first_time_lift",
+        }
+    }
+
+    /// The step's directory under the output directory.
+    pub fn dir(self) -> String {
+        let k = Step::ALL.iter().position(|s| *s == self).expect("listed") + 1;
+        format!("{k:02}_{}", self.name())
+    }
+
+    pub fn title(self) -> &'static str {
+        match self {
+            Step::RailCollect => "single finger: collecting rail trials",
+            Step::RailSweep => "single finger: classifier x d x n_slip sweep",
+            Step::RailModel => "single finger: searching the best cell's SVM",
+            Step::RailOnline => "single finger: online rail catch, 1 vs 2 frames",
+            Step::HandCollect => "whole hand: collecting releases at 0 deg",
+            Step::HandModels => "whole hand: local and global models, offline",
+            Step::HandOnline => "whole hand: online release, 6 strategies x scopes x grasps",
+            Step::Objects => "whole hand: eleven objects",
+            Step::RicePour => "rice pour into the empty can",
+            Step::Calibrate => "first-time lift: calibrating g_min",
+            Step::FirstTimeLift => "first-time lift over the masses",
+        }
+    }
+
+    fn depends_on(self) -> &'static [Step] {
+        match self {
+            Step::RailCollect | Step::HandCollect | Step::Calibrate => &[],
+            Step::RailSweep => &[Step::RailCollect],
+            Step::RailModel => &[Step::RailCollect, Step::RailSweep],
+            Step::RailOnline => &[Step::RailModel],
+            Step::HandModels => &[Step::RailModel, Step::HandCollect],
+            Step::HandOnline | Step::Objects | Step::RicePour => &[Step::HandModels],
+            Step::FirstTimeLift => &[Step::HandModels, Step::Calibrate],
+        }
+    }
+
+    /// Protocol files of a batch step, by sub-directory ("" for the step's own).
+    fn protocols(self, c: &Counts) -> Vec<(&'static str, String)> {
+        let training = quoted(&PAPER_OBJECTS[..5]);
+        let rail_collect = |seed: u32| {
+            format!(
+                "kind = \"rail_catch\"\nmode = \"collect\"\nrepetitions = {}\nseed = {seed}\nobjects = [\"rail_object\"]\n",
+                c.rail_collect
+            )
+        };
+        let hand_collect = |seed: u32| {
+            format!(
+                "kind = \"hand_release\"\nmode = \"collect\"\nrepetitions = {}\nseed = {seed}\nobjects = [{training}]\ngrasps_deg = [0]\n\n[hand_release]\nrelease_speed_of_max = 0.005\nlift_mm = 120.0\n",
+                c.hand_collect
+            )
+        };
+        let models = "../06_hand_models";
+        match self {
+            Step::RailCollect => vec![("train", rail_collect(11)), ("test", rail_collect(12))],
+            Step::RailOnline => vec![(
+                "",
+                format!(
+                    "kind = \"rail_catch\"\nrepetitions = {}\nseed = 13\nobjects = [\"rail_object\"]\nmodels = [\"../03_rail_model/rail.json\"]\nstrategies = [\"1x1\", \"2x1\"]\n",
+                    c.rail_online
+                ),
+            )],
+            Step::HandCollect => vec![("train", hand_collect(21)), ("test", hand_collect(22))],
+            Step::HandOnline => vec![(
+                "",
+                format!(
+                    "kind = \"hand_release\"\nrepetitions = {}\nseed = 23\nobjects = [\"crisps_can\"]\ngrasps_deg = [0, 180]\nmodels = [\"{models}/global.json\", \"{models}/local.json\"]\nstrategies = [\"1x1\", \"2x1\", \"1x2\", \"2x2\", \"1x3\", \"2x3\"]\n",
+                    c.hand_online
+                ),
+            )],
+            Step::Objects => vec![(
+                "",
+                format!(
+                    "kind = \"hand_release\"\nrepetitions = {}\nseed = 24\nobjects = [{}]\ngrasps_deg = [0]\nmodels = [\"{models}/global.json\"]\nstrategies = [\"2x2\", \"1x2\"]\n",
+                    c.objects,
+                    quoted(&PAPER_OBJECTS)
+                ),
+            )],
+            Step::RicePour => vec![(
+                "",
+                format!(
+                    "kind = \"rice_pour\"\nrepetitions = {}\nseed = 25\nobjects = [\"crisps_can_empty\"]\nmodels = [\"{models}/global.json\"]\nstrategies = [\"2x2\"]\n",
+                    c.pour
+                ),
+            )],
+            Step::Calibrate => vec![
+                (
+                    "can",
+                    format!(
+                        "kind = \"calibrate_lift\"\nrepetitions = {}\nseed = 26\nobjects = [\"crisps_can_empty\"]\n\n[calibrate_lift]\nmasses_g = [0, 50, 100, 150, 250, 350, 450]\n",
+                        c.calibrate
+                    ),
+                ),
+                (
+                    "cat",
+                    format!(
+                        "kind = \"calibrate_lift\"\nrepetitions = {}\nseed = 27\nobjects = [\"toy_cat\"]\n\n[calibrate_lift]\nmasses_g = [0, 100]\n",
+                        c.calibrate
+                    ),
+                ),
+            ],
+            Step::FirstTimeLift => vec![
+                (
+                    "can",
+                    format!(
+                        "kind = \"first_time_lift\"\nrepetitions = {}\nseed = 28\nobjects = [\"crisps_can_empty\"]\nmodels = [\"../{models}/global.json\"]\nstrategies = [\"1x1\"]\n\n[first_time_lift]\nmasses_g = [0, 50, 100, 150, 250, 350, 450]\ncalibration = \"../../10_calibrate_lift/can/g_min.json\"\n",
+                        c.lift
+                    ),
+                ),
+                (
+                    "cat",
+                    format!(
+                        "kind = \"first_time_lift\"\nrepetitions = {}\nseed = 29\nobjects = [\"toy_cat\"]\nmodels = [\"../{models}/global.json\"]\nstrategies = [\"1x1\"]\n\n[first_time_lift]\nmasses_g = [0, 100]\ncalibration = \"../../10_calibrate_lift/cat/g_min.json\"\n",
+                        c.lift
+                    ),
+                ),
+            ],
+            Step::RailSweep | Step::RailModel | Step::HandModels => Vec::new(),
+        }
+    }
+
+    /// Everything the step's result depends on, as text (hashed into `step.json`): its
+    /// settings and the output digests of the steps it reads.
+    pub fn inputs(self, ctx: &Context) -> Result<String, ReproduceError> {
+        let c = ctx.preset.counts();
+        let mut text = format!("step {}\n", self.name());
+        match self {
+            Step::RailSweep => text.push_str(&format!(
+                "d {:?}\nn_slip {:?}\nC {SWEEP_C} gamma {SWEEP_GAMMA}\n",
+                c.sweep_downsample, c.sweep_n_slip
+            )),
+            Step::RailModel => text.push_str(&format!(
+                "search {} x {} folds\n",
+                c.search_iterations, c.search_folds
+            )),
+            _ => {}
+        }
+        for (sub, protocol) in self.protocols(&c) {
+            text.push_str(&format!("[{sub}]\n{protocol}"));
+        }
+        if let Backend::Real { hand, rail, .. } = ctx.backend {
+            let file = if matches!(self, Step::RailCollect | Step::RailOnline) {
+                rail
+            } else {
+                hand
+            };
+            let bytes = std::fs::read(file).map_err(io(file))?;
+            text.push_str(&format!("real rig {}\n", crate::trial::sha256_hex(&bytes)));
+        }
+        for dep in self.depends_on() {
+            let digest = read_record(&ctx.out.join(dep.dir()))
+                .map_or("not finished".into(), |r| r.outputs_sha256);
+            text.push_str(&format!("{} {digest}\n", dep.name()));
+        }
+        Ok(text)
+    }
+
+    /// Runs the step into `dir`; `Ok(false)` when it was interrupted.
+    pub fn run(self, ctx: &Context, dir: &Path) -> Result<bool, ReproduceError> {
+        let c = ctx.preset.counts();
+        let step = self.name();
+        match self {
+            Step::RailSweep => rail_sweep(ctx, &c, dir).map(|_| true),
+            Step::RailModel => rail_model(ctx, &c, dir).map(|_| true),
+            Step::HandModels => hand_models(ctx, dir).map(|_| true),
+            _ => {
+                for (sub, protocol) in self.protocols(&c) {
+                    let batch_dir = if sub.is_empty() {
+                        dir.to_path_buf()
+                    } else {
+                        dir.join(sub)
+                    };
+                    if !run_batch_step(ctx, step, &batch_dir, &protocol)? {
+                        return Ok(false);
+                    }
+                }
+                Ok(true)
+            }
+        }
+    }
+}
+
+/// Runs one protocol as a batch in `dir` (resuming it if some trials are there).
+fn run_batch_step(
+    ctx: &Context,
+    step: &'static str,
+    dir: &Path,
+    protocol: &str,
+) -> Result<bool, ReproduceError> {
+    std::fs::create_dir_all(dir).map_err(io(dir))?;
+    let path = dir.join("protocol.toml");
+    std::fs::write(&path, protocol).map_err(io(&path))?;
+    let mut plan = crate::protocol::load(&path, 3).map_err(|e| ReproduceError::step(step, e))?;
+    let batch = |source| ReproduceError::Batch { step, source };
+    let mut rig = match ctx.backend {
+        Backend::Sim => BatchRig::Sim,
+        Backend::Real {
+            hand,
+            rail,
+            unattended,
+        } => {
+            let file = if plan.kind == Kind::RailCatch {
+                rail
+            } else {
+                hand
+            };
+            let hw = crate::hardware::load(file).map_err(|e| ReproduceError::step(step, e))?;
+            crate::runner::real_trial::check_real_plan(&hw, &mut plan).map_err(batch)?;
+            let staging = crate::runner::staging::Staging::for_batch(&hw, plan.kind, *unattended)
+                .map_err(batch)?;
+            let rig = crate::runner::real_trial::open_real(hw, plan.safety).map_err(batch)?;
+            BatchRig::Real {
+                staging,
+                rig: Box::new(rig),
+            }
+        }
+    };
+    ctx.bar.reset();
+    let request = BatchRequest {
+        plan: &plan,
+        out: dir,
+        resume: true,
+    };
+    let end = run_batch(&request, &mut rig, ctx.stop, ctx.bar).map_err(batch)?;
+    Ok(matches!(end, BatchEnd::Finished(_)))
+}
+
+fn labels(n_slip: usize) -> LabelSpec {
+    LabelSpec {
+        n_slip,
+        onset: OnsetSpec::default(),
+    }
+}
+
+fn load(
+    step: &'static str,
+    paths: &[PathBuf],
+    n_slip: usize,
+) -> Result<
+    (
+        crate::slip::dataset::Dataset,
+        Vec<crate::slip::model::TrialRef>,
+        crate::slip::features::FeatureSpec,
+    ),
+    ReproduceError,
+> {
+    load_labelled(paths, &labels(n_slip)).map_err(|e| ReproduceError::step(step, e))
+}
+
+/// The sweep's rows, as `tmo sweep` writes them.
+pub fn read_sweep(path: &Path) -> Result<Vec<SweepRow>, ReproduceError> {
+    let mut reader = csv::Reader::from_path(path).map_err(|e| ReproduceError::Step {
+        step: "rail_sweep",
+        message: format!("{}: {e}", path.display()),
+    })?;
+    reader
+        .deserialize()
+        .enumerate()
+        .map(|(i, r)| {
+            r.map_err(|e| ReproduceError::Step {
+                step: "rail_sweep",
+                message: format!("{}: row {}: {e}", path.display(), i + 2),
+            })
+        })
+        .collect()
+}
+
+fn rail_sweep(ctx: &Context, c: &Counts, dir: &Path) -> Result<(), ReproduceError> {
+    let step = "rail_sweep";
+    let collect = ctx.out.join(Step::RailCollect.dir());
+    let max_n = c.sweep_n_slip.iter().copied().max().unwrap_or(15);
+    let (train, _, _) = load(step, &[collect.join("train")], max_n)?;
+    let (test, _, _) = load(step, &[collect.join("test")], max_n)?;
+    let spec = SweepSpec {
+        classifiers: vec![
+            ClassifierKind::SvmRbf,
+            ClassifierKind::Logreg,
+            ClassifierKind::Threshold,
+        ],
+        downsample: c.sweep_downsample.clone(),
+        n_slip: c.sweep_n_slip.clone(),
+        scope: Scope::Global,
+        hyper: HyperChoice::Fixed(Hyperparameters {
+            c: SWEEP_C,
+            gamma: SWEEP_GAMMA,
+        }),
+        seed: 0,
+    };
+    let cells = spec.cells();
+    ctx.bar.set_length(cells.len() as u64);
+    let mut rows = run_sweep(&train, &test, &spec, &cells, |_| ctx.bar.inc(1))
+        .map_err(|e| ReproduceError::step(step, e))?;
+    rows.sort_by(|a, b| {
+        (&a.classifier, a.n_slip, &a.downsample).cmp(&(&b.classifier, b.n_slip, &b.downsample))
+    });
+    let path = dir.join("sweep.csv");
+    let mut w = csv::Writer::from_path(&path).map_err(|e| ReproduceError::step(step, e))?;
+    for r in &rows {
+        w.serialize(r).map_err(|e| ReproduceError::step(step, e))?;
+    }
+    w.flush().map_err(io(&path))?;
+    crate::plots::offline::sweep_heatmaps(&rows, dir, "")
+        .map_err(|e| ReproduceError::step(step, e))?;
+    Ok(())
+}
+
+fn best<'r>(rows: &'r [SweepRow], classifier: &str) -> Option<&'r SweepRow> {
+    rows.iter()
+        .filter(|r| r.classifier == classifier && r.macro_f1.is_finite())
+        .max_by(|a, b| a.macro_f1.total_cmp(&b.macro_f1))
+}
+
+fn rail_model(ctx: &Context, c: &Counts, dir: &Path) -> Result<(), ReproduceError> {
+    let step = "rail_model";
+    let rows = read_sweep(&ctx.out.join(Step::RailSweep.dir()).join("sweep.csv"))?;
+    let train_dir = ctx.out.join(Step::RailCollect.dir()).join("train");
+    let mut trained = Vec::new();
+    for (classifier, file) in [
+        (ClassifierKind::SvmRbf, "rail.json"),
+        (ClassifierKind::Threshold, "threshold.json"),
+    ] {
+        let cell = best(&rows, classifier.name()).ok_or_else(|| {
+            ReproduceError::step(step, format!("the sweep has no {} cell", classifier.name()))
+        })?;
+        let d: f64 = cell
+            .downsample
+            .parse()
+            .map_err(|e| ReproduceError::step(step, e))?;
+        let (ds, refs, features) = load(step, std::slice::from_ref(&train_dir), cell.n_slip)?;
+        let (hyper, search) = if classifier == ClassifierKind::SvmRbf {
+            ctx.bar.set_length(c.search_iterations as u64);
+            let spec = TuneSpec {
+                kind: classifier,
+                scope: Scope::Global,
+                downsample: d,
+                seed: 0,
+                iterations: c.search_iterations,
+                folds: c.search_folds,
+            };
+            let (h, record) =
+                tuning::search(&ds, &spec).map_err(|e| ReproduceError::step(step, e))?;
+            ctx.bar.inc(c.search_iterations as u64);
+            (h, Some(record))
+        } else {
+            (
+                Hyperparameters {
+                    c: SWEEP_C,
+                    gamma: SWEEP_GAMMA,
+                },
+                None,
+            )
+        };
+        let spec = TrainSpec {
+            kind: classifier,
+            hyper,
+            scope: Scope::Global,
+            features,
+            labels: labels(cell.n_slip),
+            downsample: d,
+            seed: 0,
+        };
+        let model = ModelFile::train(&ds, &spec, refs, search)
+            .map_err(|e| ReproduceError::step(step, e))?;
+        model
+            .save(&dir.join(file))
+            .map_err(|e| ReproduceError::step(step, e))?;
+        trained.push(file);
+    }
+    Ok(())
+}
+
+/// `timing.json`: how long the online model takes to classify one frame.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct Timing {
+    pub frames: usize,
+    pub median_ms: f64,
+    pub p99_ms: f64,
+}
+
+fn hand_models(ctx: &Context, dir: &Path) -> Result<(), ReproduceError> {
+    let step = "hand_models";
+    let rail_path = ctx.out.join(Step::RailModel.dir()).join("rail.json");
+    let rail = ModelFile::load(&rail_path).map_err(|e| ReproduceError::step(step, e))?;
+    let collect = ctx.out.join(Step::HandCollect.dir());
+    // The paper trains the hand with the single finger's best cell and hyperparameters.
+    let n_slip = rail.labels.n_slip;
+    let (train, refs, features) = load(step, &[collect.join("train")], n_slip)?;
+    let (test, test_refs, _) = load(step, &[collect.join("test")], n_slip)?;
+    ctx.bar.set_length(5);
+    for (scope, file) in [(Scope::Global, "global.json"), (Scope::Local, "local.json")] {
+        let spec = TrainSpec {
+            kind: ClassifierKind::SvmRbf,
+            hyper: rail.hyperparameters,
+            scope,
+            features,
+            labels: labels(n_slip),
+            downsample: rail.downsample,
+            seed: 0,
+        };
+        let model = ModelFile::train(&train, &spec, refs.clone(), None)
+            .map_err(|e| ReproduceError::step(step, e))?;
+        model
+            .save(&dir.join(file))
+            .map_err(|e| ReproduceError::step(step, e))?;
+        ctx.bar.inc(1);
+    }
+    for (model_path, out) in [
+        (dir.join("global.json"), "eval_global.json"),
+        (dir.join("local.json"), "eval_local.json"),
+        (rail_path.clone(), "eval_rail_model.json"),
+    ] {
+        let model = ModelFile::load(&model_path).map_err(|e| ReproduceError::step(step, e))?;
+        let (overall, per_sensor) = model
+            .evaluate(&test)
+            .map_err(|e| ReproduceError::step(step, e))?;
+        let e = Evaluation::of(
+            &model_path,
+            &model,
+            test_refs.len(),
+            test.len(),
+            overall,
+            per_sensor,
+        )
+        .map_err(io(&model_path))?;
+        let path = dir.join(out);
+        std::fs::write(
+            &path,
+            serde_json::to_string_pretty(&e).expect("evaluations serialise"),
+        )
+        .map_err(io(&path))?;
+        ctx.bar.inc(1);
+    }
+    let timing = time_classification(&dir.join("global.json"), &test)
+        .map_err(|e| ReproduceError::step(step, e))?;
+    let path = dir.join("timing.json");
+    std::fs::write(
+        &path,
+        serde_json::to_string_pretty(&timing).expect("timings serialise"),
+    )
+    .map_err(io(&path))?;
+    Ok(())
+}
+
+/// Times the model's classification of up to 2000 test frames one at a time, as the online
+/// detector calls it (a measurement for the findings table, not a benchmark).
+fn time_classification(
+    model_path: &Path,
+    test: &crate::slip::dataset::Dataset,
+) -> Result<Timing, crate::slip::model::ModelFileError> {
+    let mut model = ModelFile::load(model_path)?;
+    let m = &mut model.models[0];
+    m.prepare();
+    let mut scratch = Vec::new();
+    let n = test.len().min(2000);
+    let mut ms: Vec<f64> = (0..n)
+        .map(|i| {
+            let t = std::time::Instant::now();
+            std::hint::black_box(m.predict(test.row(i), &mut scratch));
+            t.elapsed().as_secs_f64() * 1000.0
+        })
+        .collect();
+    ms.sort_by(f64::total_cmp);
+    let at = |q: f64| ms.get(((q * (n.max(1) - 1) as f64) as usize).min(n.saturating_sub(1)));
+    Ok(Timing {
+        frames: n,
+        median_ms: at(0.5).copied().unwrap_or(f64::NAN),
+        p99_ms: at(0.99).copied().unwrap_or(f64::NAN),
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_batch_step_writes_a_protocol_that_loads() {
+        let dir = tempfile::tempdir().unwrap();
+        // the models and calibration tables the protocols name need to exist to load
+        let models = dir.path().join("06_hand_models");
+        std::fs::create_dir_all(&models).unwrap();
+        for f in ["global.json", "local.json"] {
+            std::fs::write(models.join(f), "{}").unwrap();
+        }
+        std::fs::create_dir_all(dir.path().join("03_rail_model")).unwrap();
+        std::fs::write(dir.path().join("03_rail_model/rail.json"), "{}").unwrap();
+        for sub in ["can", "cat"] {
+            let d = dir.path().join("10_calibrate_lift").join(sub);
+            std::fs::create_dir_all(&d).unwrap();
+            std::fs::write(d.join("g_min.json"), "{}").unwrap();
+        }
+        for preset in [Preset::Quick, Preset::Paper] {
+            for step in Step::ALL {
+                for (sub, text) in step.protocols(&preset.counts()) {
+                    let d = dir.path().join(step.dir()).join(sub);
+                    std::fs::create_dir_all(&d).unwrap();
+                    let p = d.join("protocol.toml");
+                    std::fs::write(&p, &text).unwrap();
+                    if let Err(e) = crate::protocol::load(&p, 3) {
+                        panic!("{} {sub}: {e}\n{text}", step.name());
+                    }
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn steps_have_distinct_ordered_directories() {
+        let dirs: Vec<String> = Step::ALL.iter().map(|s| s.dir()).collect();
+        assert_eq!(dirs[0], "01_rail_collect");
+        assert_eq!(dirs[10], "11_first_time_lift");
+        let mut sorted = dirs.clone();
+        sorted.sort();
+        sorted.dedup();
+        assert_eq!(sorted, dirs);
+        // every dependency comes earlier
+        for (k, s) in Step::ALL.iter().enumerate() {
+            for d in s.depends_on() {
+                assert!(
+                    Step::ALL[..k].contains(d),
+                    "{} before {}",
+                    d.name(),
+                    s.name()
+                );
+            }
+        }
+    }
+}
