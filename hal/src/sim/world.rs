@@ -61,8 +61,9 @@ pub struct TruthEvents {
 }
 
 /// The fall (mm, relative to the hand) below which a slip counts as not measurable: the
-/// marker scorer's default resolution, so truth and marker verdicts ask the same question.
-pub const MEASURABLE_FALL_MM: f64 = 0.5;
+/// marker scorer's default drop threshold (a slip is only detected once the object is 1 mm
+/// down), so truth and marker verdicts ask the same question.
+pub const MEASURABLE_FALL_MM: f64 = 1.0;
 
 struct SensorUnit {
     optics: SensorOptics,

@@ -1,0 +1,126 @@
+//! `tmo reproduce` on the simulator: the quick preset end to end, and a reproduction killed
+//! mid-way that `--resume` finishes without rerunning its finished steps.
+
+mod common;
+
+use std::process::{Command, Stdio};
+use std::time::{Duration, Instant};
+
+use common::*;
+
+#[test]
+fn the_quick_preset_writes_every_step_and_the_findings_report() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let out = ok(&tmo(
+        d,
+        &["reproduce", "--preset", "quick", "--out", "paper"],
+    ));
+    assert!(out.contains("findings reproduced"), "{out}");
+    assert!(out.contains("findings.html"), "{out}");
+    assert!(out.contains("ground truth"), "{out}");
+    for step in [
+        "01_rail_collect",
+        "02_rail_sweep",
+        "03_rail_model",
+        "04_rail_online",
+        "05_hand_collect",
+        "06_hand_models",
+        "07_hand_online",
+        "08_hand_objects",
+        "09_rice_pour",
+        "10_calibrate_lift",
+        "11_first_time_lift",
+    ] {
+        assert!(
+            d.join("paper").join(step).join("step.json").is_file(),
+            "{step}"
+        );
+    }
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(d.join("paper/findings.json")).unwrap())
+            .unwrap();
+    let findings = json["findings"].as_array().unwrap();
+    assert!(findings.len() >= 25);
+    // every finding was measured: each step gave what its rows read
+    for f in findings {
+        assert_ne!(f["reproduced"], "not_measured", "{f}");
+    }
+    let html = std::fs::read_to_string(d.join("paper/findings.html")).unwrap();
+    assert!(
+        html.contains("<table>") && html.contains("<svg"),
+        "html has tables and figures"
+    );
+    let md = std::fs::read_to_string(d.join("paper/findings.md")).unwrap();
+    assert!(md.contains("| sf-offline-order |"), "{md}");
+
+    // everything done: a resume runs nothing; without --resume the directory is refused
+    let again = ok(&tmo(d, &["reproduce", "--out", "paper", "--resume"]));
+    assert!(again.contains("0 step(s) run, 11 already done"), "{again}");
+    let refused = fails(&tmo(d, &["reproduce", "--out", "paper"]));
+    assert!(refused.contains("--resume"), "{refused}");
+}
+
+#[test]
+fn a_reproduction_killed_mid_way_resumes_without_rerunning_finished_steps() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let mut child = Command::new(env!("CARGO_BIN_EXE_tmo"))
+        .current_dir(d)
+        .args(["reproduce", "--preset", "quick", "--out", "r"])
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
+    // kill -9 once the first step is done and the second has started
+    let first = d.join("r/01_rail_collect/step.json");
+    let started = Instant::now();
+    while !(first.exists() && d.join("r/02_rail_sweep").exists()) {
+        assert!(
+            started.elapsed() < Duration::from_secs(120),
+            "the first step never finished"
+        );
+        std::thread::sleep(Duration::from_millis(5));
+    }
+    child.kill().unwrap();
+    child.wait().unwrap();
+    let record = std::fs::read_to_string(&first).unwrap();
+    let modified = std::fs::metadata(&first).unwrap().modified().unwrap();
+    let trials = std::fs::read_dir(d.join("r/01_rail_collect/train"))
+        .unwrap()
+        .count();
+
+    let out = ok(&tmo(d, &["reproduce", "--out", "r", "--resume"]));
+    assert!(out.contains("findings reproduced"), "{out}");
+    assert!(
+        out.contains("1 already done") || out.contains("already done"),
+        "{out}"
+    );
+    let (ran, kept) = counts(&out);
+    assert_eq!(ran + kept, 11, "{out}");
+    assert!(kept >= 1, "{out}");
+    // the finished step was kept as it was
+    assert_eq!(std::fs::read_to_string(&first).unwrap(), record);
+    assert_eq!(
+        std::fs::metadata(&first).unwrap().modified().unwrap(),
+        modified
+    );
+    assert_eq!(
+        std::fs::read_dir(d.join("r/01_rail_collect/train"))
+            .unwrap()
+            .count(),
+        trials
+    );
+    assert!(d.join("r/11_first_time_lift/step.json").is_file());
+}
+
+/// "N step(s) run, M already done" from reproduce's output.
+fn counts(out: &str) -> (usize, usize) {
+    let line = out.lines().find(|l| l.contains("step(s) run")).unwrap();
+    let words: Vec<&str> = line.split_whitespace().collect();
+    let at = |w: &str| {
+        let k = words.iter().position(|x| x.starts_with(w)).unwrap();
+        words[k - 1].trim_end_matches(',').parse().unwrap()
+    };
+    (at("step(s)"), at("already"))
+}
