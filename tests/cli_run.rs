@@ -96,7 +96,7 @@ fn malformed_protocols_are_refused_with_their_place() {
         ),
         (
             "kind = \"hand_release\"\nmodels = [\"gone.json\"]\n",
-            "gone.json",
+            "gone.json not found; make one from collected trials with `tmo train TRIALS --out",
         ),
         (
             "kind = \"hand_release\"\nmodels = [\"m.json\"]\nstrategies = [\"1x5\"]\n",

@@ -4,17 +4,14 @@
 //! sweep loses at most the cells in flight and `--resume` runs only the rest; the final
 //! CSV is sorted and written under its name only when every cell is done.
 
-use std::collections::HashSet;
-use std::path::{Path, PathBuf};
-use std::sync::Mutex;
+use std::path::PathBuf;
 
 use anyhow::{Context, Result};
 use tmo::slip::dataset::{split_trials, LabelSpec, Scope};
 use tmo::slip::labels::OnsetSpec;
 use tmo::slip::model::{ClassifierKind, Hyperparameters, TrialRef};
-use tmo::slip::sweep::{
-    parse_f64_grid, parse_usize_grid, run_sweep, HyperChoice, SweepRow, SweepSpec,
-};
+use tmo::slip::sweep::{parse_f64_grid, parse_usize_grid, HyperChoice, SweepSpec};
+use tmo::slip::sweep_file::run_to_file;
 use tmo::trial::{expand_trial_paths, TrialMeta};
 
 use super::slip::{load_dataset, SearchMethod};
@@ -90,35 +87,6 @@ struct SweepProvenance<'a> {
     wall_seconds: f64,
 }
 
-fn partial_path(out: &Path) -> PathBuf {
-    let mut name = out.as_os_str().to_owned();
-    name.push(".partial");
-    PathBuf::from(name)
-}
-
-fn read_rows(path: &Path) -> Result<Vec<SweepRow>> {
-    let mut reader =
-        csv::Reader::from_path(path).with_context(|| format!("cannot read {}", path.display()))?;
-    reader
-        .deserialize()
-        .enumerate()
-        .map(|(i, r)| r.with_context(|| format!("{}: row {}", path.display(), i + 2)))
-        .collect()
-}
-
-fn write_rows(path: &Path, rows: &[SweepRow]) -> Result<()> {
-    let tmp = partial_path(&path.with_extension("writing"));
-    {
-        let mut w = csv::Writer::from_path(&tmp)
-            .with_context(|| format!("cannot write {}", tmp.display()))?;
-        for r in rows {
-            w.serialize(r)?;
-        }
-        w.flush()?;
-    }
-    std::fs::rename(&tmp, path).with_context(|| format!("cannot write {}", path.display()))
-}
-
 pub fn sweep(args: SweepArgs) -> Result<()> {
     let downsample = parse_f64_grid(&args.downsample).context("--downsample")?;
     let n_slip = parse_usize_grid(&args.n_slip).context("--n-slip")?;
@@ -151,24 +119,6 @@ pub fn sweep(args: SweepArgs) -> Result<()> {
     };
     spec.check()?;
 
-    let partial = partial_path(&args.out);
-    let done: Vec<SweepRow> = if args.resume {
-        let mut rows = Vec::new();
-        for p in [&args.out, &partial] {
-            if p.exists() {
-                rows.extend(read_rows(p)?);
-            }
-        }
-        rows
-    } else {
-        anyhow::ensure!(
-            !partial.exists(),
-            "{} holds cells of an interrupted sweep: pass --resume to finish it, or delete it",
-            partial.display()
-        );
-        Vec::new()
-    };
-
     // Label once with the largest n_slip; every cell narrows it.
     let labels = LabelSpec {
         n_slip: *n_slip.iter().max().expect("checked non-empty"),
@@ -194,85 +144,37 @@ pub fn sweep(args: SweepArgs) -> Result<()> {
         "need rows in both the training and the test trials"
     );
 
-    let finished: HashSet<_> = done.iter().map(SweepRow::key).collect();
-    let cells: Vec<_> = spec
-        .cells()
-        .into_iter()
-        .filter(|c| !finished.contains(&c.key()))
-        .collect();
-    if let Some(dir) = args.out.parent().filter(|d| !d.as_os_str().is_empty()) {
-        std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
-    }
-    println!(
-        "sweep: {} cells to run ({} already done), {} train trials ({} rows), {} test trials ({} rows)",
-        cells.len(),
-        done.len(),
-        is_test.iter().filter(|t| !**t).count(),
-        train.len(),
-        is_test.iter().filter(|t| **t).count(),
-        test.len()
-    );
     let started = std::time::Instant::now();
-    let bar = indicatif::ProgressBar::new(cells.len() as u64);
-    bar.set_style(
-        indicatif::ProgressStyle::with_template(
-            "sweep [{bar:30}] {pos}/{len} cells, {elapsed} (eta {eta}) {msg}",
-        )
-        .expect("valid template")
-        .progress_chars("=> "),
+    let bar = super::run::progress_bar("sweep", "cells");
+    let (n_train, n_test) = (
+        is_test.iter().filter(|t| !**t).count(),
+        is_test.iter().filter(|t| **t).count(),
     );
-    let append_header = !partial.exists();
-    let file = std::fs::OpenOptions::new()
-        .create(true)
-        .append(true)
-        .open(&partial)
-        .with_context(|| format!("cannot write {}", partial.display()))?;
-    let writer = Mutex::new(
-        csv::WriterBuilder::new()
-            .has_headers(append_header)
-            .from_writer(file),
+    let result = run_to_file(
+        &train,
+        &test,
+        &spec,
+        &args.out,
+        args.resume,
+        None,
+        |to_run, done| {
+            println!(
+                "sweep: {to_run} cells to run ({done} already done), {n_train} train trials ({} rows), {n_test} test trials ({} rows)",
+                train.len(),
+                test.len()
+            );
+            bar.set_length(to_run as u64);
+        },
+        |row| {
+            bar.set_message(format!(
+                "last: {} n_slip {} d {} F1 {:.3}",
+                row.classifier, row.n_slip, row.downsample, row.macro_f1
+            ));
+            bar.inc(1);
+        },
     );
-    let write_error = Mutex::new(None);
-    let result = run_sweep(&train, &test, &spec, &cells, |row| {
-        let mut w = writer.lock().expect("writer lock");
-        if let Err(e) = w
-            .serialize(row)
-            .and_then(|_| w.flush().map_err(csv::Error::from))
-        {
-            write_error.lock().expect("lock").get_or_insert(e);
-        }
-        bar.set_message(format!(
-            "last: {} n_slip {} d {} F1 {:.3}",
-            row.classifier, row.n_slip, row.downsample, row.macro_f1
-        ));
-        bar.inc(1);
-    });
     bar.finish_and_clear();
-    drop(writer);
-    if let Some(e) = write_error.into_inner().expect("lock") {
-        return Err(e).with_context(|| format!("cannot write {}", partial.display()));
-    }
-    let new_rows = result.with_context(|| {
-        format!(
-            "sweep stopped; finished cells are in {} (run again with --resume)",
-            partial.display()
-        )
-    })?;
-
-    let mut rows = done;
-    rows.extend(new_rows);
-    rows.sort_by(|a, b| {
-        let rank = |r: &SweepRow| {
-            spec.classifiers
-                .iter()
-                .position(|k| k.name() == r.classifier)
-                .unwrap_or(usize::MAX)
-        };
-        (rank(a), a.n_slip, &a.downsample).cmp(&(rank(b), b.n_slip, &b.downsample))
-    });
-    rows.dedup_by(|a, b| a.key() == b.key());
-    write_rows(&args.out, &rows)?;
-    let _ = std::fs::remove_file(&partial);
+    let rows = result?.rows;
 
     let (tmo_version, git_revision) = TrialMeta::code_version();
     let provenance = SweepProvenance {

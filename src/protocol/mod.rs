@@ -326,7 +326,11 @@ pub fn validate(
             if !resolved.is_file() {
                 return Err(err(
                     &format!("models.{i}"),
-                    format!("model file {} not found", resolved.display()),
+                    format!(
+                        "model file {} not found; make one from collected trials with `tmo train TRIALS --out {}` (README, \"The same, step by step\"), or run `tmo reproduce --preset quick`, which collects, trains and runs every protocol",
+                        resolved.display(),
+                        resolved.display()
+                    ),
                 ));
             }
             models.push(resolved);

@@ -15,7 +15,8 @@ use crate::slip::dataset::{load_labelled, LabelSpec, Scope};
 use crate::slip::evaluation::Evaluation;
 use crate::slip::labels::OnsetSpec;
 use crate::slip::model::{ClassifierKind, Hyperparameters, ModelFile, TrainSpec};
-use crate::slip::sweep::{run_sweep, HyperChoice, SweepRow, SweepSpec};
+use crate::slip::sweep::{HyperChoice, SweepRow, SweepSpec};
+use crate::slip::sweep_file::run_to_file;
 use crate::slip::tuning::{self, TuneSpec};
 
 /// C of the paper's best SVM, used for the sweep's cells when they are not searched (the
@@ -302,11 +303,14 @@ impl Step {
         }
     }
 
-    /// Everything the step's result depends on, as text (hashed into `step.json`): its
-    /// settings and the output digests of the steps it reads.
+    /// Everything the step's result depends on, as text (hashed into `step.json`): the
+    /// code's version and git revision, its settings and the output digests of the steps
+    /// it reads.
     pub fn inputs(self, ctx: &Context) -> Result<String, ReproduceError> {
         let c = ctx.preset.counts();
-        let mut text = format!("step {}\n", self.name());
+        // The code is an input: a step made by another build of tmo is made again.
+        let (version, revision) = crate::trial::TrialMeta::code_version();
+        let mut text = format!("step {}\ntmo {version} {revision}\n", self.name());
         match self {
             Step::RailSweep => text.push_str(&format!(
                 "d {:?}\nn_slip {:?}\nsearch {:?} else C {SWEEP_C} gamma {SWEEP_GAMMA}\n",
@@ -343,7 +347,7 @@ impl Step {
         let c = ctx.preset.counts();
         let step = self.name();
         match self {
-            Step::RailSweep => rail_sweep(ctx, &c, dir).map(|_| true),
+            Step::RailSweep => rail_sweep(ctx, &c, dir),
             Step::RailModel => rail_model(ctx, &c, dir).map(|_| true),
             Step::HandModels => hand_models(ctx, dir).map(|_| true),
             _ => {
@@ -432,23 +436,10 @@ fn load(
 
 /// The sweep's rows, as `tmo sweep` writes them.
 pub fn read_sweep(path: &Path) -> Result<Vec<SweepRow>, ReproduceError> {
-    let mut reader = csv::Reader::from_path(path).map_err(|e| ReproduceError::Step {
-        step: "rail_sweep",
-        message: format!("{}: {e}", path.display()),
-    })?;
-    reader
-        .deserialize()
-        .enumerate()
-        .map(|(i, r)| {
-            r.map_err(|e| ReproduceError::Step {
-                step: "rail_sweep",
-                message: format!("{}: row {}: {e}", path.display(), i + 2),
-            })
-        })
-        .collect()
+    crate::slip::sweep_file::read_rows(path).map_err(|e| ReproduceError::step("rail_sweep", e))
 }
 
-fn rail_sweep(ctx: &Context, c: &Counts, dir: &Path) -> Result<(), ReproduceError> {
+fn rail_sweep(ctx: &Context, c: &Counts, dir: &Path) -> Result<bool, ReproduceError> {
     let step = "rail_sweep";
     let collect = ctx.out.join(Step::RailCollect.dir());
     let max_n = c.sweep_n_slip.iter().copied().max().unwrap_or(15);
@@ -472,22 +463,25 @@ fn rail_sweep(ctx: &Context, c: &Counts, dir: &Path) -> Result<(), ReproduceErro
         },
         seed: 0,
     };
-    let cells = spec.cells();
-    ctx.bar.set_length(cells.len() as u64);
-    let mut rows = run_sweep(&train, &test, &spec, &cells, |_| ctx.bar.inc(1))
-        .map_err(|e| ReproduceError::step(step, e))?;
-    rows.sort_by(|a, b| {
-        (&a.classifier, a.n_slip, &a.downsample).cmp(&(&b.classifier, b.n_slip, &b.downsample))
-    });
-    let path = dir.join("sweep.csv");
-    let mut w = csv::Writer::from_path(&path).map_err(|e| ReproduceError::step(step, e))?;
-    for r in &rows {
-        w.serialize(r).map_err(|e| ReproduceError::step(step, e))?;
-    }
-    w.flush().map_err(io(&path))?;
+    // Finished cells are kept in sweep.csv.partial: an interrupted sweep resumes there.
+    let result = run_to_file(
+        &train,
+        &test,
+        &spec,
+        &dir.join("sweep.csv"),
+        true,
+        Some(ctx.stop),
+        |to_run, _| ctx.bar.set_length(to_run as u64),
+        |_| ctx.bar.inc(1),
+    );
+    let rows = match result {
+        Ok(r) => r.rows,
+        Err(e) if e.stopped() => return Ok(false),
+        Err(e) => return Err(ReproduceError::step(step, e)),
+    };
     crate::plots::offline::sweep_heatmaps(&rows, dir, "")
         .map_err(|e| ReproduceError::step(step, e))?;
-    Ok(())
+    Ok(true)
 }
 
 fn best<'r>(rows: &'r [SweepRow], classifier: &str) -> Option<&'r SweepRow> {

@@ -2,7 +2,8 @@
 //!
 //! The slip onset is found from marker heights, never from simulator truth. Slip is *detected*
 //! at the first marker sample at which the object is more than `drop_threshold_mm` below its
-//! held height and stays so, still falling, for the next `confirm_samples` samples. Its
+//! held height and stays so for the next `confirm_samples` samples (a slip caught within
+//! them still counts: the object moved; one noisy sample does not). Its
 //! *onset* is the change point before that: the first sample of the run, ending in the
 //! detection, in which the track (a centred 3-sample mean, which cuts the noise of two
 //! markers by sqrt 3) is more than `resolution_mm` below the held height (and the sample
@@ -119,7 +120,7 @@ pub fn find_onset(track: &[MarkerSample], spec: &OnsetSpec) -> Option<Onset> {
         if end >= h.len() {
             return None;
         }
-        if h[i..=end].iter().all(|&x| x < limit) && h[end] < h[i] {
+        if h[i..=end].iter().all(|&x| x < limit) {
             let smooth = smoothed(&h);
             // The mean also reads the next sample: the raw sample must have moved too, or
             // the last held sample would count as falling.

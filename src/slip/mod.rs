@@ -12,6 +12,7 @@ pub mod model;
 pub mod scaler;
 pub mod svm;
 pub mod sweep;
+pub mod sweep_file;
 pub mod threshold;
 pub mod tuning;
 

@@ -117,6 +117,8 @@ pub enum SweepError {
         "{cell:?}: the test trials have sensor {sensor}, which no local model was trained for"
     )]
     Sensor { cell: Cell, sensor: u8 },
+    #[error("stopped before every cell had run")]
+    Stopped,
 }
 
 impl SweepSpec {
@@ -257,11 +259,27 @@ pub fn run_sweep(
     cells: &[Cell],
     on_done: impl Fn(&SweepRow) + Sync,
 ) -> Result<Vec<SweepRow>, SweepError> {
+    run_sweep_until(train, test, spec, cells, None, on_done)
+}
+
+/// [`run_sweep`] that starts no more cells once `stop` is set (cells in flight finish and
+/// reach `on_done`); then it returns [`SweepError::Stopped`].
+pub fn run_sweep_until(
+    train: &Dataset,
+    test: &Dataset,
+    spec: &SweepSpec,
+    cells: &[Cell],
+    stop: Option<&std::sync::atomic::AtomicBool>,
+    on_done: impl Fn(&SweepRow) + Sync,
+) -> Result<Vec<SweepRow>, SweepError> {
     spec.check()?;
     cells
         .par_iter()
         .with_max_len(1)
         .map(|&cell| {
+            if stop.is_some_and(|s| s.load(std::sync::atomic::Ordering::Relaxed)) {
+                return Err(SweepError::Stopped);
+            }
             let row = run_cell(train, test, spec, cell)?;
             on_done(&row);
             Ok(row)

@@ -1,0 +1,193 @@
+//! A sweep's results file. Finished cells are appended to `<out>.partial` as they complete,
+//! so an interrupted sweep loses at most the cells in flight and a resumed one runs only the
+//! rest; the CSV is sorted and written under its name only when every cell is done.
+
+use std::collections::HashSet;
+use std::path::{Path, PathBuf};
+use std::sync::atomic::AtomicBool;
+use std::sync::Mutex;
+
+use super::dataset::Dataset;
+use super::sweep::{run_sweep_until, SweepError, SweepRow, SweepSpec};
+
+#[derive(Debug, thiserror::Error)]
+pub enum SweepFileError {
+    #[error("{path}: {source}")]
+    Io {
+        path: PathBuf,
+        source: std::io::Error,
+    },
+    #[error("{path}: {message}")]
+    Csv { path: PathBuf, message: String },
+    #[error("{0} holds cells of an interrupted sweep: pass --resume to finish it, or delete it")]
+    PartialThere(PathBuf),
+    #[error("sweep stopped; finished cells are in {partial} (run again with --resume): {source}")]
+    Sweep {
+        partial: PathBuf,
+        source: SweepError,
+    },
+}
+
+impl SweepFileError {
+    /// Did the sweep stop because it was asked to (not because a cell failed)?
+    pub fn stopped(&self) -> bool {
+        matches!(
+            self,
+            SweepFileError::Sweep {
+                source: SweepError::Stopped,
+                ..
+            }
+        )
+    }
+}
+
+/// Where the finished cells of a sweep writing `out` are kept until it is done.
+pub fn partial_path(out: &Path) -> PathBuf {
+    let mut name = out.as_os_str().to_owned();
+    name.push(".partial");
+    PathBuf::from(name)
+}
+
+fn csv_error(path: &Path) -> impl Fn(csv::Error) -> SweepFileError + '_ {
+    move |e| SweepFileError::Csv {
+        path: path.to_path_buf(),
+        message: e.to_string(),
+    }
+}
+
+/// The rows of a sweep CSV.
+pub fn read_rows(path: &Path) -> Result<Vec<SweepRow>, SweepFileError> {
+    let mut reader = csv::Reader::from_path(path).map_err(csv_error(path))?;
+    reader
+        .deserialize()
+        .enumerate()
+        .map(|(i, r)| {
+            r.map_err(|e| SweepFileError::Csv {
+                path: path.to_path_buf(),
+                message: format!("row {}: {e}", i + 2),
+            })
+        })
+        .collect()
+}
+
+/// Writes `rows` to `path` through a temporary file.
+pub fn write_rows(path: &Path, rows: &[SweepRow]) -> Result<(), SweepFileError> {
+    let tmp = partial_path(&path.with_extension("writing"));
+    {
+        let mut w = csv::Writer::from_path(&tmp).map_err(csv_error(&tmp))?;
+        for r in rows {
+            w.serialize(r).map_err(csv_error(&tmp))?;
+        }
+        w.flush().map_err(|source| SweepFileError::Io {
+            path: tmp.clone(),
+            source,
+        })?;
+    }
+    std::fs::rename(&tmp, path).map_err(|source| SweepFileError::Io {
+        path: path.to_path_buf(),
+        source,
+    })
+}
+
+/// A finished sweep: every row in grid order, and how many were there before.
+pub struct SweepResult {
+    pub rows: Vec<SweepRow>,
+    pub already_done: usize,
+    pub ran: usize,
+}
+
+/// Runs the cells of `spec` not yet in `out` (or its partial file, with `resume`), keeping
+/// each as it finishes; `on_start` learns how many will run, `on_done` sees each new row.
+#[allow(clippy::too_many_arguments)] // each is one fact about the sweep; a struct would only rename them
+pub fn run_to_file(
+    train: &Dataset,
+    test: &Dataset,
+    spec: &SweepSpec,
+    out: &Path,
+    resume: bool,
+    stop: Option<&AtomicBool>,
+    on_start: impl FnOnce(usize, usize),
+    on_done: impl Fn(&SweepRow) + Sync,
+) -> Result<SweepResult, SweepFileError> {
+    let partial = partial_path(out);
+    let done: Vec<SweepRow> = if resume {
+        let mut rows = Vec::new();
+        for p in [out, partial.as_path()] {
+            if p.exists() {
+                rows.extend(read_rows(p)?);
+            }
+        }
+        rows
+    } else {
+        if partial.exists() {
+            return Err(SweepFileError::PartialThere(partial));
+        }
+        Vec::new()
+    };
+    let finished: HashSet<_> = done.iter().map(SweepRow::key).collect();
+    let cells: Vec<_> = spec
+        .cells()
+        .into_iter()
+        .filter(|c| !finished.contains(&c.key()))
+        .collect();
+    if let Some(dir) = out.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir).map_err(|source| SweepFileError::Io {
+            path: dir.to_path_buf(),
+            source,
+        })?;
+    }
+    on_start(cells.len(), finished.len());
+    let append_header = !partial.exists();
+    let file = std::fs::OpenOptions::new()
+        .create(true)
+        .append(true)
+        .open(&partial)
+        .map_err(|source| SweepFileError::Io {
+            path: partial.clone(),
+            source,
+        })?;
+    let writer = Mutex::new(
+        csv::WriterBuilder::new()
+            .has_headers(append_header)
+            .from_writer(file),
+    );
+    let write_error = Mutex::new(None);
+    let result = run_sweep_until(train, test, spec, &cells, stop, |row| {
+        let mut w = writer.lock().expect("writer lock");
+        if let Err(e) = w
+            .serialize(row)
+            .and_then(|_| w.flush().map_err(csv::Error::from))
+        {
+            write_error.lock().expect("lock").get_or_insert(e);
+        }
+        on_done(row);
+    });
+    drop(writer);
+    if let Some(e) = write_error.into_inner().expect("lock") {
+        return Err(csv_error(&partial)(e));
+    }
+    let new_rows = result.map_err(|source| SweepFileError::Sweep {
+        partial: partial.clone(),
+        source,
+    })?;
+    let ran = new_rows.len();
+    let mut rows = done;
+    rows.extend(new_rows);
+    let rank = |r: &SweepRow| {
+        spec.classifiers
+            .iter()
+            .position(|k| k.name() == r.classifier)
+            .unwrap_or(usize::MAX)
+    };
+    rows.sort_by(|a, b| {
+        (rank(a), a.n_slip, &a.downsample).cmp(&(rank(b), b.n_slip, &b.downsample))
+    });
+    rows.dedup_by(|a, b| a.key() == b.key());
+    write_rows(out, &rows)?;
+    let _ = std::fs::remove_file(&partial);
+    Ok(SweepResult {
+        already_done: finished.len(),
+        ran,
+        rows,
+    })
+}
