@@ -79,11 +79,9 @@ pub fn run(args: ReproduceArgs) -> Result<u8> {
     let multi = indicatif::MultiProgress::new();
     let steps = multi.add(indicatif::ProgressBar::new(0));
     steps.set_style(
-        indicatif::ProgressStyle::with_template(
-            "reproduce step {pos}/{len} [{bar:20}] {elapsed}: {msg}",
-        )
-        .expect("valid template")
-        .progress_chars("=> "),
+        indicatif::ProgressStyle::with_template("reproduce [{bar:20}] {elapsed} {msg}")
+            .expect("valid template")
+            .progress_chars("=> "),
     );
     let work = multi.add(indicatif::ProgressBar::new(0));
     work.set_style(

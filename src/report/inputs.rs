@@ -161,7 +161,12 @@ pub fn load(paths: &[PathBuf]) -> Result<Inputs, InputError> {
     for p in paths {
         if p.is_dir() {
             if p.join("batch.json").is_file() {
-                inputs.batches.push(load_batch(p)?);
+                let batch = load_batch(p)?;
+                // A collect batch's logs are training data: the offline figures read them.
+                if batch.manifest.mode == Mode::Collect && has_trial_logs(p) {
+                    inputs.trial_dirs.push(p.clone());
+                }
+                inputs.batches.push(batch);
             } else if p.join("sweep.csv").is_file() {
                 inputs.sweeps.push(load_sweep(&p.join("sweep.csv"))?);
             } else if has_trial_logs(p) {

@@ -189,8 +189,13 @@ pub fn reproduce(
     };
     progress.steps.set_length(Step::ALL.len() as u64 + 1);
     let (mut ran, mut kept) = (Vec::new(), Vec::new());
-    for step in Step::ALL {
-        progress.steps.set_message(step.title());
+    for (k, step) in Step::ALL.iter().copied().enumerate() {
+        progress.steps.set_message(format!(
+            "step {} of {}: {}",
+            k + 1,
+            Step::ALL.len() + 1,
+            step.title()
+        ));
         let dir = out.join(step.dir());
         let inputs = sha256_text(&step.inputs(&ctx)?);
         let done = read_record(&dir).is_some_and(|r| r.inputs_sha256 == inputs);
@@ -209,6 +214,8 @@ pub fn reproduce(
         std::fs::create_dir_all(&dir).map_err(io(&dir))?;
         std::fs::write(dir.join("step.inputs"), &inputs).map_err(io(&dir))?;
         progress.work.reset();
+        progress.work.set_length(0);
+        progress.work.set_message("");
         let started = std::time::Instant::now();
         let finished = step.run(&ctx, &dir)?;
         if !finished || stop.load(Ordering::Relaxed) {
@@ -232,7 +239,10 @@ pub fn reproduce(
         ran.push(step.name());
         progress.steps.inc(1);
     }
-    progress.steps.set_message("findings");
+    progress.steps.set_message(format!(
+        "step {0} of {0}: the findings report",
+        Step::ALL.len() + 1
+    ));
     let report = page::write_findings(out, &options.preset)?;
     progress.steps.inc(1);
     Ok(End::Finished { ran, kept, report })

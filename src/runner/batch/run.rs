@@ -208,7 +208,11 @@ pub fn run_batch(
             }
             _ => {
                 let row = score::score_trial(&trial, &spec);
-                let m = row.verdict.label().to_string();
+                let m = match plan.mode {
+                    // a collect trial never reacts: its verdict says nothing
+                    crate::protocol::Mode::Collect => "collected".to_string(),
+                    crate::protocol::Mode::Online => row.verdict.label().to_string(),
+                };
                 rows.catch.push(row);
                 m
             }
