@@ -36,6 +36,16 @@ impl Written {
             self.reproduced, self.total, self.partly
         )
     }
+
+    /// How often the marker verdicts agree with ground truth, if any trial has one.
+    pub fn agreement_line(&self) -> Option<String> {
+        self.truth_agreement.map(|(n, agree)| {
+            format!(
+                "Marker-scored verdicts agree with the simulator's ground truth in {agree} of {n} simulated catch trials ({:.1} %).",
+                100.0 * agree as f64 / n.max(1) as f64
+            )
+        })
+    }
 }
 
 fn read_json<T: serde::de::DeserializeOwned>(path: &Path) -> Option<T> {
@@ -132,11 +142,8 @@ fn markdown(preset: Preset, judged: &[Judged], w: &Written, tables: &str) -> Str
         preset.name(),
         w.summary_line()
     );
-    if let Some((n, agree)) = w.truth_agreement {
-        out += &format!(
-            "Marker-scored verdicts agree with the simulator's ground truth in {agree} of {n} simulated catch trials ({:.1} %).\n\n",
-            100.0 * agree as f64 / n.max(1) as f64
-        );
+    if let Some(line) = w.agreement_line() {
+        out += &format!("{line}\n\n");
     }
     out += "| id | measured | paper | source | ours | rule | reproduced |\n| --- | --- | --- | --- | --- | --- | --- |\n";
     for j in judged {
@@ -175,11 +182,8 @@ fn html_page(
         html::escape(&w.summary_line()),
         preset.name()
     );
-    if let Some((n, agree)) = w.truth_agreement {
-        body += &format!(
-            "<p>Marker-scored verdicts agree with the simulator's ground truth in {agree} of {n} simulated catch trials ({:.1} %).</p>\n",
-            100.0 * agree as f64 / n.max(1) as f64
-        );
+    if let Some(line) = w.agreement_line() {
+        body += &format!("<p>{}</p>\n", html::escape(&line));
     }
     body += "<table>\n<tr><th>id</th><th>measured</th><th>paper</th><th>source</th><th>ours</th><th>rule</th><th>reproduced</th></tr>\n";
     for j in judged {

@@ -8,6 +8,7 @@
 use std::path::{Path, PathBuf};
 use std::sync::atomic::AtomicBool;
 
+use super::measure::{NOVEL_OBJECTS, TRAINING_OBJECTS};
 use super::{io, read_record, Backend, ReproduceError};
 use crate::protocol::Kind;
 use crate::runner::batch::run::{run_batch, BatchEnd, BatchRequest, BatchRig};
@@ -132,19 +133,14 @@ pub enum Step {
     FirstTimeLift,
 }
 
-const PAPER_OBJECTS: [&str; 11] = [
-    "crisps_can",
-    "windex_bottle",
-    "bleach_bottle",
-    "mustard_bottle",
-    "banana",
-    "soup_can",
-    "softball",
-    "jello_box",
-    "coffee_can",
-    "foam_brick",
-    "toy_cat",
-];
+/// The paper's eleven objects: its five training objects first, then the six novel ones.
+fn paper_objects() -> Vec<&'static str> {
+    TRAINING_OBJECTS
+        .iter()
+        .chain(&NOVEL_OBJECTS)
+        .copied()
+        .collect()
+}
 
 fn quoted(items: &[&str]) -> String {
     items
@@ -221,7 +217,7 @@ impl Step {
 
     /// Protocol files of a batch step, by sub-directory ("" for the step's own).
     fn protocols(self, c: &Counts) -> Vec<(&'static str, String)> {
-        let training = quoted(&PAPER_OBJECTS[..5]);
+        let training = quoted(&TRAINING_OBJECTS);
         let rail_collect = |seed: u32| {
             format!(
                 "kind = \"rail_catch\"\nmode = \"collect\"\nrepetitions = {}\nseed = {seed}\nobjects = [\"rail_object\"]\n",
@@ -257,7 +253,7 @@ impl Step {
                 format!(
                     "kind = \"hand_release\"\nrepetitions = {}\nseed = 24\nobjects = [{}]\ngrasps_deg = [0]\nmodels = [\"{models}/global.json\"]\nstrategies = [\"2x2\", \"1x2\"]\n",
                     c.objects,
-                    quoted(&PAPER_OBJECTS)
+                    quoted(&paper_objects())
                 ),
             )],
             Step::RicePour => vec![(
