@@ -56,16 +56,18 @@ pub fn hand_release_rig(
     base: &SimConfig,
     options: &PresetOptions,
     safety: f64,
+    extra_mass_g: f64,
 ) -> Result<(SimConfig, f64, f64), CollectError> {
     let object = options
         .object
         .clone()
         .unwrap_or_else(|| "crisps_can".into());
     let (mut config, _) = sim_presets::build(Preset::Release, options, base.clone())?;
-    let closure = sim_presets::holding_closure(base, &object, 0.0, safety)?;
+    let closure = sim_presets::holding_closure(base, &object, extra_mass_g, safety)?;
     let contact = sim_presets::contact_closure(base, &object)?;
     if let tmo_hal::sim::RigSetup::Hand(h) = &mut config.rig {
         h.start = tmo_hal::sim::ObjectStart::OnTable;
+        h.extra_mass_g = extra_mass_g;
         h.initial_closure = (contact - 0.02).max(0.0);
     }
     Ok((config, closure, contact))
@@ -90,7 +92,7 @@ pub fn collect_trial(
                 ..Default::default()
             };
             let safety: f64 = rng.gen_range(1.2..1.8);
-            let (config, closure, contact) = hand_release_rig(&base, &options, safety)?;
+            let (config, closure, contact) = hand_release_rig(&base, &options, safety, 0.0)?;
             let hold_s: f64 = rng.gen_range(0.5..2.0);
             let script = Script::GraspLiftRelease {
                 closure,

@@ -72,7 +72,7 @@ fn release(object: &str, seed: u64, online: Option<Online<'_>>) -> (Verdict, boo
         object: Some(object.into()),
         ..Default::default()
     };
-    let (config, closure, _) = hand_release_rig(&base, &options, 1.5).unwrap();
+    let (config, closure, _) = hand_release_rig(&base, &options, 1.5, 0.0).unwrap();
     let rig = SimRig::new(config).unwrap();
     let mut devices = Devices::of_sim(&rig);
     let params = ReleaseParams {

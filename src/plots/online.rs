@@ -248,6 +248,7 @@ mod tests {
             fault: None,
             responses: 1,
             truth_verdict: None,
+            extra_mass_g: 0.0,
         }
     }
 

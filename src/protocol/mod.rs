@@ -140,6 +140,7 @@ impl Plan {
         match &self.params {
             KindParams::FirstTimeLift(p) => p.masses_g.clone(),
             KindParams::CalibrateLift(p) => p.masses_g.clone(),
+            KindParams::HandRelease(p) => p.masses_g.clone(),
             _ => vec![0.0],
         }
     }

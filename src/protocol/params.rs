@@ -163,6 +163,9 @@ pub struct HandRelease {
     pub contact_deformation_px: f64,
     /// Closing speed while looking for contact, fraction of the servos' maximum speed.
     pub approach_speed_of_max: f64,
+    /// Masses added to the object, g, each a level of the grid (the paper's cat with a
+    /// 100 g mass adhered to it).
+    pub masses_g: Vec<f64>,
 }
 
 impl Default for HandRelease {
@@ -176,6 +179,7 @@ impl Default for HandRelease {
             grasp_past_contact: None,
             contact_deformation_px: 0.5,
             approach_speed_of_max: 0.01,
+            masses_g: vec![0.0],
         }
     }
 }
@@ -383,6 +387,7 @@ impl KindParams {
                 in_range(s, "lift_mm", p.lift_mm, 0.0, 300.0)?;
                 in_range(s, "hold_s", p.hold_s, 0.0, 60.0)?;
                 in_range(s, "max_duration_s", p.max_duration_s, 1.0, 600.0)?;
+                masses(s, &p.masses_g)?;
                 contact_grasp_check(
                     s,
                     p.grasp_past_contact.as_ref(),

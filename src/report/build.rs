@@ -258,7 +258,14 @@ pub fn per_object(inputs: &Inputs) -> Option<Table> {
         &title,
         &["object", "strategy", "TP", "FP", "FN", "held no slip"],
     );
-    for ((object, strategy), rs) in group(&rows, |r| (r.object.clone(), r.strategy.clone())) {
+    let label = |r: &OutcomeRow| {
+        if r.extra_mass_g > 0.0 {
+            format!("{} +{:.0} g", r.object, r.extra_mass_g)
+        } else {
+            r.object.clone()
+        }
+    };
+    for ((object, strategy), rs) in group(&rows, |r| (label(r), r.strategy.clone())) {
         t.push(vec![
             Cell::text(object),
             Cell::text(strategy),

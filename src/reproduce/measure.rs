@@ -354,6 +354,11 @@ fn object_measures(m: &mut Measures, rows: &[OutcomeRow]) {
         ),
     );
     put(m, "objects.tp.deformable", rate(&select(&deformable), &tp));
+    let cat = |extra: bool| {
+        select(&|r: &OutcomeRow| r.object == "toy_cat" && (r.extra_mass_g > 0.0) == extra)
+    };
+    put(m, "objects.tp.cat", rate(&cat(false), &tp));
+    put(m, "objects.tp.cat_100g", rate(&cat(true), &tp));
     put(
         m,
         "objects.tp.rigid",
@@ -481,6 +486,7 @@ mod tests {
             fault: None,
             responses: 1,
             truth_verdict: None,
+            extra_mass_g: 0.0,
         }
     }
 

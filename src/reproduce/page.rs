@@ -97,7 +97,14 @@ fn load(out: &Path) -> Loaded {
         local: rows(out, Step::HandModels, "eval_local.json"),
         rail_on_hand: rows(out, Step::HandModels, "eval_rail_model.json"),
         hand_online: rows(out, Step::HandOnline, "outcomes.json"),
-        objects: rows(out, Step::Objects, "outcomes.json"),
+        objects: {
+            let all: Option<Vec<OutcomeRow>> = rows(out, Step::Objects, "all/outcomes.json");
+            let cat: Option<Vec<OutcomeRow>> = rows(out, Step::Objects, "cat_100g/outcomes.json");
+            all.map(|mut a| {
+                a.extend(cat.unwrap_or_default());
+                a
+            })
+        },
         pour: rows(out, Step::RicePour, "outcomes.json"),
         lift: rows(out, Step::FirstTimeLift, "can/outcomes.json"),
         lift_cat: rows(out, Step::FirstTimeLift, "cat/outcomes.json"),
@@ -266,7 +273,8 @@ pub fn write_findings(out: &Path, preset: &Preset) -> Result<Written, ReproduceE
     add(Step::HandModels, "eval_local.json");
     add(Step::HandModels, "eval_rail_model.json");
     add(Step::HandOnline, "");
-    add(Step::Objects, "");
+    add(Step::Objects, "all");
+    add(Step::Objects, "cat_100g");
     add(Step::RicePour, "");
     add(Step::Calibrate, "can");
     add(Step::FirstTimeLift, "can");

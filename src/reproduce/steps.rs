@@ -248,14 +248,24 @@ impl Step {
                     c.hand_online
                 ),
             )],
-            Step::Objects => vec![(
-                "",
-                format!(
-                    "kind = \"hand_release\"\nrepetitions = {}\nseed = 24\nobjects = [{}]\ngrasps_deg = [0]\nmodels = [\"{models}/global.json\"]\nstrategies = [\"2x2\", \"1x2\"]\n",
-                    c.objects,
-                    quoted(&paper_objects())
+            Step::Objects => vec![
+                (
+                    "all",
+                    format!(
+                        "kind = \"hand_release\"\nrepetitions = {}\nseed = 24\nobjects = [{}]\ngrasps_deg = [0]\nmodels = [\"../{models}/global.json\"]\nstrategies = [\"2x2\", \"1x2\"]\n",
+                        c.objects,
+                        quoted(&paper_objects())
+                    ),
                 ),
-            )],
+                (
+                    // the paper's cat again, with a 100 g mass adhered to its underside
+                    "cat_100g",
+                    format!(
+                        "kind = \"hand_release\"\nrepetitions = {}\nseed = 30\nobjects = [\"toy_cat\"]\ngrasps_deg = [0]\nmodels = [\"../{models}/global.json\"]\nstrategies = [\"2x2\", \"1x2\"]\n\n[hand_release]\nmasses_g = [100]\n",
+                        c.objects
+                    ),
+                ),
+            ],
             Step::RicePour => vec![(
                 "",
                 format!(

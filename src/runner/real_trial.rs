@@ -165,6 +165,7 @@ pub fn run_real_trial(
                 "release_speed_per_s",
                 format!("{:.5}", params.release_speed_per_s),
             );
+            put("extra_mass_g", format!("{:.1}", planned.extra_mass_g));
             run_release(devices, &params, online, stop)
         }
         KindParams::RailCatch(p) => {

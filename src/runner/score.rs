@@ -30,6 +30,9 @@ pub struct OutcomeRow {
     /// The verdict by the simulator's ground truth (diagnostic; simulated trials only).
     #[serde(default)]
     pub truth_verdict: Option<Verdict>,
+    /// Mass added to the object, g.
+    #[serde(default)]
+    pub extra_mass_g: f64,
 }
 
 /// The ground truth a simulated trial's log records, if it records one.
@@ -63,6 +66,7 @@ pub fn score_trial(trial: &Trial, spec: &CatchSpec) -> OutcomeRow {
         fault: param("fault"),
         responses: responses(trial),
         truth_verdict: truth_record(trial).map(|t| truth_verdict(&t, reaction_s)),
+        extra_mass_g: mass(trial),
     }
 }
 

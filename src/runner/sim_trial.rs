@@ -76,7 +76,9 @@ pub fn world_for(plan: &Plan, planned: &PlannedTrial) -> Result<SimConfig, Batch
         ..Default::default()
     };
     Ok(match &plan.params {
-        KindParams::HandRelease(_) => hand_release_rig(&base, &options, 1.0)?.0,
+        KindParams::HandRelease(_) => {
+            hand_release_rig(&base, &options, 1.0, planned.extra_mass_g)?.0
+        }
         KindParams::RailCatch(p) => {
             let options = PresetOptions {
                 retract_speed_mm_s: retract_speed_mm_s(p, planned),
@@ -137,7 +139,8 @@ pub fn run_sim_trial(
             // simulator knows the grasp that holds each object; the safety factor varies
             // from trial to trial as a hand-set grasp would.
             let safety: f64 = rng.gen_range(1.2..1.8);
-            let closure = sim_presets::holding_closure(&base, &planned.object, 0.0, safety)?;
+            let closure =
+                sim_presets::holding_closure(&base, &planned.object, planned.extra_mass_g, safety)?;
             let params = release_params(
                 plan,
                 p,
@@ -154,6 +157,7 @@ pub fn run_sim_trial(
                 "release_speed_per_s",
                 format!("{:.5}", params.release_speed_per_s),
             );
+            put("extra_mass_g", format!("{:.1}", planned.extra_mass_g));
             run_release(&mut devices, &params, online, stop)?
         }
         KindParams::RailCatch(p) => {

@@ -75,7 +75,12 @@ pub fn instructions(plan: &Plan, planned: &PlannedTrial) -> String {
     let (o, deg) = (&planned.object, planned.grasp_deg);
     match &plan.params {
         KindParams::HandRelease(_) => format!(
-            "stand {o} on the table between the open fingers, hand at {deg} deg; the hand closes on it"
+            "stand {o}{} on the table between the open fingers, hand at {deg} deg; the hand closes on it",
+            if planned.extra_mass_g > 0.0 {
+                format!(" with {:.0} g added", planned.extra_mass_g)
+            } else {
+                String::new()
+            }
         ),
         KindParams::RailCatch(_) => format!(
             "put {o} on the rail, pressed against the fingertip, clear of the end stops"
