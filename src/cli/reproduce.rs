@@ -11,7 +11,7 @@ use super::run::EXIT_INTERRUPTED;
 
 #[derive(Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 pub enum PresetArg {
-    /// Scaled down: about a minute on two cores.
+    /// Scaled down: about ten seconds on two cores.
     Quick,
     /// The paper's counts and grids.
     Paper,

@@ -31,7 +31,7 @@ pub const SWEEP_GAMMA: f64 = 0.02;
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Preset {
-    /// A scaled-down run for a first look (about a minute on two cores).
+    /// A scaled-down run for a first look (about ten seconds on two cores).
     Quick,
     /// The paper's counts.
     Paper,
