@@ -50,6 +50,14 @@ enum Command {
 }
 
 fn main() -> ExitCode {
+    // Rust's runtime ignores SIGPIPE, so a closed stdout (`tmo report ... | head`) made
+    // every print panic. Restored, tmo ends quietly there, as Unix tools do. Sockets are not
+    // affected: std writes to them with MSG_NOSIGNAL, and a lost peer stays an error.
+    #[cfg(unix)]
+    // SAFETY: called first thing in main, before any thread exists.
+    unsafe {
+        libc::signal(libc::SIGPIPE, libc::SIG_DFL);
+    }
     match run(Cli::parse()) {
         Ok(code) => ExitCode::from(code),
         Err(e) => {

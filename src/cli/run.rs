@@ -97,6 +97,7 @@ pub fn run(args: RunArgs) -> Result<u8> {
         anyhow::ensure!(n >= 1, "--repeat must be at least 1");
         plan.repetitions = n;
     }
+    tmo::runner::batch::check_size(&plan).with_context(|| args.protocol.display().to_string())?;
     let out = args.out.clone().unwrap_or_else(|| {
         PathBuf::from("results").join(
             args.protocol

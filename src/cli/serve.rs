@@ -42,7 +42,7 @@ pub struct ServeArgs {
     #[arg(long)]
     ur_address: Option<std::net::IpAddr>,
     /// Stop after this many seconds (default: until Ctrl-C).
-    #[arg(long = "for")]
+    #[arg(long = "for", value_parser = serve_seconds)]
     for_s: Option<f64>,
 }
 
@@ -86,6 +86,22 @@ fn first_world(args: &ServeArgs) -> Result<(SimConfig, String)> {
             (config, object)
         }
     })
+}
+
+/// Longest `--for`: a year (std's sleep panics on durations past u64 seconds).
+const MAX_SERVE_S: f64 = 365.0 * 24.0 * 3600.0;
+
+fn serve_seconds(text: &str) -> Result<f64, String> {
+    let s: f64 = text
+        .parse()
+        .map_err(|_| format!("expected a number of seconds, got `{text}`"))?;
+    if s.is_finite() && s > 0.0 && s <= MAX_SERVE_S {
+        Ok(s)
+    } else {
+        Err(format!(
+            "expected a positive number of seconds, at most {MAX_SERVE_S} (a year), got {text}"
+        ))
+    }
 }
 
 pub fn serve_cmd(args: ServeArgs) -> Result<()> {
@@ -193,6 +209,7 @@ pub fn serve_cmd(args: ServeArgs) -> Result<()> {
         .context("cannot install the Ctrl-C handler")?;
     if let Some(s) = args.for_s {
         let flag = stop.clone();
+        // validated before anything was served
         std::thread::spawn(move || {
             std::thread::sleep(std::time::Duration::from_secs_f64(s.max(0.0)));
             flag.store(true, Ordering::Relaxed);

@@ -42,6 +42,10 @@ pub enum TuneError {
     Train(#[from] TrainError),
     #[error("cross-validation needs at least {folds} trials, got {trials}")]
     TooFewTrials { folds: usize, trials: usize },
+    #[error(
+        "--folds {0}: expected at least 2 (each fold is scored by a model trained on the others)"
+    )]
+    Folds(usize),
     #[error("the {0} classifier has no hyperparameters to search")]
     NothingToSearch(&'static str),
 }
@@ -53,6 +57,9 @@ pub fn cross_validated_f1(
     spec: &TuneSpec,
     hyper: Hyperparameters,
 ) -> Result<f64, TuneError> {
+    if spec.folds < 2 {
+        return Err(TuneError::Folds(spec.folds));
+    }
     let mut trials: Vec<u32> = data.trial.clone();
     trials.sort_unstable();
     trials.dedup();
@@ -105,6 +112,10 @@ pub fn search(
         ClassifierKind::SvmLinear | ClassifierKind::Logreg => vec![C_RANGE],
         ClassifierKind::Threshold => return Err(TuneError::NothingToSearch("threshold")),
     };
+    // Checked before the search, whose failed evaluations would only score 0.
+    if spec.folds < 2 {
+        return Err(TuneError::Folds(spec.folds));
+    }
     let to_hyper = |p: &[f64]| Hyperparameters {
         c: p[0],
         gamma: p.get(1).copied().unwrap_or(0.0),
@@ -173,6 +184,19 @@ mod tests {
             }
         }
         ds
+    }
+
+    #[test]
+    fn fewer_than_two_folds_are_refused_not_divided_by() {
+        let data = Dataset {
+            dim: 1,
+            ..Default::default()
+        };
+        for folds in [0, 1] {
+            let e = search(&data, &spec(ClassifierKind::Logreg, 3, folds)).unwrap_err();
+            assert!(matches!(e, TuneError::Folds(f) if f == folds), "{e}");
+            assert!(e.to_string().contains("at least 2"), "{e}");
+        }
     }
 
     fn spec(kind: ClassifierKind, iterations: usize, folds: usize) -> TuneSpec {

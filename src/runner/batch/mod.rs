@@ -125,6 +125,8 @@ pub enum BatchError {
     Csv { path: PathBuf, message: String },
     #[error("model file {0} not found: train one from collected trials with `tmo train TRIALS --out {0}` (README, \"step by step\"), or run `tmo reproduce --preset quick`, which collects, trains and runs every protocol")]
     MissingModel(PathBuf),
+    #[error("the batch has {trials} trials (objects x masses x grasps x models x strategies x repetitions); at most {MAX_TRIALS} can run in one batch")]
+    TooManyTrials { trials: u128 },
     #[error("{dir} already holds {trials} trial(s) of a batch: pass --resume to finish it, or choose another --out")]
     AlreadyThere { dir: PathBuf, trials: usize },
     #[error("trial {trial_id}: {source}")]
@@ -138,6 +140,28 @@ pub enum BatchError {
     Model(#[from] crate::slip::model::ModelFileError),
     #[error("first_time_lift.calibration: {0}")]
     Calibration(#[from] crate::runner::score::GMinError),
+}
+
+/// Most trials one batch may hold: far beyond any experiment (the paper's largest is 600
+/// trials), and small enough that the grid's list fits in memory.
+pub const MAX_TRIALS: u128 = 1_000_000;
+
+/// The plan's trial count, refused before anything is allocated when beyond [`MAX_TRIALS`].
+pub fn check_size(plan: &Plan) -> Result<usize, BatchError> {
+    let trials = [
+        plan.objects.len(),
+        plan.masses_g().len(),
+        plan.grasps_deg.len(),
+        plan.models.len().max(1),
+        plan.strategies.len().max(1),
+        plan.repetitions as usize,
+    ]
+    .iter()
+    .fold(1u128, |n, &k| n.saturating_mul(k as u128));
+    if trials > MAX_TRIALS {
+        return Err(BatchError::TooManyTrials { trials });
+    }
+    Ok(trials as usize)
 }
 
 /// How outcomes are scored for a plan.

@@ -99,6 +99,7 @@ pub fn run_batch(
 ) -> Result<BatchEnd, BatchError> {
     let plan = req.plan;
     let out = req.out;
+    super::check_size(plan)?;
     let g_min = match &plan.params {
         KindParams::FirstTimeLift(p) => {
             p.calibration.as_deref().map(GMinTable::load).transpose()?

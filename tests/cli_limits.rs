@@ -1,0 +1,103 @@
+//! Inputs at and past their limits end with a clear error (exit 2), never a panic, an abort
+//! or a hang; a closed stdout ends tmo quietly.
+
+mod common;
+
+use std::process::{Command, Stdio};
+use std::time::{Duration, Instant};
+
+use common::*;
+
+#[test]
+fn a_search_with_fewer_than_two_folds_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    ok(&tmo(d, &["sim", "collect", "--trials", "3", "--out", "t"]));
+    for folds in ["0", "1"] {
+        let err = fails(&tmo(
+            d,
+            &[
+                "train",
+                "t",
+                "--classifier",
+                "logreg",
+                "--search",
+                "bayes",
+                "--iters",
+                "3",
+                "--folds",
+                folds,
+                "--out",
+                "m.json",
+            ],
+        ));
+        assert!(
+            err.contains(&format!("--folds {folds}: expected at least 2")),
+            "{err}"
+        );
+        assert!(!err.contains("panicked"), "{err}");
+    }
+}
+
+#[test]
+fn serving_for_a_time_that_is_not_one_is_refused_at_once() {
+    let dir = tempfile::tempdir().unwrap();
+    let hw = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("hardware/tmo.toml");
+    for bad in ["nan", "1e20", "-1", "inf", "soon"] {
+        let started = Instant::now();
+        let arg = format!("--for={bad}");
+        let err = fails(&tmo(
+            dir.path(),
+            &["sim", "serve", "--hardware", hw.to_str().unwrap(), &arg],
+        ));
+        assert!(err.contains("--for"), "{bad}: {err}");
+        assert!(!err.contains("panicked"), "{bad}: {err}");
+        assert!(started.elapsed() < Duration::from_secs(20), "{bad}");
+    }
+}
+
+#[test]
+fn a_batch_too_large_to_list_is_refused_before_it_starts() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::write(
+        d.join("c.toml"),
+        "kind = \"hand_release\"\nmode = \"collect\"\n[hand_release]\nlift_mm = 120\n",
+    )
+    .unwrap();
+    let started = Instant::now();
+    let err = fails(&tmo(d, &["run", "c.toml", "--repeat", "4294967295"]));
+    assert!(err.contains("at most 1000000"), "{err}");
+    assert!(started.elapsed() < Duration::from_secs(20));
+    assert!(!d.join("results/c").exists(), "nothing was started");
+}
+
+#[test]
+fn a_closed_stdout_ends_tmo_quietly() {
+    use std::os::fd::FromRawFd;
+    use std::os::unix::process::ExitStatusExt;
+    let mut fds = [0; 2];
+    // SAFETY: a plain pipe(2); both ends are owned below.
+    assert_eq!(unsafe { libc::pipe(fds.as_mut_ptr()) }, 0);
+    // SAFETY: fds[0] and fds[1] were just opened and are owned by nothing else.
+    let (read_end, write_end) = unsafe {
+        (
+            std::fs::File::from_raw_fd(fds[0]),
+            std::fs::File::from_raw_fd(fds[1]),
+        )
+    };
+    // The reader is gone before tmo writes: its first line meets a broken pipe.
+    drop(read_end);
+    let dir = tempfile::tempdir().unwrap();
+    let out = Command::new(env!("CARGO_BIN_EXE_tmo"))
+        .current_dir(dir.path())
+        .args(["sim", "objects"])
+        .stdout(Stdio::from(write_end))
+        .stderr(Stdio::piped())
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!stderr.contains("panicked"), "{stderr}");
+    assert_ne!(out.status.code(), Some(101), "{stderr}");
+    assert_eq!(out.status.signal(), Some(libc::SIGPIPE), "{:?}", out.status);
+}
