@@ -295,6 +295,12 @@ pub enum ModelFileError {
     NewerVersion { path: String, found: u32 },
     #[error("{path}: no classifier for sensor {sensor}")]
     NoSensor { path: String, sensor: u8 },
+    #[error("{path}: {field}: {message}")]
+    Inconsistent {
+        path: String,
+        field: String,
+        message: String,
+    },
 }
 
 impl ModelFile {
@@ -342,8 +348,190 @@ impl ModelFile {
                 path: p.clone(),
                 message: e.to_string(),
             })?;
+        // Every command that reads a model reads it here: nothing inconsistent gets past.
+        model
+            .check()
+            .map_err(|(field, message)| ModelFileError::Inconsistent {
+                path: p.clone(),
+                field,
+                message,
+            })?;
         model.models.iter_mut().for_each(SensorModel::prepare);
         Ok(model)
+    }
+
+    /// The file's internal consistency: what every classifier needs to classify a frame of
+    /// the file's feature layout without panicking or answering nonsense. The error names
+    /// the field and what was expected.
+    pub fn check(&self) -> Result<(), (String, String)> {
+        let bad = |field: String, message: String| Err((field, message));
+        if self.version == 0 {
+            return bad("version".into(), "expected 1 or more, got 0".into());
+        }
+        let f = &self.features;
+        if !(1..=100_000).contains(&f.pins) {
+            return bad(
+                "features.pins".into(),
+                format!("expected 1..=100000 pins, got {}", f.pins),
+            );
+        }
+        if !(f.max_pin_step_px.is_finite() && f.max_pin_step_px > 0.0) {
+            return bad(
+                "features.max_pin_step_px".into(),
+                format!("expected a positive number, got {}", f.max_pin_step_px),
+            );
+        }
+        if self.models.is_empty() {
+            return bad("models".into(), "expected at least one classifier".into());
+        }
+        match self.scope {
+            Scope::Global if self.models.len() != 1 || self.models[0].sensor.is_some() => {
+                return bad(
+                    "models".into(),
+                    "a global model has exactly one classifier, for no sensor in particular".into(),
+                );
+            }
+            Scope::Local => {
+                let mut seen: Vec<u8> = Vec::new();
+                for (i, m) in self.models.iter().enumerate() {
+                    match m.sensor {
+                        Some(s) if !seen.contains(&s) => seen.push(s),
+                        Some(s) => {
+                            return bad(
+                                format!("models.{i}.sensor"),
+                                format!("sensor {s} has two classifiers"),
+                            )
+                        }
+                        None => {
+                            return bad(
+                                format!("models.{i}.sensor"),
+                                "expected the sensor of a local classifier".into(),
+                            )
+                        }
+                    }
+                }
+                let mut listed = self.sensors.clone();
+                listed.sort_unstable();
+                seen.sort_unstable();
+                if listed != seen {
+                    return bad(
+                        "sensors".into(),
+                        format!("lists {listed:?}, but the classifiers are for {seen:?}"),
+                    );
+                }
+            }
+            Scope::Global => {}
+        }
+        let dim = f.len();
+        for (i, m) in self.models.iter().enumerate() {
+            let field = |name: &str| format!("models.{i}.{name}");
+            let finite = |v: &[f64]| v.iter().all(|x| x.is_finite());
+            match (&m.classifier, self.classifier) {
+                (Classifier::Threshold(_), ClassifierKind::Threshold)
+                | (Classifier::LogReg(_), ClassifierKind::Logreg) => {}
+                (Classifier::Svm(s), ClassifierKind::SvmRbf)
+                    if matches!(s.kernel, super::svm::Kernel::Rbf { .. }) => {}
+                (Classifier::Svm(s), ClassifierKind::SvmLinear)
+                    if matches!(s.kernel, super::svm::Kernel::Linear) => {}
+                _ => {
+                    return bad(
+                        field("classifier"),
+                        format!(
+                            "does not match the file's classifier `{}`",
+                            self.classifier.name()
+                        ),
+                    )
+                }
+            }
+            if !matches!(m.classifier, Classifier::Threshold(_)) {
+                let Some(sc) = &m.scaler else {
+                    return bad(field("scaler"), "expected the feature scaler".into());
+                };
+                if sc.mean.len() != dim || sc.scale.len() != dim {
+                    return bad(
+                        field("scaler"),
+                        format!(
+                            "expected {dim} means and scales ({} pins), got {} and {}",
+                            f.pins,
+                            sc.mean.len(),
+                            sc.scale.len()
+                        ),
+                    );
+                }
+                if !finite(&sc.mean) || !sc.scale.iter().all(|s| s.is_finite() && *s > 0.0) {
+                    return bad(
+                        field("scaler"),
+                        "expected finite means and positive, finite scales".into(),
+                    );
+                }
+            }
+            match &m.classifier {
+                Classifier::Threshold(t) => {
+                    if !(t.threshold.is_finite() && t.threshold >= 0.0) {
+                        return bad(
+                            field("classifier.threshold"),
+                            format!("expected a speed >= 0 px/frame, got {}", t.threshold),
+                        );
+                    }
+                }
+                Classifier::LogReg(l) => {
+                    if l.weights.len() != dim || !finite(&l.weights) || !l.intercept.is_finite() {
+                        return bad(
+                            field("classifier.weights"),
+                            format!("expected {dim} finite weights and a finite intercept"),
+                        );
+                    }
+                }
+                Classifier::Svm(s) => {
+                    if s.dim != dim {
+                        return bad(
+                            field("classifier.dim"),
+                            format!("expected {dim} ({} pins), got {}", f.pins, s.dim),
+                        );
+                    }
+                    let n = s.dual_coef.len();
+                    if n == 0 || s.support_vectors.len() != n * dim {
+                        return bad(
+                            field("classifier.support_vectors"),
+                            format!(
+                                "expected {n} support vectors of {dim} values (one per dual coefficient, at least one), got {} values",
+                                s.support_vectors.len()
+                            ),
+                        );
+                    }
+                    if !finite(&s.dual_coef)
+                        || !s.rho.is_finite()
+                        || !s.support_vectors.iter().all(|v| v.is_finite())
+                    {
+                        return bad(
+                            field("classifier"),
+                            "expected finite support vectors, dual coefficients and rho".into(),
+                        );
+                    }
+                    match s.kernel {
+                        super::svm::Kernel::Rbf { gamma }
+                            if !(gamma.is_finite() && gamma > 0.0) =>
+                        {
+                            return bad(
+                                field("classifier.kernel.gamma"),
+                                format!("expected a positive number, got {gamma}"),
+                            )
+                        }
+                        super::svm::Kernel::Linear => match &s.weights {
+                            Some(w) if w.len() == dim && finite(w) => {}
+                            _ => {
+                                return bad(
+                                    field("classifier.weights"),
+                                    format!("a linear SVM needs {dim} finite primal weights"),
+                                )
+                            }
+                        },
+                        _ => {}
+                    }
+                }
+            }
+        }
+        Ok(())
     }
 
     /// The classifier that handles `sensor`'s frames.
@@ -469,5 +657,146 @@ pub fn train_models(
                 )
             })
             .collect(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::slip::labels::OnsetSpec;
+
+    /// 400 rows of 30 pins: slip rows have larger first features.
+    fn data() -> Dataset {
+        let dim = 60;
+        let mut ds = Dataset {
+            dim,
+            trial_ids: vec!["t0".into(), "t1".into()],
+            ..Default::default()
+        };
+        for i in 0..400u32 {
+            let slip = i % 4 == 0;
+            for j in 0..dim {
+                let wobble = ((i as usize * 31 + j * 17) % 13) as f32 / 13.0;
+                ds.x.push(if slip && j < 30 { 1.0 + wobble } else { wobble });
+            }
+            ds.y.push(if slip { Class::Slip } else { Class::Static });
+            ds.trial.push(i % 2);
+            ds.sensor.push(0);
+            ds.seq.push(u64::from(i));
+            ds.time_s.push(f64::from(i) / 60.0);
+        }
+        ds
+    }
+
+    /// A trained model of `kind` as JSON.
+    fn trained(kind: ClassifierKind) -> serde_json::Value {
+        let spec = TrainSpec {
+            kind,
+            hyper: Hyperparameters {
+                c: 1.0,
+                gamma: 0.05,
+            },
+            scope: Scope::Global,
+            features: FeatureSpec::new(30),
+            labels: LabelSpec {
+                n_slip: 5,
+                onset: OnsetSpec::default(),
+            },
+            downsample: 1.0,
+            seed: 0,
+        };
+        let m = ModelFile::train(&data(), &spec, Vec::new(), None).unwrap();
+        serde_json::to_value(&m).unwrap()
+    }
+
+    fn load(v: &serde_json::Value) -> Result<ModelFile, ModelFileError> {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("m.json");
+        std::fs::write(&path, serde_json::to_string(v).unwrap()).unwrap();
+        ModelFile::load(&path)
+    }
+
+    fn refused(v: &serde_json::Value, field: &str) {
+        match load(v) {
+            Err(ModelFileError::Inconsistent {
+                field: f, message, ..
+            }) => {
+                assert_eq!(f, field, "{message}")
+            }
+            other => panic!("expected {field} refused, got {other:?}"),
+        }
+    }
+
+    #[test]
+    fn trained_models_of_every_kind_load() {
+        for kind in [
+            ClassifierKind::SvmRbf,
+            ClassifierKind::SvmLinear,
+            ClassifierKind::Logreg,
+            ClassifierKind::Threshold,
+        ] {
+            load(&trained(kind)).unwrap();
+        }
+    }
+
+    #[test]
+    fn inconsistent_svm_files_are_refused_with_the_field() {
+        let linear = trained(ClassifierKind::SvmLinear);
+        let mut v = linear.clone();
+        v["models"][0]["classifier"]["weights"] = serde_json::Value::Null;
+        refused(&v, "models.0.classifier.weights");
+        let rbf = trained(ClassifierKind::SvmRbf);
+        for dim in [0u64, 1, 30, 59, 61, 120, 1_000_000_000_000] {
+            let mut v = rbf.clone();
+            v["models"][0]["classifier"]["dim"] = dim.into();
+            refused(&v, "models.0.classifier.dim");
+        }
+        let mut v = rbf.clone();
+        v["models"][0]["classifier"]["dual_coef"]
+            .as_array_mut()
+            .unwrap()
+            .pop();
+        refused(&v, "models.0.classifier.support_vectors");
+        let mut v = rbf.clone();
+        v["models"][0]["classifier"]["kernel"]["gamma"] = (-1.0).into();
+        refused(&v, "models.0.classifier.kernel.gamma");
+        let mut v = rbf.clone();
+        v["classifier"] = "logreg".into();
+        refused(&v, "models.0.classifier");
+    }
+
+    #[test]
+    fn inconsistent_files_of_any_kind_are_refused_with_the_field() {
+        let logreg = trained(ClassifierKind::Logreg);
+        let mut v = logreg.clone();
+        v["models"][0]["classifier"]["weights"]
+            .as_array_mut()
+            .unwrap()
+            .push(1.0.into());
+        refused(&v, "models.0.classifier.weights");
+        let mut v = logreg.clone();
+        v["models"][0]["scaler"]["scale"][3] = 0.0.into();
+        refused(&v, "models.0.scaler");
+        let mut v = logreg.clone();
+        v["models"][0]["scaler"]["mean"]
+            .as_array_mut()
+            .unwrap()
+            .pop();
+        refused(&v, "models.0.scaler");
+        let mut v = logreg.clone();
+        v["version"] = 0.into();
+        refused(&v, "version");
+        let mut v = logreg.clone();
+        v["models"] = serde_json::json!([]);
+        refused(&v, "models");
+        let mut v = logreg.clone();
+        v["features"]["max_pin_step_px"] = 0.0.into();
+        refused(&v, "features.max_pin_step_px");
+        let mut v = logreg.clone();
+        v["scope"] = "local".into();
+        refused(&v, "models.0.sensor");
+        let mut v = trained(ClassifierKind::Threshold);
+        v["models"][0]["classifier"]["threshold"] = (-0.5).into();
+        refused(&v, "models.0.classifier.threshold");
     }
 }
