@@ -364,8 +364,16 @@ pub fn expand_trial_paths(paths: &[PathBuf]) -> Result<Vec<PathBuf>, TrialError>
                 .collect();
             found.sort();
             out.extend(found);
-        } else {
+        } else if p.exists() {
             out.push(p.clone());
+        } else {
+            return Err(TrialError::Io {
+                path: p.clone(),
+                source: std::io::Error::new(
+                    std::io::ErrorKind::NotFound,
+                    "no such file or directory",
+                ),
+            });
         }
     }
     Ok(out)

@@ -101,3 +101,72 @@ fn a_closed_stdout_ends_tmo_quietly() {
     assert_ne!(out.status.code(), Some(101), "{stderr}");
     assert_eq!(out.status.signal(), Some(libc::SIGPIPE), "{:?}", out.status);
 }
+
+#[test]
+fn protocols_and_collections_refuse_what_their_rig_cannot_do() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let cases = [
+        (
+            "kind = \"rail_catch\"\nmode = \"collect\"\nobjects = [\"banana\"]\n",
+            "objects.0",
+        ),
+        (
+            "kind = \"hand_release\"\nmode = \"collect\"\nobjects = [\"rail_object\"]\n[hand_release]\nlift_mm = 120\n",
+            "objects.0",
+        ),
+        (
+            "kind = \"hand_release\"\nmode = \"collect\"\nstrategies = [\"abc\"]\n[hand_release]\nlift_mm = 120\n",
+            "strategies",
+        ),
+        (
+            "kind = \"calibrate_lift\"\nstrategies = [\"0x1\"]\n",
+            "strategies",
+        ),
+    ];
+    for (text, field) in cases {
+        std::fs::write(d.join("p.toml"), text).unwrap();
+        let err = fails(&tmo(d, &["run", "p.toml"]));
+        assert!(err.contains(field), "{text}\n{err}");
+    }
+    let err = fails(&tmo(
+        d,
+        &[
+            "sim",
+            "collect",
+            "--rig",
+            "rail",
+            "--objects",
+            "banana",
+            "--trials",
+            "1",
+        ],
+    ));
+    assert!(err.contains("--objects"), "{err}");
+    let err = fails(&tmo(
+        d,
+        &["sim", "collect", "--grasps", "nan", "--trials", "1"],
+    ));
+    assert!(err.contains("--grasps"), "{err}");
+}
+
+#[test]
+fn a_replay_of_nothing_readable_is_an_error_not_a_skip() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::write(
+        d.join("m.json"),
+        serde_json::to_string(&tmo::slip::model::ModelFile::threshold_model(
+            30,
+            vec![0, 1, 2],
+            0.3,
+        ))
+        .unwrap(),
+    )
+    .unwrap();
+    let err = fails(&tmo(d, &["replay", "no_such_dir", "--model", "m.json"]));
+    assert!(err.contains("no_such_dir"), "{err}");
+    std::fs::write(d.join("bad.mcap"), "not a log").unwrap();
+    let err = fails(&tmo(d, &["replay", "bad.mcap", "--model", "m.json"]));
+    assert!(err.contains("could be read"), "{err}");
+}

@@ -158,6 +158,11 @@ pub fn replay_with(
             }
         }
     }
+    anyhow::ensure!(
+        !trials.is_empty(),
+        "none of the {} trial log(s) could be read (see above)",
+        paths.len()
+    );
     let mut jobs = Vec::new();
     for (ti, (_, t)) in trials.iter().enumerate() {
         for (mi, _) in models.iter().enumerate() {

@@ -209,6 +209,12 @@ pub fn unix_now() -> u64 {
 fn sim_collect(args: CollectArgs) -> Result<()> {
     anyhow::ensure!(args.trials > 0, "--trials must be at least 1");
     anyhow::ensure!(!args.grasps.is_empty(), "--grasps needs at least one angle");
+    for g in &args.grasps {
+        anyhow::ensure!(
+            (-360.0..=360.0).contains(g),
+            "--grasps: expected angles in -360..=360 degrees, got {g}"
+        );
+    }
     let objects = if !args.objects.is_empty() {
         args.objects.clone()
     } else {
@@ -228,6 +234,16 @@ fn sim_collect(args: CollectArgs) -> Result<()> {
     let library = ObjectLibrary::built_in();
     for o in &objects {
         library.get(o).with_context(|| "--objects")?;
+        let rail_object = o == "rail_object";
+        anyhow::ensure!(
+            rail_object == (args.rig == CollectRig::Rail),
+            "--objects: `{o}` {}",
+            if rail_object {
+                "belongs to the slip rail (--rig rail)"
+            } else {
+                "is a hand object; the rail holds only rail_object"
+            }
+        );
     }
     let base = match &args.config {
         Some(p) => load_sim_config(p)?,

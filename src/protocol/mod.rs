@@ -285,6 +285,21 @@ pub fn validate(
                 format!("unknown object `{o}`; expected one of `tmo sim objects`"),
             ));
         }
+        // The rail rig holds only its rail object, and the hand never holds that one.
+        let rail_object = o == "rail_object";
+        if rail_object != (file.kind == Kind::RailCatch) {
+            return Err(err(
+                &format!("objects.{i}"),
+                if rail_object {
+                    format!(
+                        "`{o}` belongs to the slip rail; {} runs on the hand",
+                        file.kind
+                    )
+                } else {
+                    format!("`{o}` is a hand object; rail_catch holds only `rail_object`")
+                },
+            ));
+        }
     }
     if file.grasps_deg.is_empty() {
         return Err(err("grasps_deg", "expected at least one angle".into()));
@@ -349,6 +364,12 @@ pub fn validate(
         file.strategies.clone()
     };
     let mut strategies = Vec::new();
+    if !needs_models && !file.strategies.is_empty() {
+        return Err(err(
+            "strategies",
+            "strategies apply only to online protocols (nothing reacts in this one)".into(),
+        ));
+    }
     if needs_models {
         for (i, s) in strategy_texts.iter().enumerate() {
             let field = format!("strategies.{i}");
