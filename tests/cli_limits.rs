@@ -170,3 +170,74 @@ fn a_replay_of_nothing_readable_is_an_error_not_a_skip() {
     let err = fails(&tmo(d, &["replay", "bad.mcap", "--model", "m.json"]));
     assert!(err.contains("could be read"), "{err}");
 }
+
+/// Runs `tmo args` in `dir`, killing it if it has not finished in 30 s (a hang fails).
+fn tmo_within(dir: &std::path::Path, args: &[&str]) -> std::process::Output {
+    let mut child = Command::new(env!("CARGO_BIN_EXE_tmo"))
+        .current_dir(dir)
+        .args(args)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let started = Instant::now();
+    while child.try_wait().unwrap().is_none() {
+        if started.elapsed() > Duration::from_secs(30) {
+            child.kill().unwrap();
+            panic!("tmo {args:?} still running after 30 s");
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    child.wait_with_output().unwrap()
+}
+
+#[test]
+fn numbers_a_report_cannot_show_are_refused_naming_the_row_and_field() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let fixture =
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/report/hand");
+    for (bad, field) in [("1e308", "slip_distance_mm"), ("-3.0", "slip_distance_mm")] {
+        let batch = d.join(format!("hand{bad}"));
+        std::fs::create_dir_all(&batch).unwrap();
+        std::fs::copy(fixture.join("batch.json"), batch.join("batch.json")).unwrap();
+        let text = std::fs::read_to_string(fixture.join("outcomes.json"))
+            .unwrap()
+            .replacen(
+                "\"slip_distance_mm\": 4.0",
+                &format!("\"slip_distance_mm\": {bad}"),
+                1,
+            );
+        std::fs::write(batch.join("outcomes.json"), text).unwrap();
+        let out = tmo_within(d, &["report", batch.to_str().unwrap(), "--plots", "p"]);
+        let err = fails(&out);
+        assert!(err.contains("row 1") && err.contains(field), "{err}");
+    }
+    let header = "classifier,scope,n_slip,downsample,c,gamma,cv_macro_f1,train_rows,train_slip_rows,test_rows,macro_f1,slip_precision,slip_recall,slip_f1,static_precision,static_recall,static_f1,true_slip,false_slip,true_static,false_static,seconds";
+    for (row, field) in [
+        (
+            "svm-rbf,global,5,0.400,1,0.02,,10,5,10,NaN,1,1,1,1,1,1,1,0,1,0,0.1",
+            "macro_f1",
+        ),
+        (
+            "svm-rbf,global,5,0.400,1,0.02,,10,5,10,inf,1,1,1,1,1,1,1,0,1,0,0.1",
+            "macro_f1",
+        ),
+        (
+            "svm-rbf,global,5,nan,1,0.02,,10,5,10,0.9,1,1,1,1,1,1,1,0,1,0,0.1",
+            "downsample",
+        ),
+    ] {
+        std::fs::write(d.join("sweep.csv"), format!("{header}\n{row}\n")).unwrap();
+        let out = tmo_within(d, &["report", "sweep.csv", "--plots", "p"]);
+        let err = fails(&out);
+        assert!(err.contains("row 1") && err.contains(field), "{err}");
+    }
+    // a good row still reports
+    std::fs::write(
+        d.join("sweep.csv"),
+        format!("{header}\nsvm-rbf,global,5,0.400,1,0.02,,10,5,10,0.9,1,1,1,1,1,1,1,0,1,0,0.1\n"),
+    )
+    .unwrap();
+    ok(&tmo_within(d, &["report", "sweep.csv", "--plots", "p"]));
+}

@@ -118,9 +118,21 @@ fn load_batch(dir: &Path) -> Result<Batch, InputError> {
         });
     }
     let rows = match manifest.kind {
-        Kind::FirstTimeLift => BatchRows::Lift(json(&outcomes)?),
-        Kind::CalibrateLift => BatchRows::Calibration(json(&outcomes)?),
-        _ => BatchRows::Catch(json(&outcomes)?),
+        Kind::FirstTimeLift => {
+            let rows: Vec<LiftRow> = json(&outcomes)?;
+            super::checks::lifts(&outcomes, &rows)?;
+            BatchRows::Lift(rows)
+        }
+        Kind::CalibrateLift => {
+            let rows: Vec<CalibrationRow> = json(&outcomes)?;
+            super::checks::calibrations(&outcomes, &rows)?;
+            BatchRows::Calibration(rows)
+        }
+        _ => {
+            let rows: Vec<OutcomeRow> = json(&outcomes)?;
+            super::checks::catches(&outcomes, &rows)?;
+            BatchRows::Catch(rows)
+        }
     };
     Ok(Batch {
         dir: dir.to_path_buf(),
@@ -140,7 +152,8 @@ fn load_sweep(path: &Path) -> Result<Sweep, InputError> {
                 message: format!("row {}: expected a `tmo sweep` row: {e}", i + 1),
             })
         })
-        .collect::<Result<_, _>>()?;
+        .collect::<Result<Vec<SweepRow>, _>>()?;
+    super::checks::sweep(path, &rows)?;
     Ok(Sweep {
         path: path.to_path_buf(),
         rows,
@@ -179,7 +192,11 @@ pub fn load(paths: &[PathBuf]) -> Result<Inputs, InputError> {
         } else if p.extension().is_some_and(|e| e == "json") {
             let value: serde_json::Value = json(p)?;
             match value.get("format").and_then(|f| f.as_str()) {
-                Some(EVALUATION_FORMAT) => inputs.evaluations.push((p.clone(), json(p)?)),
+                Some(EVALUATION_FORMAT) => {
+                    let e: Evaluation = json(p)?;
+                    super::checks::evaluation(p, &e)?;
+                    inputs.evaluations.push((p.clone(), e));
+                }
                 Some(MODEL_FORMAT) => {
                     let model = ModelFile::load(p).map_err(|e| InputError::Format {
                         path: p.clone(),

@@ -2,6 +2,7 @@
 //! Markdown, CSV or JSON. Rates carry their counts and a Wilson 95 % interval.
 
 pub mod build;
+pub mod checks;
 pub mod html;
 pub mod inputs;
 pub mod stats;

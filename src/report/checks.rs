@@ -1,0 +1,147 @@
+//! What the report accepts as numbers: every value it tabulates or plots is finite and in
+//! its range, or the input is refused naming the file, the row and the field. (A NaN, an
+//! infinity or a 1e308 used to be tabulated as if it were a number, and sent the plotting
+//! library's axis computation into an endless loop.)
+
+use std::path::Path;
+
+use super::inputs::InputError;
+use crate::runner::score::{CalibrationRow, LiftRow, OutcomeRow};
+use crate::slip::evaluation::Evaluation;
+use crate::slip::metrics::Scores;
+use crate::slip::sweep::SweepRow;
+
+/// Largest magnitude of a distance, height or time the report takes (mm or s): far past any
+/// rig, far inside what a plot axis can lay out.
+const LARGEST: f64 = 1e6;
+
+struct Rows<'a> {
+    path: &'a Path,
+}
+
+impl Rows<'_> {
+    fn check(
+        &self,
+        row: usize,
+        field: &str,
+        value: f64,
+        lo: f64,
+        hi: f64,
+    ) -> Result<(), InputError> {
+        if value.is_finite() && (lo..=hi).contains(&value) {
+            return Ok(());
+        }
+        Err(InputError::Format {
+            path: self.path.to_path_buf(),
+            message: format!("row {row}: `{field}` = {value}: expected a number in {lo}..={hi}"),
+        })
+    }
+
+    fn optional(
+        &self,
+        row: usize,
+        field: &str,
+        value: Option<f64>,
+        lo: f64,
+        hi: f64,
+    ) -> Result<(), InputError> {
+        value.map_or(Ok(()), |v| self.check(row, field, v, lo, hi))
+    }
+
+    fn scores(&self, row: usize, prefix: &str, s: &Scores) -> Result<(), InputError> {
+        for (name, v) in [
+            ("macro_f1", s.macro_f1),
+            ("slip.precision", s.slip.precision),
+            ("slip.recall", s.slip.recall),
+            ("slip.f1", s.slip.f1),
+            ("static.precision", s.static_.precision),
+            ("static.recall", s.static_.recall),
+            ("static.f1", s.static_.f1),
+        ] {
+            self.check(row, &format!("{prefix}{name}"), v, 0.0, 1.0)?;
+        }
+        Ok(())
+    }
+}
+
+pub fn sweep(path: &Path, rows: &[SweepRow]) -> Result<(), InputError> {
+    let c = Rows { path };
+    for (i, r) in rows.iter().enumerate() {
+        let row = i + 1;
+        for (name, v) in [
+            ("macro_f1", r.macro_f1),
+            ("slip_precision", r.slip_precision),
+            ("slip_recall", r.slip_recall),
+            ("slip_f1", r.slip_f1),
+            ("static_precision", r.static_precision),
+            ("static_recall", r.static_recall),
+            ("static_f1", r.static_f1),
+        ] {
+            c.check(row, name, v, 0.0, 1.0)?;
+        }
+        c.optional(row, "cv_macro_f1", r.cv_macro_f1, 0.0, 1.0)?;
+        c.check(row, "c", r.c, 0.0, f64::MAX)?;
+        c.check(row, "gamma", r.gamma, 0.0, f64::MAX)?;
+        c.check(row, "seconds", r.seconds, 0.0, f64::MAX)?;
+        let d = r.downsample.parse::<f64>().unwrap_or(f64::NAN);
+        if !(d.is_finite() && d > 0.0 && d <= 1.0) {
+            return Err(InputError::Format {
+                path: path.to_path_buf(),
+                message: format!(
+                    "row {row}: `downsample` = {}: expected a proportion in (0, 1]",
+                    r.downsample
+                ),
+            });
+        }
+    }
+    Ok(())
+}
+
+pub fn catches(path: &Path, rows: &[OutcomeRow]) -> Result<(), InputError> {
+    let c = Rows { path };
+    for (i, r) in rows.iter().enumerate() {
+        let row = i + 1;
+        c.check(row, "grasp_deg", r.grasp_deg, -360.0, 360.0)?;
+        c.check(row, "extra_mass_g", r.extra_mass_g, 0.0, LARGEST)?;
+        c.optional(row, "onset_s", r.onset_s, -LARGEST, LARGEST)?;
+        c.optional(row, "reaction_s", r.reaction_s, -LARGEST, LARGEST)?;
+        c.optional(row, "latency_s", r.latency_s, -LARGEST, LARGEST)?;
+        c.optional(row, "slip_distance_mm", r.slip_distance_mm, 0.0, LARGEST)?;
+    }
+    Ok(())
+}
+
+pub fn lifts(path: &Path, rows: &[LiftRow]) -> Result<(), InputError> {
+    let c = Rows { path };
+    for (i, r) in rows.iter().enumerate() {
+        let row = i + 1;
+        c.check(row, "mass_g", r.mass_g, 0.0, LARGEST)?;
+        c.optional(row, "g_cont", r.g_cont, 0.0, 1.0)?;
+        c.optional(row, "g_slip", r.g_slip, 0.0, 1.0)?;
+        c.optional(row, "overgrasp", r.overgrasp, -LARGEST, LARGEST)?;
+        c.optional(row, "object_rise_mm", r.object_rise_mm, -LARGEST, LARGEST)?;
+        c.optional(row, "hand_rise_mm", r.hand_rise_mm, -LARGEST, LARGEST)?;
+        c.optional(row, "lag_mm", r.lag_mm, -LARGEST, LARGEST)?;
+    }
+    Ok(())
+}
+
+pub fn calibrations(path: &Path, rows: &[CalibrationRow]) -> Result<(), InputError> {
+    let c = Rows { path };
+    for (i, r) in rows.iter().enumerate() {
+        let row = i + 1;
+        c.check(row, "mass_g", r.mass_g, 0.0, LARGEST)?;
+        c.optional(row, "g_cont", r.g_cont, 0.0, 1.0)?;
+        c.optional(row, "g_min", r.g_min, 0.0, 1.0)?;
+    }
+    Ok(())
+}
+
+pub fn evaluation(path: &Path, e: &Evaluation) -> Result<(), InputError> {
+    let c = Rows { path };
+    c.scores(1, "overall.", &e.overall)?;
+    for (i, s) in e.per_sensor.iter().enumerate() {
+        c.scores(1, &format!("per_sensor.{i}.scores."), &s.scores)?;
+    }
+    Ok(())
+}
