@@ -199,6 +199,12 @@ pub fn train(args: TrainArgs) -> Result<()> {
     };
     let file = ModelFile::train(&ds, &spec, refs, search)?;
     file.save(&args.out)?;
+    for (sensor, iterations, gap) in file.unconverged() {
+        eprintln!(
+            "warning: the SVM{} stopped at its iteration limit ({iterations} iterations) with an optimality gap of {gap:.4} (converged means below 0.001): its boundary is approximate; a smaller C converges sooner",
+            sensor.map_or(String::new(), |s| format!(" of sensor {s}"))
+        );
+    }
     println!(
         "trained {} ({:?} scope) on {} trials, {} rows, in {:.2} s",
         args.classifier.name(),

@@ -534,6 +534,17 @@ impl ModelFile {
         Ok(())
     }
 
+    /// The SVM fits that stopped at their iteration limit: (sensor, iterations, gap).
+    pub fn unconverged(&self) -> Vec<(Option<u8>, usize, f64)> {
+        self.models
+            .iter()
+            .filter_map(|m| match &m.classifier {
+                Classifier::Svm(s) => s.unconverged_gap.map(|g| (m.sensor, s.iterations, g)),
+                _ => None,
+            })
+            .collect()
+    }
+
     /// The classifier that handles `sensor`'s frames.
     pub fn for_sensor(&self, sensor: u8) -> Option<&SensorModel> {
         match self.scope {

@@ -112,6 +112,10 @@ pub struct SvmModel {
     /// dot product.
     pub weights: Option<Vec<f64>>,
     pub iterations: usize,
+    /// The optimality gap left when the solver stopped at its iteration limit before
+    /// converging (`None`: it converged). Such a fit is approximate, and says so.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub unconverged_gap: Option<f64>,
     #[serde(skip)]
     norms: Vec<f32>,
     #[serde(skip)]
@@ -182,6 +186,7 @@ impl ValidSvmParams {
             rho: solution.rho,
             weights,
             iterations: solution.iterations,
+            unconverged_gap: solution.hit_iteration_limit.then_some(solution.kkt_gap),
             norms: Vec::new(),
             coef32: Vec::new(),
             blocks: Vec::new(),
@@ -318,6 +323,32 @@ mod tests {
             assert!(correct >= 280, "{params:?}: {correct}/300");
             assert!(m.support_vector_count() < 300);
         }
+    }
+
+    #[test]
+    fn a_fit_stopped_at_its_iteration_limit_says_so_with_its_gap() {
+        let (x, y) = blobs(300);
+        let converged = SvmParams::rbf(1.0, 0.5)
+            .check()
+            .unwrap()
+            .fit(2, &x, &y)
+            .unwrap();
+        assert_eq!(converged.unconverged_gap, None);
+        let capped = SvmParams {
+            max_iterations: Some(3),
+            ..SvmParams::rbf(1.0, 0.5)
+        }
+        .check()
+        .unwrap()
+        .fit(2, &x, &y)
+        .unwrap();
+        let gap = capped.unconverged_gap.expect("stopped early");
+        assert!(gap > 1e-3, "{gap}");
+        assert_eq!(capped.iterations, 3);
+        // the record survives the model file
+        let text = serde_json::to_string(&capped).unwrap();
+        let back: SvmModel = serde_json::from_str(&text).unwrap();
+        assert_eq!(back.unconverged_gap, Some(gap));
     }
 
     #[test]
