@@ -57,11 +57,15 @@ pub struct HandBus {
     pub port: String,
     pub baud: u32,
     /// Servo ids: the three fingers (thumb first), then the thumb's rotation.
+    #[serde(deserialize_with = "crate::protocol::exact::exactly")]
     pub ids: [u8; 4],
     /// +1 or -1: which way each servo turns to close.
+    #[serde(deserialize_with = "crate::protocol::exact::exactly")]
     pub directions: [i8; 4],
     /// Encoder counts at open (0) and at closed (1) for each servo.
+    #[serde(deserialize_with = "crate::protocol::exact::exactly")]
     pub min: [u32; 4],
+    #[serde(deserialize_with = "crate::protocol::exact::exactly")]
     pub max: [u32; 4],
     /// Encoder counts per revolution (4096 for the X series).
     #[serde(default = "default_encoder")]

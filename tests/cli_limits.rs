@@ -241,3 +241,46 @@ fn numbers_a_report_cannot_show_are_refused_naming_the_row_and_field() {
     .unwrap();
     ok(&tmo_within(d, &["report", "sweep.csv", "--plots", "p"]));
 }
+
+#[test]
+fn fixed_size_arrays_with_more_or_fewer_values_are_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    for (text, field, why) in [
+        (
+            "kind = \"rail_catch\"\nmode = \"collect\"\n[rail_catch]\nretract_speed_mm_s = [0.1, 5.0, \"garbage\", {x=1}]\n",
+            "retract_speed_mm_s",
+            "expected f64",
+        ),
+        (
+            "kind = \"rail_catch\"\nmode = \"collect\"\n[rail_catch]\nretract_speed_mm_s = [0.1, 5.0, 7.0]\n",
+            "retract_speed_mm_s",
+            "exactly 2 values",
+        ),
+        (
+            "kind = \"rail_catch\"\nmode = \"collect\"\n[safety]\nworkspace_mm = [50, 50, 250, 1, 2]\n",
+            "workspace_mm",
+            "exactly 3 values",
+        ),
+    ] {
+        std::fs::write(d.join("p.toml"), text).unwrap();
+        let err = fails(&tmo(d, &["run", "p.toml"]));
+        assert!(err.contains(field) && err.contains(why), "{text}\n{err}");
+    }
+    let hw = std::fs::read_to_string(
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("hardware/tmo.toml"),
+    )
+    .unwrap();
+    for (from, to) in [
+        ("ids = [1, 2, 3, 4]", "ids = [1, 2, 3, 4, 5]"),
+        ("min = [1200, 1150, 2900, 2048]", "min = [1200, 1150, 2900]"),
+    ] {
+        assert!(hw.contains(from));
+        std::fs::write(d.join("hw.toml"), hw.replace(from, to)).unwrap();
+        let err = fails(&tmo(d, &["hardware", "check", "hw.toml"]));
+        assert!(
+            err.contains("hw.toml") && err.contains("exactly 4"),
+            "{to}\n{err}"
+        );
+    }
+}

@@ -4,6 +4,7 @@
 //!
 //! Errors name the file, the line and column, the field and what was expected.
 
+pub mod exact;
 mod params;
 
 use std::path::{Path, PathBuf};

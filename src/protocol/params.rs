@@ -73,6 +73,7 @@ pub struct SafetyLimits {
     /// Fastest arm motion, mm/s.
     pub max_arm_speed_mm_s: f64,
     /// Furthest the TCP may be from where it started, per axis, mm.
+    #[serde(deserialize_with = "super::exact::exactly")]
     pub workspace_mm: [f64; 3],
 }
 
@@ -115,6 +116,7 @@ impl SafetyLimits {
 #[serde(deny_unknown_fields, default)]
 pub struct RailCatch {
     /// Arm retraction speed drawn uniformly from this range, mm/s.
+    #[serde(deserialize_with = "super::exact::exactly")]
     pub retract_speed_mm_s: [f64; 2],
     /// On slip: arm moves this far forward, mm.
     pub forward_mm: f64,
