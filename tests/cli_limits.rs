@@ -284,3 +284,39 @@ fn fixed_size_arrays_with_more_or_fewer_values_are_refused() {
         );
     }
 }
+
+#[test]
+fn a_sweep_resumed_with_other_settings_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    ok(&tmo(d, &["sim", "collect", "--trials", "4", "--out", "t"]));
+    let sweep = |c: &str, resume: bool| {
+        let mut args = vec![
+            "sweep",
+            "t",
+            "--classifiers",
+            "logreg",
+            "--downsample",
+            "1.0",
+            "--n-slip",
+            "3",
+            "--C",
+            c,
+            "--out",
+            "s/sweep.csv",
+        ];
+        if resume {
+            args.push("--resume");
+        }
+        tmo(d, &args)
+    };
+    ok(&sweep("1", false));
+    let err = fails(&sweep("2", true));
+    assert!(
+        err.contains("different sweep") && err.contains("c: 2.0"),
+        "{err}"
+    );
+    // the same settings resume (nothing left to run)
+    let out = ok(&sweep("1", true));
+    assert!(out.contains("0 cells to run (1 already done)"), "{out}");
+}

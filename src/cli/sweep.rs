@@ -11,7 +11,7 @@ use tmo::slip::dataset::{split_trials, LabelSpec, Scope};
 use tmo::slip::labels::OnsetSpec;
 use tmo::slip::model::{ClassifierKind, Hyperparameters, TrialRef};
 use tmo::slip::sweep::{parse_f64_grid, parse_usize_grid, HyperChoice, SweepSpec};
-use tmo::slip::sweep_file::run_to_file;
+use tmo::slip::sweep_file::{run_to_file, SweepTarget};
 use tmo::trial::{expand_trial_paths, TrialMeta};
 
 use super::slip::{load_dataset, SearchMethod};
@@ -150,13 +150,36 @@ pub fn sweep(args: SweepArgs) -> Result<()> {
         is_test.iter().filter(|t| !**t).count(),
         is_test.iter().filter(|t| **t).count(),
     );
+    // Everything but the grid point that a cell's value depends on.
+    let trial_hashes = |test: bool| {
+        let joined: String = refs
+            .iter()
+            .zip(&is_test)
+            .filter(|(_, t)| **t == test)
+            .map(|(r, _)| r.sha256.as_str())
+            .collect();
+        tmo::trial::sha256_hex(joined.as_bytes())
+    };
+    let identity = format!(
+        "scope {:?}\nhyperparameters {:?}\nseed {}\nonset_threshold_mm {}\ntraining trials {}\ntest trials {}\n",
+        args.scope,
+        hyper,
+        args.seed,
+        args.onset_threshold_mm,
+        trial_hashes(false),
+        trial_hashes(true)
+    );
+    let target = SweepTarget {
+        out: &args.out,
+        resume: args.resume,
+        identity,
+        stop: None,
+    };
     let result = run_to_file(
         &train,
         &test,
         &spec,
-        &args.out,
-        args.resume,
-        None,
+        &target,
         |to_run, done| {
             println!(
                 "sweep: {to_run} cells to run ({done} already done), {n_train} train trials ({} rows), {n_test} test trials ({} rows)",

@@ -17,7 +17,7 @@ use crate::slip::evaluation::Evaluation;
 use crate::slip::labels::OnsetSpec;
 use crate::slip::model::{ClassifierKind, Hyperparameters, ModelFile, TrainSpec};
 use crate::slip::sweep::{HyperChoice, SweepRow, SweepSpec};
-use crate::slip::sweep_file::run_to_file;
+use crate::slip::sweep_file::{run_to_file, SweepTarget};
 use crate::slip::tuning::{self, TuneSpec};
 
 /// C of the paper's best SVM, used for the sweep's cells when they are not searched (the
@@ -470,13 +470,19 @@ fn rail_sweep(ctx: &Context, c: &Counts, dir: &Path) -> Result<bool, ReproduceEr
         seed: 0,
     };
     // Finished cells are kept in sweep.csv.partial: an interrupted sweep resumes there.
+    let out = dir.join("sweep.csv");
+    let target = SweepTarget {
+        out: &out,
+        resume: true,
+        // the step's directory is fresh whenever its inputs changed
+        identity: format!("reproduce {} {:?}\n", ctx.preset.name(), spec.hyper),
+        stop: Some(ctx.stop),
+    };
     let result = run_to_file(
         &train,
         &test,
         &spec,
-        &dir.join("sweep.csv"),
-        true,
-        Some(ctx.stop),
+        &target,
         |to_run, _| ctx.bar.set_length(to_run as u64),
         |_| ctx.bar.inc(1),
     );

@@ -1,6 +1,9 @@
 //! A sweep's results file. Finished cells are appended to `<out>.partial` as they complete,
 //! so an interrupted sweep loses at most the cells in flight and a resumed one runs only the
 //! rest; the CSV is sorted and written under its name only when every cell is done.
+//! `<out>.identity` records what the cells were computed from (settings and training and
+//! test trials, as the caller describes them): a resume with anything else is refused, so
+//! cells of two different sweeps never share a file.
 
 use std::collections::HashSet;
 use std::path::{Path, PathBuf};
@@ -21,6 +24,12 @@ pub enum SweepFileError {
     Csv { path: PathBuf, message: String },
     #[error("{0} holds cells of an interrupted sweep: pass --resume to finish it, or delete it")]
     PartialThere(PathBuf),
+    #[error("{path} holds cells of a different sweep: it was made with `{was}`, this one asks `{now}`; choose another --out, or delete it")]
+    Different {
+        path: PathBuf,
+        was: String,
+        now: String,
+    },
     #[error("sweep stopped; finished cells are in {partial} (run again with --resume): {source}")]
     Sweep {
         partial: PathBuf,
@@ -96,19 +105,57 @@ pub struct SweepResult {
     pub ran: usize,
 }
 
-/// Runs the cells of `spec` not yet in `out` (or its partial file, with `resume`), keeping
-/// each as it finishes; `on_start` learns how many will run, `on_done` sees each new row.
-#[allow(clippy::too_many_arguments)] // each is one fact about the sweep; a struct would only rename them
+/// Where a sweep's cells go, and how.
+pub struct SweepTarget<'a> {
+    pub out: &'a Path,
+    /// Keep the cells already in `out` or its partial file (when their identity matches).
+    pub resume: bool,
+    /// What the cells are computed from besides their grid point, one `key value` a line.
+    pub identity: String,
+    /// Start no more cells once set.
+    pub stop: Option<&'a AtomicBool>,
+}
+
+fn identity_path(out: &Path) -> PathBuf {
+    let mut name = out.as_os_str().to_owned();
+    name.push(".identity");
+    PathBuf::from(name)
+}
+
+/// Refuses a resume of cells computed from something else; records the identity.
+fn check_identity(target: &SweepTarget, has_cells: bool) -> Result<(), SweepFileError> {
+    let path = identity_path(target.out);
+    if has_cells {
+        if let Ok(was) = std::fs::read_to_string(&path) {
+            if was != target.identity {
+                let (w, n) = was
+                    .lines()
+                    .zip(target.identity.lines())
+                    .find(|(a, b)| a != b)
+                    .unwrap_or((was.as_str(), target.identity.as_str()));
+                return Err(SweepFileError::Different {
+                    path: target.out.to_path_buf(),
+                    was: w.to_string(),
+                    now: n.to_string(),
+                });
+            }
+        }
+    }
+    std::fs::write(&path, &target.identity).map_err(|source| SweepFileError::Io { path, source })
+}
+
+/// Runs the cells of `spec` not yet in the target (or its partial file, with `resume`),
+/// keeping each as it finishes; `on_start` learns how many will run and how many were
+/// done, `on_done` sees each new row.
 pub fn run_to_file(
     train: &Dataset,
     test: &Dataset,
     spec: &SweepSpec,
-    out: &Path,
-    resume: bool,
-    stop: Option<&AtomicBool>,
+    target: &SweepTarget,
     on_start: impl FnOnce(usize, usize),
     on_done: impl Fn(&SweepRow) + Sync,
 ) -> Result<SweepResult, SweepFileError> {
+    let (out, resume, stop) = (target.out, target.resume, target.stop);
     let partial = partial_path(out);
     let done: Vec<SweepRow> = if resume {
         let mut rows = Vec::new();
@@ -136,6 +183,7 @@ pub fn run_to_file(
             source,
         })?;
     }
+    check_identity(target, !done.is_empty())?;
     on_start(cells.len(), finished.len());
     let append_header = !partial.exists();
     let file = std::fs::OpenOptions::new()
