@@ -320,3 +320,27 @@ fn a_sweep_resumed_with_other_settings_is_refused() {
     let out = ok(&sweep("1", true));
     assert!(out.contains("0 cells to run (1 already done)"), "{out}");
 }
+
+#[test]
+fn every_motion_and_force_a_trial_may_command_is_checked_at_load() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    for (text, field) in [
+        (
+            "kind = \"hand_release\"\nmode = \"collect\"\n[hand_release]\nlift_mm = 120\n[safety]\nmax_arm_speed_mm_s = 30\n",
+            "hand_release.lift_speed_mm_s",
+        ),
+        (
+            "kind = \"rail_catch\"\nmode = \"collect\"\n[safety]\nmax_arm_speed_mm_s = 10\n",
+            "rail_catch (the catch moves forward at a fixed 20 mm/s)",
+        ),
+        (
+            "kind = \"rail_catch\"\nmode = \"collect\"\n[rail_catch]\ninitial_torque = 0.8\ntorque_step = 0.3\n",
+            "rail_catch.torque_step",
+        ),
+    ] {
+        std::fs::write(d.join("p.toml"), text).unwrap();
+        let err = fails(&tmo(d, &["run", "p.toml"]));
+        assert!(err.contains(field), "{text}\n{err}");
+    }
+}

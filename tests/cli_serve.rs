@@ -238,7 +238,9 @@ fn hand_release_and_rice_pour_run_on_the_real_backend_against_the_served_simulat
     );
 
     // a rig that is not the served simulator needs an operator, and tests have no terminal
-    let served = std::fs::read_to_string(d.join("served.toml")).unwrap();
+    let served = std::fs::read_to_string(d.join("served.toml"))
+        .unwrap()
+        .replace("max_arm_speed_mm_s = 20.0", "max_arm_speed_mm_s = 100.0");
     let cut = served
         .find("[served_simulator]")
         .expect("served file names its control port");

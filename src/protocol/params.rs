@@ -168,6 +168,8 @@ pub struct HandRelease {
     /// Masses added to the object, g, each a level of the grid (the paper's cat with a
     /// 100 g mass adhered to it).
     pub masses_g: Vec<f64>,
+    /// Speed of the lift before the release, mm/s.
+    pub lift_speed_mm_s: f64,
 }
 
 impl Default for HandRelease {
@@ -182,6 +184,7 @@ impl Default for HandRelease {
             contact_deformation_px: 0.5,
             approach_speed_of_max: 0.01,
             masses_g: vec![0.0],
+            lift_speed_mm_s: 40.0,
         }
     }
 }
@@ -320,9 +323,14 @@ fn masses(section: &'static str, m: &[f64]) -> Check {
         .try_for_each(|v| in_range(section, "masses_g", *v, 0.0, 2000.0))
 }
 
+/// Speed of the rail's catch move forward, mm/s (not a protocol field: checked against
+/// `safety.max_arm_speed_mm_s` at load all the same).
+pub const RAIL_FORWARD_SPEED_MM_S: f64 = 20.0;
+
 impl KindParams {
     /// Motions and forces the protocol asks for, against the safety limit each must respect:
-    /// `(field, value, limit, limit's field)`.
+    /// `(field, value, limit, limit's field)`. Every motion a trial may command is here, so
+    /// a protocol the limits refuse is refused at load, not mid-trial.
     pub fn demands(&self, l: &SafetyLimits) -> Vec<(&'static str, f64, f64, &'static str)> {
         let (speed, reach) = ("safety.max_arm_speed_mm_s", "safety.workspace_mm");
         let (v, z) = (l.max_arm_speed_mm_s, l.workspace_mm[2]);
@@ -346,8 +354,24 @@ impl KindParams {
                     l.max_torque,
                     "safety.max_torque",
                 ),
+                // the reaction raises the torque once: refused, never clipped
+                (
+                    "rail_catch.torque_step",
+                    p.initial_torque + p.torque_step,
+                    l.max_torque,
+                    "safety.max_torque (initial_torque + torque_step)",
+                ),
+                (
+                    "rail_catch (the catch moves forward at a fixed 20 mm/s)",
+                    RAIL_FORWARD_SPEED_MM_S,
+                    v,
+                    speed,
+                ),
             ],
-            KindParams::HandRelease(p) => vec![("hand_release.lift_mm", p.lift_mm, z, reach)],
+            KindParams::HandRelease(p) => vec![
+                ("hand_release.lift_mm", p.lift_mm, z, reach),
+                ("hand_release.lift_speed_mm_s", p.lift_speed_mm_s, v, speed),
+            ],
             KindParams::RicePour(_) => vec![],
             KindParams::FirstTimeLift(p) => vec![
                 (
@@ -387,6 +411,7 @@ impl KindParams {
                 in_range(s, "release_speed_of_max", p.release_speed_of_max, 1e-4, 0.5)?;
                 in_range(s, "regrasp", p.regrasp, 0.0, 0.2)?;
                 in_range(s, "lift_mm", p.lift_mm, 0.0, 300.0)?;
+                in_range(s, "lift_speed_mm_s", p.lift_speed_mm_s, 1.0, 250.0)?;
                 in_range(s, "hold_s", p.hold_s, 0.0, 60.0)?;
                 in_range(s, "max_duration_s", p.max_duration_s, 1.0, 600.0)?;
                 masses(s, &p.masses_g)?;
