@@ -344,3 +344,37 @@ fn every_motion_and_force_a_trial_may_command_is_checked_at_load() {
         assert!(err.contains(field), "{text}\n{err}");
     }
 }
+
+#[test]
+fn a_second_tmo_on_the_same_batch_is_refused_at_once() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::write(
+        d.join("c.toml"),
+        "kind = \"hand_release\"\nmode = \"collect\"\nrepetitions = 6\n[hand_release]\nlift_mm = 120\n",
+    )
+    .unwrap();
+    let mut first = Command::new(env!("CARGO_BIN_EXE_tmo"))
+        .current_dir(d)
+        .args(["run", "c.toml", "--out", "b"])
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
+    let started = Instant::now();
+    while !d.join("b.lock").exists() {
+        assert!(
+            first.try_wait().unwrap().is_none(),
+            "the batch ended before it was seen"
+        );
+        assert!(started.elapsed() < Duration::from_secs(60));
+        std::thread::sleep(Duration::from_millis(2));
+    }
+    let err = fails(&tmo(d, &["run", "c.toml", "--out", "b", "--resume"]));
+    assert!(err.contains("another tmo"), "{err}");
+    assert!(first.wait().unwrap().success());
+    assert!(!d.join("b.lock").exists(), "the lock goes with its writer");
+    // and once the first is done, a resume may go ahead (nothing left to run)
+    let out = ok(&tmo(d, &["run", "c.toml", "--out", "b", "--resume"]));
+    assert!(out.contains("0 run"), "{out}");
+}

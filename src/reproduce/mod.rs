@@ -180,6 +180,8 @@ pub fn reproduce(
         return Err(ReproduceError::AlreadyThere(out.clone()));
     }
     std::fs::create_dir_all(out).map_err(io(out))?;
+    let _lock =
+        crate::lock::OutputLock::acquire(out).map_err(|e| ReproduceError::step("reproduce", e))?;
     let ctx = steps::Context {
         out,
         preset: &options.preset,

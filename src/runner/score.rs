@@ -279,9 +279,11 @@ fn median(mut v: Vec<f64>) -> f64 {
 
 impl GMinTable {
     /// One entry per object and mass, from the calibration rows that found a g_min.
+    /// The table of `rows`; trials a fault aborted are left out, as the report leaves them
+    /// out of its calibration table.
     pub fn from_rows(rows: &[CalibrationRow]) -> Self {
         let mut cells: BTreeMap<(String, u64), Vec<(f64, f64)>> = BTreeMap::new();
-        for r in rows {
+        for r in rows.iter().filter(|r| r.fault.is_none()) {
             if let (Some(c), Some(m)) = (r.g_cont, r.g_min) {
                 cells
                     .entry((r.object.clone(), r.mass_g.to_bits()))
@@ -353,5 +355,23 @@ mod tests {
             at(2.5, "reaction"),
         ];
         assert_eq!(responses(&t), 2);
+    }
+
+    #[test]
+    fn a_calibration_a_fault_aborted_is_not_in_the_g_min_table() {
+        let row = |g_min: f64, fault: Option<&str>| CalibrationRow {
+            trial_id: "t".into(),
+            object: "crisps_can_empty".into(),
+            mass_g: 100.0,
+            g_cont: Some(0.50),
+            g_min: Some(g_min),
+            attempts: 3,
+            fault: fault.map(String::from),
+        };
+        let table =
+            GMinTable::from_rows(&[row(0.52, None), row(0.90, Some("{\"NoContact\":null}"))]);
+        assert_eq!(table.entries.len(), 1);
+        assert_eq!(table.entries[0].trials, 1);
+        assert!((table.entries[0].g_min - 0.52).abs() < 1e-12);
     }
 }

@@ -137,6 +137,8 @@ pub enum BatchError {
     #[error(transparent)]
     Log(#[from] crate::trial::TrialError),
     #[error(transparent)]
+    Lock(#[from] crate::lock::LockError),
+    #[error(transparent)]
     Model(#[from] crate::slip::model::ModelFileError),
     #[error("first_time_lift.calibration: {0}")]
     Calibration(#[from] crate::runner::score::GMinError),

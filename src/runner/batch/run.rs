@@ -107,6 +107,8 @@ pub fn run_batch(
         _ => None,
     };
     let models = load_models(plan)?;
+    // One writer per batch directory, for as long as the batch runs.
+    let _lock = crate::lock::OutputLock::acquire(out)?;
     let trials = expand(plan);
     let existing = trials
         .iter()
