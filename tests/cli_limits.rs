@@ -378,3 +378,32 @@ fn a_second_tmo_on_the_same_batch_is_refused_at_once() {
     let out = ok(&tmo(d, &["run", "c.toml", "--out", "b", "--resume"]));
     assert!(out.contains("0 run"), "{out}");
 }
+
+#[test]
+fn a_resume_finishes_only_the_batch_the_directory_holds() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::write(
+        d.join("c.toml"),
+        "kind = \"rail_catch\"\nmode = \"collect\"\nrepetitions = 3\nseed = 1\n",
+    )
+    .unwrap();
+    ok(&tmo(d, &["run", "c.toml", "--out", "b"]));
+    let err = fails(&tmo(
+        d,
+        &["run", "c.toml", "--out", "b", "--resume", "--seed", "2"],
+    ));
+    assert!(err.contains("seed 1 there, 2 now"), "{err}");
+    let err = fails(&tmo(
+        d,
+        &["run", "c.toml", "--out", "b", "--resume", "--repeat", "5"],
+    ));
+    assert!(err.contains("3 repetitions there, 5 now"), "{err}");
+    // a log put under another trial's name
+    std::fs::copy(d.join("b/trial-00001.mcap"), d.join("b/trial-00000.mcap")).unwrap();
+    let err = fails(&tmo(d, &["run", "c.toml", "--out", "b", "--resume"]));
+    assert!(
+        err.contains("trial-00000.mcap is not this batch's trial-00000: it is trial-00001"),
+        "{err}"
+    );
+}

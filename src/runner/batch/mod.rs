@@ -32,6 +32,44 @@ pub struct Manifest {
     pub trials: Vec<String>,
 }
 
+impl Manifest {
+    /// What makes `self` a different batch from `kept` (the one a directory holds), if
+    /// anything: its protocol, kind, mode, seed, repetitions or grid.
+    pub fn differs_from(&self, kept: &Manifest) -> Option<String> {
+        let short = |h: &str| h.chars().take(12).collect::<String>();
+        if self.protocol_sha256 != kept.protocol_sha256 {
+            return Some(format!(
+                "the protocol differs (SHA-256 {} there, {} now)",
+                short(&kept.protocol_sha256),
+                short(&self.protocol_sha256)
+            ));
+        }
+        if (self.kind, self.mode) != (kept.kind, kept.mode) {
+            return Some(format!(
+                "it was a {} {:?} batch, this is {} {:?}",
+                kept.kind, kept.mode, self.kind, self.mode
+            ));
+        }
+        if self.seed != kept.seed {
+            return Some(format!("seed {} there, {} now", kept.seed, self.seed));
+        }
+        if self.repetitions != kept.repetitions {
+            return Some(format!(
+                "{} repetitions there, {} now",
+                kept.repetitions, self.repetitions
+            ));
+        }
+        if self.trials != kept.trials {
+            return Some(format!(
+                "its grid had {} trials, this one has {}",
+                kept.trials.len(),
+                self.trials.len()
+            ));
+        }
+        None
+    }
+}
+
 /// One trial of the grid.
 #[derive(Debug, Clone, PartialEq)]
 pub struct PlannedTrial {
@@ -127,6 +165,18 @@ pub enum BatchError {
     MissingModel(PathBuf),
     #[error("the batch has {trials} trials (objects x masses x grasps x models x strategies x repetitions); at most {MAX_TRIALS} can run in one batch")]
     TooManyTrials { trials: u128 },
+    #[error(
+        "{dir} holds another batch ({what}): run it with what made it, or choose another --out"
+    )]
+    DifferentBatch { dir: PathBuf, what: String },
+    #[error(
+        "{path} is not this batch's {trial_id}: {what}; move it away and run again with --resume"
+    )]
+    ForeignLog {
+        path: PathBuf,
+        trial_id: String,
+        what: String,
+    },
     #[error("{dir} already holds {trials} trial(s) of a batch: pass --resume to finish it, or choose another --out")]
     AlreadyThere { dir: PathBuf, trials: usize },
     #[error("trial {trial_id}: {source}")]

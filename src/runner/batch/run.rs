@@ -137,6 +137,16 @@ pub fn run_batch(
         },
         trials: trials.iter().map(|t| t.trial_id.clone()).collect(),
     };
+    // A resume finishes the batch the directory holds, never another one.
+    let kept_manifest = std::fs::read_to_string(out.join("batch.json"))
+        .ok()
+        .and_then(|text| serde_json::from_str::<Manifest>(&text).ok());
+    if let Some(what) = kept_manifest.and_then(|kept| manifest.differs_from(&kept)) {
+        return Err(BatchError::DifferentBatch {
+            dir: out.to_path_buf(),
+            what,
+        });
+    }
     write_atomic(
         &out.join("batch.json"),
         serde_json::to_string_pretty(&manifest)
@@ -194,6 +204,23 @@ pub fn run_batch(
             ran += 1;
         }
         let trial = read_trial(&path)?;
+        let m = &trial.meta;
+        let foreign = if m.trial_id != t.trial_id {
+            Some(format!("it is {}", m.trial_id))
+        } else if m.seed != t.seed {
+            Some(format!("its seed is {}, the trial's {}", m.seed, t.seed))
+        } else if m.protocol_sha256.as_deref() != Some(plan.source_sha256.as_str()) {
+            Some("another protocol made it".to_string())
+        } else {
+            None
+        };
+        if let Some(what) = foreign {
+            return Err(BatchError::ForeignLog {
+                path,
+                trial_id: t.trial_id.clone(),
+                what,
+            });
+        }
         let message = match &plan.params {
             KindParams::FirstTimeLift(_) => {
                 let row = score::score_first_time_lift(&trial, onset_mm, g_min.as_ref());
