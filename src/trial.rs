@@ -283,9 +283,11 @@ pub fn read_trial(path: &Path) -> Result<Trial, TrialError> {
     let mut frames = Vec::new();
     let mut markers = Vec::new();
     let mut events = Vec::new();
-    for (index, message) in mcap::MessageStream::new(&buf)
-        .map_err(mcap_err(path))?
-        .enumerate()
+    // Chunk CRCs are checked: a log damaged on disk is refused, never scored.
+    for (index, message) in
+        mcap::MessageStream::new_with_options(&buf, mcap::read::Options::ValidateChunkCrcs.into())
+            .map_err(mcap_err(path))?
+            .enumerate()
     {
         let message = message.map_err(mcap_err(path))?;
         let topic = message.channel.topic.as_str();
@@ -312,6 +314,25 @@ pub fn read_trial(path: &Path) -> Result<Trial, TrialError> {
     markers.sort_by(|a, b| a.time_s.total_cmp(&b.time_s));
     // stable: events of one instant keep the order they were logged in
     events.sort_by(|a, b| a.time_s.total_cmp(&b.time_s));
+    // Frames must be what the metadata says the rig had: features assume it.
+    if let Some((index, f)) = frames
+        .iter()
+        .enumerate()
+        .find(|(_, f)| f.sensor >= meta.sensors || f.pins.len() != meta.pins)
+    {
+        return Err(TrialError::BadMessage {
+            path: path.into(),
+            topic: format!("/tactile/{}", f.sensor),
+            index,
+            message: format!(
+                "a frame of sensor {} with {} pins, but the trial's metadata says {} sensor(s) of {} pins",
+                f.sensor,
+                f.pins.len(),
+                meta.sensors,
+                meta.pins
+            ),
+        });
+    }
     Ok(Trial {
         meta,
         frames,
@@ -464,6 +485,41 @@ pub(crate) mod tests {
         fs::write(&path, &bytes[..bytes.len() / 2]).unwrap();
         let err = read_trial(&path).unwrap_err().to_string();
         assert!(err.contains("t.mcap"), "{err}");
+    }
+
+    #[test]
+    fn one_changed_digit_in_a_pin_is_refused_by_the_chunk_crc() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("t.mcap");
+        write_trial(&path, &sample_trial()).unwrap();
+        let mut bytes = fs::read(&path).unwrap();
+        let at = bytes
+            .windows(9)
+            .position(|w| w == b"\"pins\":[[")
+            .expect("a pin frame in the log")
+            + 9;
+        let digit = (at..bytes.len())
+            .find(|&i| bytes[i].is_ascii_digit())
+            .unwrap();
+        bytes[digit] = if bytes[digit] == b'7' { b'8' } else { b'7' };
+        fs::write(&path, &bytes).unwrap();
+        let err = read_trial(&path).unwrap_err().to_string();
+        assert!(
+            err.contains("t.mcap") && err.to_lowercase().contains("crc"),
+            "{err}"
+        );
+    }
+
+    #[test]
+    fn frames_the_metadata_does_not_allow_are_refused() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("t.mcap");
+        // (a frame of a sensor the trial does not have is refused by the writer already)
+        let mut five = sample_trial();
+        five.frames[1].pins.push([1.0, 1.0]);
+        write_trial(&path, &five).unwrap();
+        let err = read_trial(&path).unwrap_err().to_string();
+        assert!(err.contains("3 pins") && err.contains("of 2 pins"), "{err}");
     }
 
     #[test]
