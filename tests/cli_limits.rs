@@ -407,3 +407,24 @@ fn a_resume_finishes_only_the_batch_the_directory_holds() {
         "{err}"
     );
 }
+
+#[test]
+fn an_error_says_its_cause_once() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    ok(&tmo(d, &["sim", "collect", "--trials", "2", "--out", "t"]));
+    let err = fails(&tmo(
+        d,
+        &[
+            "train",
+            "t",
+            "--classifier",
+            "logreg",
+            "--C",
+            "0",
+            "--out",
+            "m.json",
+        ],
+    ));
+    assert_eq!(err.matches("invalid C = 0").count(), 1, "{err}");
+}

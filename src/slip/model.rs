@@ -79,11 +79,11 @@ pub struct SensorModel {
 pub enum TrainError {
     #[error("no training rows{for_sensor}")]
     Empty { for_sensor: String },
-    #[error("{0}")]
+    #[error(transparent)]
     Threshold(#[from] super::threshold::ThresholdError),
-    #[error("{0}")]
+    #[error(transparent)]
     Svm(#[from] super::svm::SvmError),
-    #[error("{0}")]
+    #[error(transparent)]
     LogReg(#[from] super::logreg::LogRegError),
 }
 

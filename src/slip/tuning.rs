@@ -36,9 +36,9 @@ pub struct TuneSpec {
 
 #[derive(Debug, thiserror::Error)]
 pub enum TuneError {
-    #[error("{0}")]
+    #[error(transparent)]
     Search(#[from] SearchError),
-    #[error("{0}")]
+    #[error(transparent)]
     Train(#[from] TrainError),
     #[error("cross-validation needs at least {folds} trials, got {trials}")]
     TooFewTrials { folds: usize, trials: usize },
