@@ -219,15 +219,9 @@ fn sim_collect(args: CollectArgs) -> Result<()> {
         args.objects.clone()
     } else {
         match args.rig {
-            CollectRig::Hand => [
-                "crisps_can",
-                "windex_bottle",
-                "bleach_bottle",
-                "mustard_bottle",
-                "banana",
-            ]
-            .map(String::from)
-            .to_vec(),
+            CollectRig::Hand => tmo::protocol::PAPER_TRAINING_OBJECTS
+                .map(String::from)
+                .to_vec(),
             CollectRig::Rail => vec!["rail_object".to_string()],
         }
     };

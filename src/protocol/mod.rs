@@ -14,7 +14,7 @@ use serde::Deserialize;
 use crate::online::strategy::Strategy;
 pub use params::{
     Calibration, FirstTimeLift, HandRelease, Outcome, PerObject, RailCatch, RicePour, SafetyLimits,
-    RAIL_FORWARD_SPEED_MM_S,
+    PAPER_TRAINING_OBJECTS, RAIL_FORWARD_SPEED_MM_S,
 };
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize, serde::Serialize)]

@@ -492,17 +492,20 @@ fn contact_grasp_check(
     in_range(s, "approach_speed_of_max", approach_speed_of_max, 1e-4, 0.5)
 }
 
+/// The paper's five whole-hand training objects (black titles in its Fig. 6).
+pub const PAPER_TRAINING_OBJECTS: [&str; 5] = [
+    "crisps_can",
+    "windex_bottle",
+    "bleach_bottle",
+    "mustard_bottle",
+    "banana",
+];
+
 /// The paper's objects for each kind.
 pub fn default_objects(kind: Kind) -> Vec<String> {
     let names: &[&str] = match kind {
         Kind::RailCatch => &["rail_object"],
-        Kind::HandRelease => &[
-            "crisps_can",
-            "windex_bottle",
-            "bleach_bottle",
-            "mustard_bottle",
-            "banana",
-        ],
+        Kind::HandRelease => &PAPER_TRAINING_OBJECTS,
         // the paper pours rice into the empty can
         Kind::RicePour => &["crisps_can_empty"],
         Kind::FirstTimeLift | Kind::CalibrateLift => &["crisps_can_empty"],

@@ -15,14 +15,8 @@ use crate::runner::score::{LiftRow, OutcomeRow};
 use crate::slip::evaluation::Evaluation;
 use crate::slip::sweep::SweepRow;
 
-/// The paper's five training objects (black titles in its Fig. 6); the rest are novel.
-pub const TRAINING_OBJECTS: [&str; 5] = [
-    "crisps_can",
-    "windex_bottle",
-    "bleach_bottle",
-    "mustard_bottle",
-    "banana",
-];
+/// The paper's five training objects; the rest are novel.
+pub use crate::protocol::PAPER_TRAINING_OBJECTS as TRAINING_OBJECTS;
 /// The paper's six novel objects.
 pub const NOVEL_OBJECTS: [&str; 6] = [
     "soup_can",

@@ -506,7 +506,6 @@ fn rail_model(ctx: &Context, c: &Counts, dir: &Path) -> Result<(), ReproduceErro
     let step = "rail_model";
     let rows = read_sweep(&ctx.out.join(Step::RailSweep.dir()).join("sweep.csv"))?;
     let train_dir = ctx.out.join(Step::RailCollect.dir()).join("train");
-    let mut trained = Vec::new();
     for (classifier, file) in [
         (ClassifierKind::SvmRbf, "rail.json"),
         (ClassifierKind::Threshold, "threshold.json"),
@@ -556,7 +555,6 @@ fn rail_model(ctx: &Context, c: &Counts, dir: &Path) -> Result<(), ReproduceErro
         model
             .save(&dir.join(file))
             .map_err(|e| ReproduceError::step(step, e))?;
-        trained.push(file);
     }
     Ok(())
 }
