@@ -55,8 +55,9 @@ pub fn contact_closure(base: &SimConfig, object: &str) -> Result<f64, SimError> 
 /// `extra_mass_g`) with `safety` times the normal force the most loaded contact needs.
 ///
 /// The thumb carries `(1 + b) / 2` of the weight (`b` the grasp's load bias) and holds while
-/// that is at most `mu_s N_thumb`; with equal finger travel `a` the object shifts by `a / 3`,
-/// so `N_thumb = k 4a / 3` (`k` the contact stiffness, finger, skin and object in series).
+/// that is at most `mu_s N_thumb`. The object shifts until each finger presses with half the
+/// thumb's force, so with equal finger travel `a` past touch and the contact law's travel
+/// `p(N)`: `a + y = p(N_thumb)`, `a - y = p(N_thumb / 2)`.
 pub fn holding_closure(
     base: &SimConfig,
     object: &str,
@@ -67,11 +68,8 @@ pub fn holding_closure(
     let p = &base.physics;
     let weight = (spec.mass_g + extra_mass_g) / 1000.0 * p.gravity_m_s2;
     let thumb_force = safety * weight * (1.0 + p.thumb_load_bias.abs()) / (2.0 * spec.mu_static);
-    let k = 1.0
-        / (1.0 / p.finger_stiffness_n_per_mm
-            + 1.0 / p.skin_stiffness_n_per_mm
-            + 1.0 / spec.stiffness_n_per_mm);
-    let travel = 3.0 * thumb_force / (4.0 * k);
+    let law = tmo_hal::sim::nominal_contact_law(p, &spec);
+    let travel = 0.5 * (law.travel_mm(thumb_force) + law.travel_mm(thumb_force / 2.0));
     Ok((contact_closure(base, object)? + travel / p.finger_travel_mm).min(1.0))
 }
 

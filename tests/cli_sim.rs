@@ -153,7 +153,7 @@ fn bad_config_names_the_file_line_and_field() {
 
     std::fs::write(
         dir.path().join("neg.toml"),
-        "[physics]\nskin_stiffness_n_per_mm = -1.0\n",
+        "[physics]\nskin_modulus_kpa = -1.0\n",
     )
     .unwrap();
     let o = tmo(
@@ -164,7 +164,7 @@ fn bad_config_names_the_file_line_and_field() {
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(
         err.contains("neg.toml")
-            && err.contains("skin_stiffness_n_per_mm")
+            && err.contains("skin_modulus_kpa")
             && err.contains("positive"),
         "{err}"
     );

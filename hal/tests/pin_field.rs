@@ -1,5 +1,6 @@
-//! What the simulated TacTips show: co-linear pin motion at slip onset, radial motion while
-//! closing, and the same frames for the same seed.
+//! What the simulated TacTips show: pin motion for as long as the object slides, grip
+//! changes with a mean vector that is still mostly radial, and the same frames for the
+//! same seed.
 
 use tmo_hal::sim::{FaultRates, HandSetup, ObjectStart, RigSetup, SimConfig, SimRig};
 use tmo_hal::{Clock, Hand, MarkerSample, MarkerTracker, PinFrame, TactileSensor};
@@ -64,49 +65,61 @@ fn release(seed: u64, faults: FaultRates) -> (Vec<PinFrame>, Vec<MarkerSample>, 
     (frames, samples, onset)
 }
 
+/// Median of `v` (sorted copy).
+fn median(v: &[f64]) -> f64 {
+    let mut v = v.to_vec();
+    v.sort_by(f64::total_cmp);
+    v[v.len() / 2]
+}
+
 #[test]
-fn slip_onset_gives_colinear_pin_motion_well_above_noise() {
-    let (frames, _, onset) = release(11, FaultRates::none());
+fn slip_signal_stays_above_noise_for_the_whole_slide() {
+    let (frames, samples, onset) = release(11, FaultRates::none());
+    // the slide ends when the object has fallen out of the grasp (half its length, 125 mm)
+    let start = samples[0].object_mm;
+    let end = samples
+        .iter()
+        .find(|m| start - m.object_mm > 100.0)
+        .map(|m| m.time_s)
+        .expect("the object slid out");
+    assert!(end - onset > 15.0 / 60.0, "a slide of at least 15 frames");
     for sensor in 0..3u8 {
         let own: Vec<&PinFrame> = frames.iter().filter(|f| f.sensor == sensor).collect();
-        let mut static_norms = Vec::new();
-        let mut best: Option<([f64; 2], f64)> = None;
+        let (mut still, mut sliding) = (Vec::new(), Vec::new());
         for w in own.windows(2) {
-            let (v, speed) = mean_velocity(w[0], w[1]);
-            let norm = v[0].hypot(v[1]);
+            let (v, _) = mean_velocity(w[0], w[1]);
             let t = w[1].time_s;
             if t > 0.2 && t < onset - 0.3 {
-                static_norms.push(norm);
-            } else if t >= onset
-                && t < onset + 0.1
-                && best.is_none_or(|(b, _)| norm > b[0].hypot(b[1]))
-            {
-                best = Some((v, speed));
+                still.push(v[0].hypot(v[1]));
+            } else if t > onset + 0.05 && t < end {
+                sliding.push(v[0].hypot(v[1]));
             }
         }
-        let noise = static_norms.iter().cloned().fold(0.0, f64::max);
-        let (v, speed) = best.expect("frames after onset");
-        let norm = v[0].hypot(v[1]);
-        assert!(
-            norm > 5.0 * noise,
-            "sensor {sensor}: onset mean velocity {norm} vs static max {noise}"
-        );
-        assert!(
-            norm / speed > 0.7,
-            "sensor {sensor}: not co-linear: |mean| {norm}, mean speed {speed}"
-        );
+        let noise = median(&still);
+        // well above the noise over the slide, and above it in every quarter of the slide
+        // (weakest while the slip creeps and once it is faster than the camera can follow)
+        assert!(median(&sliding) > 2.0 * noise, "sensor {sensor}");
+        for quarter in sliding.chunks(sliding.len().div_ceil(4)) {
+            let m = median(quarter);
+            assert!(
+                m > 1.5 * noise,
+                "sensor {sensor}: sliding |mean v| {m} against noise {noise}"
+            );
+        }
     }
 }
 
 #[test]
-fn closing_on_an_object_moves_pins_radially() {
+fn closing_off_centre_gives_a_mean_vector_but_less_colinear_than_slip() {
     let rig = SimRig::new(config(5, 0.0, ObjectStart::OnTable, FaultRates::none())).unwrap();
     let (mut clock, mut hand) = (rig.clock(), rig.hand());
     let mut sensors = rig.tactile_sensors();
     let q = contact_closure() + 0.06;
-    hand.set_targets([q, q, q, 0.0]).unwrap();
     let mut frames = Vec::new();
-    while clock.now_s() < 1.0 {
+    while clock.now_s() < 1.5 {
+        // close at 5 % of range per second, as data collection does
+        let target = (contact_closure() - 0.02 + 0.05 * clock.now_s()).min(q);
+        hand.set_targets([target, target, target, 0.0]).unwrap();
         clock.sleep(0.01);
         for s in sensors.iter_mut() {
             while let Some(f) = s.next_frame().unwrap() {
@@ -114,26 +127,28 @@ fn closing_on_an_object_moves_pins_radially() {
             }
         }
     }
-    let mut moving = 0;
     for sensor in 0..3u8 {
         let own: Vec<&PinFrame> = frames.iter().filter(|f| f.sensor == sensor).collect();
+        let (mut noise, mut closing) = (Vec::new(), Vec::new());
         for w in own.windows(2) {
             let (v, speed) = mean_velocity(w[0], w[1]);
-            if speed > 0.3 {
-                moving += 1;
-                let ratio = v[0].hypot(v[1]) / speed;
-                assert!(
-                    ratio < 0.3,
-                    "sensor {sensor} at {}: |mean| / speed = {ratio}",
-                    w[1].time_s
-                );
+            if w[1].time_s < 0.3 {
+                noise.push(v[0].hypot(v[1]));
+            } else if speed > 0.2 {
+                closing.push((v[0].hypot(v[1]), speed));
             }
         }
+        assert!(closing.len() >= 3, "sensor {sensor}: closing moved the pins");
+        let noise = noise.iter().cloned().fold(0.0, f64::max);
+        let strongest = closing.iter().map(|c| c.0).fold(0.0, f64::max);
+        assert!(
+            strongest > 1.5 * noise,
+            "sensor {sensor}: grip change |mean v| {strongest} against noise {noise}"
+        );
+        // radial spreading dominates: the mean vector is a fraction of the mean speed
+        let ratio = median(&closing.iter().map(|c| c.0 / c.1).collect::<Vec<_>>());
+        assert!(ratio < 0.7, "sensor {sensor}: |mean v| / speed {ratio}");
     }
-    assert!(
-        moving >= 3,
-        "closing should move the pins ({moving} moving frames)"
-    );
 }
 
 #[test]

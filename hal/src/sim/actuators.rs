@@ -20,6 +20,7 @@ pub struct Servos {
     pending: VecDeque<(f64, ServoCommand)>,
     latency_s: f64,
     max_speed_per_s: f64,
+    position_time_s: f64,
 }
 
 impl Servos {
@@ -28,6 +29,7 @@ impl Servos {
         torque_limit: f64,
         latency_s: f64,
         max_speed_per_s: f64,
+        position_time_s: f64,
     ) -> Self {
         Self {
             position: start,
@@ -36,6 +38,7 @@ impl Servos {
             pending: VecDeque::new(),
             latency_s,
             max_speed_per_s,
+            position_time_s,
         }
     }
 
@@ -43,7 +46,8 @@ impl Servos {
         self.pending.push_back((now_s + self.latency_s, command));
     }
 
-    /// Advances to `now_s`: applies commands that have arrived, moves at most max speed.
+    /// Advances to `now_s`: applies commands that have arrived, then moves each servo as a
+    /// proportional position loop does (speed = error / time constant), at most max speed.
     pub fn step(&mut self, now_s: f64, step_s: f64) {
         while let Some(&(at, cmd)) = self.pending.front() {
             if at > now_s + 1e-12 {
@@ -56,9 +60,11 @@ impl Servos {
             }
         }
         let max_move = self.max_speed_per_s * step_s;
+        // Exact for the linear part: the error decays by exp(-dt / tau) per step.
+        let gain = 1.0 - (-step_s / self.position_time_s).exp();
         for i in 0..HAND_ACTUATORS {
             let d = self.target[i] - self.position[i];
-            self.position[i] += d.clamp(-max_move, max_move);
+            self.position[i] += (d * gain).clamp(-max_move, max_move);
         }
     }
 }
@@ -144,7 +150,7 @@ mod tests {
 
     #[test]
     fn servo_waits_for_latency_then_moves_at_max_speed() {
-        let mut s = Servos::new([0.0; 4], 1.0, 0.008, 2.0);
+        let mut s = Servos::new([0.0; 4], 1.0, 0.008, 2.0, 0.05);
         s.command(0.0, ServoCommand::Targets([1.0, 0.0, 0.0, 0.0]));
         let mut t = 0.0;
         for _ in 0..7 {
@@ -157,6 +163,19 @@ mod tests {
             s.step(t, 0.001);
         }
         assert!((s.position[0] - 0.022).abs() < 1e-9, "{}", s.position[0]);
+    }
+
+    #[test]
+    fn servo_settles_on_a_small_step_with_its_time_constant() {
+        let mut s = Servos::new([0.0; 4], 1.0, 0.0, 2.0, 0.05);
+        s.command(0.0, ServoCommand::Targets([0.02, 0.0, 0.0, 0.0]));
+        let mut t = 0.0;
+        for _ in 0..50 {
+            t += 0.001;
+            s.step(t, 0.001);
+        }
+        let done = s.position[0] / 0.02;
+        assert!((done - (1.0 - (-1f64).exp())).abs() < 0.02, "{done}");
     }
 
     #[test]

@@ -96,6 +96,10 @@ pub struct RailSetup {
     pub end_stop_mm: f64,
     /// Finger position, 0..1 (the finger holds still; the arm sets the normal force).
     pub finger_closure: f64,
+    /// How much further (mm of fingertip travel) the finger is still pressing in when the
+    /// trial starts: the rig's reset leaves it closing onto the object, so every trial begins
+    /// with the contact being made (the paper's "initial contact" static frames).
+    pub press_in_mm: f64,
 }
 
 impl Default for RailSetup {
@@ -106,6 +110,7 @@ impl Default for RailSetup {
             rail_mu: 0.05,
             end_stop_mm: 150.0,
             finger_closure: 0.5,
+            press_in_mm: 1.5,
         }
     }
 }
@@ -120,18 +125,30 @@ pub struct PhysicsParams {
     pub finger_travel_mm: f64,
     /// Compliance of the under-actuated finger at its tip, N/mm.
     pub finger_stiffness_n_per_mm: f64,
-    /// Normal stiffness of the TacTip skin, N/mm.
-    pub skin_stiffness_n_per_mm: f64,
+    /// Effective (plane-strain) modulus of the skin-object contact, kPa (Hertz).
+    pub skin_modulus_kpa: f64,
+    /// Poisson ratio of the skin (elastomer).
+    pub skin_poisson: f64,
+    /// Radius of the fingertip dome, mm.
+    pub dome_radius_mm: f64,
     /// Largest normal force a finger can press with at full torque, N.
     pub stall_force_n: f64,
     /// Extra share of the load the thumb takes at grasp 0 deg (and gives up at 180 deg).
     pub thumb_load_bias: f64,
-    /// Relative amplitude of friction fluctuation while sliding (stick-slip).
-    pub stick_slip_amplitude: f64,
-    /// Correlation time of that fluctuation, s.
-    pub stick_slip_time_s: f64,
-    /// Amplitude of the skin's stick-slip shear oscillation while sliding fast, px.
-    pub stick_slip_shear_px: f64,
+    /// Sliding speed over which friction falls from static to kinetic (Stribeck), mm/s.
+    pub stribeck_speed_mm_s: f64,
+    /// Rise of sliding friction per e-fold of sliding speed (rubber's hysteresis friction),
+    /// relative to kinetic.
+    pub rate_strengthening: f64,
+    /// Sliding speed from which that rise starts, mm/s.
+    pub strengthening_from_mm_s: f64,
+    /// Standard deviation of friction along an object's surface, relative.
+    pub surface_friction_sd: f64,
+    /// Shortest and longest wavelength of that variation, mm.
+    pub surface_wavelength_mm: [f64; 2],
+    /// How far the fingertip rolls along the object per mm it presses past first touch
+    /// (the under-actuated finger curls as its proximal link stops), mm/mm.
+    pub finger_roll_ratio: f64,
     /// Fall below the held height that counts as a drop, mm.
     pub drop_limit_mm: f64,
     /// Height of the floor a dropped object lands on, mm.
@@ -145,12 +162,17 @@ impl Default for PhysicsParams {
             gravity_m_s2: 9.81,
             finger_travel_mm: 75.0,
             finger_stiffness_n_per_mm: 1.2,
-            skin_stiffness_n_per_mm: 3.0,
+            skin_modulus_kpa: 350.0,
+            skin_poisson: 0.5,
+            dome_radius_mm: 10.0,
             stall_force_n: 25.0,
             thumb_load_bias: 0.3,
-            stick_slip_amplitude: 0.15,
-            stick_slip_time_s: 0.01,
-            stick_slip_shear_px: 1.0,
+            stribeck_speed_mm_s: 2.0,
+            rate_strengthening: 0.1,
+            strengthening_from_mm_s: 10.0,
+            surface_friction_sd: 0.1,
+            surface_wavelength_mm: [0.5, 4.0],
+            finger_roll_ratio: 0.3,
             drop_limit_mm: 80.0,
             floor_mm: 0.0,
         }
@@ -164,6 +186,9 @@ pub struct ServoParams {
     pub latency_s: f64,
     /// Fastest finger motion, fraction of range per s.
     pub max_speed_per_s: f64,
+    /// Time constant of the servo's position loop (proportional control), s: a step in the
+    /// target is 63 % done after this long unless the speed limit binds.
+    pub position_time_s: f64,
     /// Torque limit at start, fraction of maximum.
     pub initial_torque_limit: f64,
 }
@@ -172,7 +197,8 @@ impl Default for ServoParams {
     fn default() -> Self {
         Self {
             latency_s: 0.008,
-            max_speed_per_s: 2.0,
+            max_speed_per_s: 1.0,
+            position_time_s: 0.05,
             initial_torque_limit: 1.0,
         }
     }
@@ -217,16 +243,8 @@ pub struct TactipParams {
     pub noise_px: f64,
     /// Peak radial pin displacement per mm of skin indentation, px/mm.
     pub radial_gain_px_per_mm: f64,
-    /// Radius from the contact centre where the radial displacement peaks, px.
-    pub contact_radius_px: f64,
-    /// Shear of the contact region per newton of tangential load, px/N.
-    pub shear_gain_px_per_n: f64,
-    /// Largest extra shear by an object sliding over the skin, px.
-    pub slip_drag_px: f64,
-    /// Sliding distance over which that drag builds up, mm.
-    pub slip_drag_length_mm: f64,
-    /// Sliding speed at which stick-slip reaches its full amplitude, mm/s.
-    pub slip_drag_speed_mm_s: f64,
+    /// How far beyond the contact patch the gel spreads an indentation, px.
+    pub spread_radius_px: f64,
     /// Viscoelastic time constant of the skin, s.
     pub skin_time_s: f64,
     /// Spread of the contact centre from the image centre (standard deviation), px.
@@ -245,15 +263,11 @@ impl Default for TactipParams {
             frame_jitter_s: 0.0008,
             clock_error_ppm: 300.0,
             noise_px: 0.08,
-            radial_gain_px_per_mm: 5.0,
-            contact_radius_px: 40.0,
-            shear_gain_px_per_n: 0.5,
-            slip_drag_px: 5.0,
-            slip_drag_length_mm: 2.0,
-            slip_drag_speed_mm_s: 5.0,
-            skin_time_s: 0.02,
-            contact_offset_px: 8.0,
-            unit_variation: 0.1,
+            radial_gain_px_per_mm: 8.0,
+            spread_radius_px: 30.0,
+            skin_time_s: 0.008,
+            contact_offset_px: 20.0,
+            unit_variation: 0.25,
         }
     }
 }

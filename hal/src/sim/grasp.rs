@@ -11,53 +11,120 @@
 /// Most contacts any grasp of the rig has (three fingertips and the slip rail).
 pub const MAX_CONTACTS: usize = 4;
 
+use super::skin::SkinContact;
+
+/// Force against travel of one fingertip contact: the finger and the object as linear
+/// springs, in series with the skin's Hertzian indentation, so
+/// `travel(N) = N / k_lin + (N / K)^(2/3)`. Soft at first touch (the skin), then dominated by
+/// the finger's compliance. Its inverse is tabulated once per contact on a uniform travel
+/// grid: the pinch balance evaluates it hundreds of times a step, and a lookup is ~50x
+/// cheaper than solving the power law each time.
+#[derive(Debug, Clone)]
+pub struct ContactLaw {
+    linear_n_per_mm: f64,
+    skin: SkinContact,
+    step_mm: f64,
+    force_n: Vec<f64>,
+}
+
+impl ContactLaw {
+    const ENTRIES: usize = 2048;
+
+    /// `linear_n_per_mm`: finger and object stiffness in series; tabulated up to `max_force_n`
+    /// (beyond it the law continues with the linear stiffness alone).
+    pub fn new(linear_n_per_mm: f64, skin: SkinContact, max_force_n: f64) -> Self {
+        let mut law = Self {
+            linear_n_per_mm,
+            skin,
+            step_mm: 0.0,
+            force_n: Vec::with_capacity(Self::ENTRIES),
+        };
+        let max_travel = law.travel_mm(max_force_n.max(1e-6));
+        law.step_mm = max_travel / (Self::ENTRIES - 1) as f64;
+        let mut n: f64 = 0.0;
+        for j in 0..Self::ENTRIES {
+            let p = j as f64 * law.step_mm;
+            // travel(N) is increasing and concave, so Newton from below stays below the root.
+            if j > 0 {
+                n = n.max(1e-12);
+                for _ in 0..8 {
+                    let d = law.skin.indentation_mm(n);
+                    let f = n / linear_n_per_mm + d - p;
+                    let df = 1.0 / linear_n_per_mm + 2.0 / 3.0 * d / n;
+                    n = (n - f / df).max(1e-12);
+                }
+            }
+            law.force_n.push(n);
+        }
+        law
+    }
+
+    pub fn skin(&self) -> &SkinContact {
+        &self.skin
+    }
+
+    /// Travel past first touch at which the contact presses with `normal_n`, mm.
+    pub fn travel_mm(&self, normal_n: f64) -> f64 {
+        normal_n / self.linear_n_per_mm + self.skin.indentation_mm(normal_n)
+    }
+
+    /// Normal force at `travel_mm` past first touch, N (0 before touch).
+    pub fn force_n(&self, travel_mm: f64) -> f64 {
+        if travel_mm <= 0.0 {
+            return 0.0;
+        }
+        let x = travel_mm / self.step_mm;
+        let last = Self::ENTRIES - 1;
+        if x >= last as f64 {
+            return self.force_n[last] + (travel_mm - last as f64 * self.step_mm) * self.linear_n_per_mm;
+        }
+        let i = x as usize;
+        let f = x - i as f64;
+        self.force_n[i] + f * (self.force_n[i + 1] - self.force_n[i])
+    }
+}
+
 /// Normal forces (N) of a pinch grasp, thumb (index 0) opposed to two fingers.
 ///
 /// `travel_mm[i]` is how far finger `i` has moved past the point where it would touch the
 /// object if the object were centred (negative: not there yet). The object shifts sideways
-/// by `y` until `N_thumb = N_1 + N_2`; `N_i = clamp(k_i * penetration_i, 0, cap_i)`.
-pub fn pinch_normal_forces(travel_mm: [f64; 3], stiffness: [f64; 3], cap_n: [f64; 3]) -> [f64; 3] {
+/// by `y` until `N_thumb = N_1 + N_2`, with `N_i = min(force_i(penetration_i), cap_i)`.
+/// `force` must be non-decreasing in travel and 0 at or before touch.
+pub fn pinch_normal_forces(
+    travel_mm: [f64; 3],
+    force: impl Fn(usize, f64) -> f64,
+    cap_n: [f64; 3],
+) -> [f64; 3] {
     let forces = |y: f64| {
         [
-            (stiffness[0] * (travel_mm[0] + y)).clamp(0.0, cap_n[0]),
-            (stiffness[1] * (travel_mm[1] - y)).clamp(0.0, cap_n[1]),
-            (stiffness[2] * (travel_mm[2] - y)).clamp(0.0, cap_n[2]),
+            force(0, travel_mm[0] + y).clamp(0.0, cap_n[0]),
+            force(1, travel_mm[1] - y).clamp(0.0, cap_n[1]),
+            force(2, travel_mm[2] - y).clamp(0.0, cap_n[2]),
         ]
     };
-    // imbalance(y) = N_thumb - N_1 - N_2 never decreases with y and is linear between the
-    // points where a force starts or saturates, so the balance is found exactly by locating
-    // the segment where it changes sign. (A bisection here took 75 % of simulation time.)
     let imbalance = |y: f64| {
         let n = forces(y);
         n[0] - n[1] - n[2]
     };
-    let mut breaks = [
-        -travel_mm[0],
-        cap_n[0] / stiffness[0] - travel_mm[0],
-        travel_mm[1],
-        travel_mm[1] - cap_n[1] / stiffness[1],
-        travel_mm[2],
-        travel_mm[2] - cap_n[2] / stiffness[2],
-    ];
-    breaks.sort_by(f64::total_cmp);
-    let mut lo = breaks[0];
-    let mut f_lo = imbalance(lo);
-    if f_lo >= 0.0 {
-        return forces(lo);
+    // The imbalance never decreases with y: bisect between the shift that takes the thumb
+    // off the object and the one that takes both fingers off it.
+    let mut lo = -travel_mm[0];
+    let mut hi = travel_mm[1].max(travel_mm[2]);
+    if hi <= lo || imbalance(lo) >= 0.0 {
+        return forces(lo.min(hi));
     }
-    for &hi in &breaks[1..] {
-        let f_hi = imbalance(hi);
-        if f_hi >= 0.0 {
-            let y = if f_hi > f_lo {
-                lo + (hi - lo) * (-f_lo) / (f_hi - f_lo)
-            } else {
-                hi
-            };
-            return forces(y);
+    if imbalance(hi) <= 0.0 {
+        return forces(hi);
+    }
+    for _ in 0..48 {
+        let mid = 0.5 * (lo + hi);
+        if imbalance(mid) < 0.0 {
+            lo = mid;
+        } else {
+            hi = mid;
         }
-        (lo, f_lo) = (hi, f_hi);
     }
-    forces(lo)
+    forces(0.5 * (lo + hi))
 }
 
 /// One contact's properties for sharing a tangential load.
@@ -138,6 +205,25 @@ pub fn share_stuck_load(load_n: f64, contacts: &[Contact]) -> Option<StuckShare>
 mod tests {
     use super::*;
 
+    fn linear(k: [f64; 3]) -> impl Fn(usize, f64) -> f64 {
+        move |i, p| (k[i] * p).max(0.0)
+    }
+
+    #[test]
+    fn contact_law_is_soft_at_touch_and_inverts_its_travel() {
+        let law = ContactLaw::new(1.2, SkinContact::new(350.0, 0.5, 10.0), 25.0);
+        for n in [0.05, 0.3, 1.0, 5.0, 20.0] {
+            let p = law.travel_mm(n);
+            assert!((law.force_n(p) - n).abs() < 0.01 * n + 1e-3, "{n}: {}", law.force_n(p));
+        }
+        assert_eq!(law.force_n(-1.0), 0.0);
+        // the first tenth of a millimetre is far softer than the finger alone
+        assert!(law.force_n(0.1) < 0.1 * 1.2);
+        // beyond the table the finger's stiffness carries on
+        let p = law.travel_mm(25.0);
+        assert!((law.force_n(p + 1.0) - law.force_n(p) - 1.2).abs() < 1e-6);
+    }
+
     fn contact(n: f64) -> Contact {
         Contact {
             normal_n: n,
@@ -149,7 +235,7 @@ mod tests {
 
     #[test]
     fn symmetric_pinch_balances_thumb_against_two_fingers() {
-        let n = pinch_normal_forces([2.0, 2.0, 2.0], [1.0; 3], [100.0; 3]);
+        let n = pinch_normal_forces([2.0, 2.0, 2.0], linear([1.0; 3]), [100.0; 3]);
         assert!((n[0] - n[1] - n[2]).abs() < 1e-9);
         // y solves 2 + y = 2 * (2 - y): y = 2/3, thumb 8/3 N.
         assert!((n[0] - 8.0 / 3.0).abs() < 1e-9, "{n:?}");
@@ -158,13 +244,13 @@ mod tests {
     #[test]
     fn no_force_without_opposition() {
         // The thumb is 1 mm past centre-contact but the fingers 2 mm short: a 1 mm gap remains.
-        let n = pinch_normal_forces([1.0, -2.0, -2.0], [1.0; 3], [100.0; 3]);
+        let n = pinch_normal_forces([1.0, -2.0, -2.0], linear([1.0; 3]), [100.0; 3]);
         assert!(n.iter().all(|f| f.abs() < 1e-6), "{n:?}");
     }
 
     #[test]
     fn torque_cap_limits_the_squeeze() {
-        let n = pinch_normal_forces([10.0, 10.0, 10.0], [1.0; 3], [2.0, 100.0, 100.0]);
+        let n = pinch_normal_forces([10.0, 10.0, 10.0], linear([1.0; 3]), [2.0, 100.0, 100.0]);
         assert!(
             (n[0] - 2.0).abs() < 1e-9 && (n[1] - 1.0).abs() < 1e-6,
             "{n:?}"
@@ -188,7 +274,7 @@ mod tests {
             ];
             let k = [0.2 + next(), 0.2 + next(), 0.2 + next()];
             let cap = [next() * 8.0, next() * 8.0, next() * 8.0];
-            let n = pinch_normal_forces(travel, k, cap);
+            let n = pinch_normal_forces(travel, linear(k), cap);
             let forces = |y: f64| {
                 [
                     (k[0] * (travel[0] + y)).clamp(0.0, cap[0]),

@@ -13,6 +13,7 @@ pub mod serve_control;
 pub mod serve_dynamixel;
 pub mod serve_jevois;
 pub mod serve_ur;
+pub mod skin;
 pub mod tactip;
 mod world;
 
@@ -24,7 +25,7 @@ pub use config::{
     RigSetup, ServoParams, SimConfig, TactipParams,
 };
 pub use objects::{ObjectLibrary, ObjectSpec};
-pub use world::{TruthEvents, TruthState, MEASURABLE_FALL_MM};
+pub use world::{nominal_contact_law, nominal_skin, TruthEvents, TruthState, MEASURABLE_FALL_MM};
 
 use crate::error::{Error, ErrorKind, ErrorType};
 use crate::traits::{Arm, Clock, Hand, MarkerTracker, TactileSensor};

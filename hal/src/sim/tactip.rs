@@ -1,5 +1,6 @@
-//! The TacTip model: where the 30 pins sit in the camera image, and how they move with
-//! indentation, shear and sliding. Pure functions over plain state; the world feeds them.
+//! The TacTip model: where the 30 pins sit in the camera image, and how they move with the
+//! skin's indentation, contact size, shear and roll. Pure functions over plain state; the
+//! world feeds them.
 //! Equations and parameters: `docs/simulator.md`.
 
 /// Rest positions of `pins` pins on a hemispherical dome seen by a camera above it: a centre
@@ -33,9 +34,9 @@ pub fn dome_layout(pins: usize, centre_px: [f64; 2], dome_radius_px: f64) -> Vec
     out
 }
 
-/// Fixed properties of one manufactured sensor in one grasp, with each pin's response to
-/// indentation and shear worked out once: the contact centre does not move during a trial,
-/// and precomputing the profiles removed all `exp` calls from frame generation.
+/// Fixed properties of one manufactured sensor in one grasp: where its pins are relative to
+/// the contact (the contact centre does not move during a trial, so the offsets are worked
+/// out once) and its gains.
 #[derive(Debug, Clone, PartialEq)]
 pub struct SensorOptics {
     pub rest_px: Vec<[f64; 2]>,
@@ -43,91 +44,91 @@ pub struct SensorOptics {
     pub contact_centre_px: [f64; 2],
     /// Unit vector in the image along which "object moves down relative to the finger".
     pub slip_direction: [f64; 2],
-    /// Displacement of each pin per mm of indentation, px/mm.
-    radial_px_per_mm: Vec<[f64; 2]>,
-    /// Each pin's share of the contact region's shear, 0..1.
-    shear_weight: Vec<f64>,
+    /// Unit vector in the image along which the fingertip rolls as the finger curls.
+    pub roll_direction: [f64; 2],
+    /// Peak radial pin displacement per mm of indentation, px/mm.
+    radial_gain_px_per_mm: f64,
+    /// How far the gel spreads an indentation beyond the contact patch, px.
+    spread_px: f64,
+    /// Each pin's offset from the contact centre and its distance, px.
+    offsets: Vec<[f64; 3]>,
+}
+
+/// The skin's state that the pins show, for one frame.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct SkinState {
+    pub indentation_mm: f64,
+    /// Radius of the contact patch in the image, px.
+    pub contact_radius_px: f64,
+    /// Tangential displacement of the patch along the slip direction, px.
+    pub shear_px: f64,
+    /// Tangential displacement along the roll direction, px.
+    pub roll_px: f64,
 }
 
 impl SensorOptics {
-    /// Pin `j` at rest `P_j`, distance `r` from the contact centre `c`, moves by
-    /// `G_r * indentation * g(r/rho) * (P_j - c)/r + shear * exp(-r^2 / (2 (1.3 rho)^2)) * u`
-    /// with `g(x) = x * exp((1 - x^2)/2)` (peak 1 at `r = rho`, zero at the centre).
     pub fn new(
         rest_px: Vec<[f64; 2]>,
         contact_centre_px: [f64; 2],
         slip_direction: [f64; 2],
         radial_gain_px_per_mm: f64,
-        contact_radius_px: f64,
+        spread_px: f64,
     ) -> Self {
-        let rho = contact_radius_px;
-        let shear_rho2 = 2.0 * (1.3 * rho) * (1.3 * rho);
         let [cx, cy] = contact_centre_px;
-        let mut radial_px_per_mm = Vec::with_capacity(rest_px.len());
-        let mut shear_weight = Vec::with_capacity(rest_px.len());
-        for &[px, py] in &rest_px {
-            let (dx, dy) = (px - cx, py - cy);
-            let r2 = dx * dx + dy * dy;
-            let r = r2.sqrt();
-            if r > 1e-9 {
-                let xr = r / rho;
-                let g = radial_gain_px_per_mm * xr * (0.5 * (1.0 - xr * xr)).exp();
-                radial_px_per_mm.push([g * dx / r, g * dy / r]);
-            } else {
-                radial_px_per_mm.push([0.0, 0.0]);
-            }
-            shear_weight.push((-r2 / shear_rho2).exp());
-        }
+        let offsets = rest_px
+            .iter()
+            .map(|&[px, py]| {
+                let (dx, dy) = (px - cx, py - cy);
+                [dx, dy, dx.hypot(dy)]
+            })
+            .collect();
         Self {
             rest_px,
             contact_centre_px,
             slip_direction,
-            radial_px_per_mm,
-            shear_weight,
+            roll_direction: [-slip_direction[1], slip_direction[0]],
+            radial_gain_px_per_mm,
+            spread_px,
+            offsets,
         }
     }
 }
 
-/// Noise-free pin positions for a skin indented by `indentation_mm` and sheared by
-/// `shear_px` along the slip direction (see [`SensorOptics::new`] for the equation).
-pub fn pin_positions(
-    optics: &SensorOptics,
-    indentation_mm: f64,
-    shear_px: f64,
-    out: &mut Vec<[f64; 2]>,
-) {
+/// Noise-free pin positions for the skin state `skin`.
+///
+/// Pin `j` at offset `d_j` (distance `r`) from the contact centre moves by
+/// `G delta g(r / rho) d_j / r + exp(-r^2 / (2 (1.3 rho)^2)) (s u + l v)`, where
+/// `rho = sqrt(rho_0^2 + a^2)` grows with the contact radius `a`, `g(x) = x exp((1 - x^2) / 2)`
+/// (0 at the centre, peak 1 at `r = rho`), `s` and `l` the patch's shear and roll along the
+/// slip and roll directions `u` and `v`.
+pub fn pin_positions(optics: &SensorOptics, skin: &SkinState, out: &mut Vec<[f64; 2]>) {
     out.clear();
+    let rho = optics.spread_px.hypot(skin.contact_radius_px);
+    let radial = optics.radial_gain_px_per_mm * skin.indentation_mm;
+    let inv_rho = 1.0 / rho;
+    let inv_two_sigma2 = 1.0 / (2.0 * (1.3 * rho).powi(2));
     let [ux, uy] = optics.slip_direction;
-    let (sx, sy) = (shear_px * ux, shear_px * uy);
-    for ((&[px, py], &[rx, ry]), &w) in optics
-        .rest_px
-        .iter()
-        .zip(&optics.radial_px_per_mm)
-        .zip(&optics.shear_weight)
-    {
-        out.push([
-            px + indentation_mm * rx + w * sx,
-            py + indentation_mm * ry + w * sy,
-        ]);
+    let [vx, vy] = optics.roll_direction;
+    let (tx, ty) = (
+        skin.shear_px * ux + skin.roll_px * vx,
+        skin.shear_px * uy + skin.roll_px * vy,
+    );
+    for (&[px, py], &[dx, dy, r]) in optics.rest_px.iter().zip(&optics.offsets) {
+        let w = (-r * r * inv_two_sigma2).exp();
+        let (mut x, mut y) = (px + w * tx, py + w * ty);
+        if r > 1e-9 && radial != 0.0 {
+            let xr = r * inv_rho;
+            let g = radial * xr * (0.5 * (1.0 - xr * xr)).exp() / r;
+            x += g * dx;
+            y += g * dy;
+        }
+        out.push([x, y]);
     }
 }
 
-/// First-order (viscoelastic) response of the skin's shear to its target, one step.
+/// First-order (viscoelastic) response of the skin to its target, one step.
 pub fn relax_towards(state: f64, target: f64, step_s: f64, time_constant_s: f64) -> f64 {
     state + (target - state) * (1.0 - (-step_s / time_constant_s).exp())
-}
-
-/// Shear the skin is driven towards: elastic shear from the tangential load plus drag by an
-/// object sliding over it, which builds up over the first `drag_length` mm of sliding and
-/// then stays (the skin is stretched as far as the sliding contact takes it).
-pub fn shear_target_px(
-    tangential_n: f64,
-    slid_mm: f64,
-    shear_gain: f64,
-    drag_px: f64,
-    drag_length_mm: f64,
-) -> f64 {
-    shear_gain * tangential_n + drag_px * (slid_mm / drag_length_mm).tanh()
 }
 
 #[cfg(test)]
@@ -142,6 +143,15 @@ mod tests {
             5.0,
             40.0,
         )
+    }
+
+    fn state(indentation_mm: f64, shear_px: f64) -> SkinState {
+        SkinState {
+            indentation_mm,
+            contact_radius_px: 0.0,
+            shear_px,
+            roll_px: 0.0,
+        }
     }
 
     #[test]
@@ -160,7 +170,7 @@ mod tests {
     fn no_load_leaves_pins_at_rest() {
         let o = optics();
         let mut out = Vec::new();
-        pin_positions(&o, 0.0, 0.0, &mut out);
+        pin_positions(&o, &state(0.0, 0.0), &mut out);
         assert_eq!(out, o.rest_px);
     }
 
@@ -168,7 +178,7 @@ mod tests {
     fn indentation_pushes_pins_radially_outward() {
         let o = optics();
         let mut out = Vec::new();
-        pin_positions(&o, 1.0, 0.0, &mut out);
+        pin_positions(&o, &state(1.0, 0.0), &mut out);
         for (p, r) in out.iter().zip(&o.rest_px).skip(1) {
             let (rx, ry) = (r[0] - 170.0, r[1] - 140.0);
             let (mx, my) = (p[0] - r[0], p[1] - r[1]);
@@ -178,7 +188,7 @@ mod tests {
         }
         // the centre pin does not move
         assert_eq!(out[0], o.rest_px[0]);
-        // pins at the contact radius move the most: 5 px per mm
+        // pins near the spread radius move the most: 5 px per mm
         let most = out
             .iter()
             .zip(&o.rest_px)
@@ -188,10 +198,28 @@ mod tests {
     }
 
     #[test]
+    fn a_larger_contact_moves_more_pins() {
+        let o = optics();
+        let moved = |a_px: f64| {
+            let mut out = Vec::new();
+            let s = SkinState {
+                contact_radius_px: a_px,
+                ..state(1.0, 0.0)
+            };
+            pin_positions(&o, &s, &mut out);
+            out.iter()
+                .zip(&o.rest_px)
+                .filter(|(p, r)| (p[0] - r[0]).hypot(p[1] - r[1]) > 1.0)
+                .count()
+        };
+        assert!(moved(60.0) > moved(0.0));
+    }
+
+    #[test]
     fn shear_moves_contact_pins_along_the_slip_direction() {
         let o = optics();
         let mut out = Vec::new();
-        pin_positions(&o, 0.0, 2.0, &mut out);
+        pin_positions(&o, &state(0.0, 2.0), &mut out);
         assert!((out[0][1] - o.rest_px[0][1] - 2.0).abs() < 1e-12);
         assert!(out
             .iter()
@@ -203,7 +231,5 @@ mod tests {
     fn skin_relaxes_exponentially() {
         let s = relax_towards(0.0, 1.0, 0.02, 0.02);
         assert!((s - (1.0 - (-1f64).exp())).abs() < 1e-12);
-        assert!(shear_target_px(0.0, 1e6, 0.5, 3.0, 1.0) <= 3.0);
-        assert!((shear_target_px(2.0, 0.0, 0.5, 3.0, 1.0) - 1.0).abs() < 1e-12);
     }
 }

@@ -1,0 +1,312 @@
+//! Contact mechanics of one TacTip fingertip against an object, as pure functions: Hertzian
+//! indentation and contact radius, Cattaneo-Mindlin partial slip under a tangential load,
+//! rate-dependent friction, and the skin patch's drag while the object slides over a surface
+//! whose friction varies along it. Equations, parameters and their sources: `docs/simulator.md`.
+
+/// Elastic properties of the skin's contact with an object.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SkinContact {
+    /// Hertz constant `K = 4/3 E* sqrt(R)`, N/mm^1.5: `N = K delta^1.5`.
+    hertz_n_per_mm1_5: f64,
+    /// Radius of the dome, mm.
+    dome_radius_mm: f64,
+    /// Mindlin tangential stiffness per mm of contact radius, `8 G / (2 - nu)`, N/mm^2.
+    shear_n_per_mm2: f64,
+}
+
+impl SkinContact {
+    /// `modulus_kpa` is the effective (plane-strain) modulus `E*` of skin and object together,
+    /// `poisson` the skin's Poisson ratio (an elastomer: near 0.5).
+    pub fn new(modulus_kpa: f64, poisson: f64, dome_radius_mm: f64) -> Self {
+        let e_star = modulus_kpa * 1e-3; // N/mm^2
+        let e = e_star * (1.0 - poisson * poisson);
+        let g = e / (2.0 * (1.0 + poisson));
+        Self {
+            hertz_n_per_mm1_5: 4.0 / 3.0 * e_star * dome_radius_mm.sqrt(),
+            dome_radius_mm,
+            shear_n_per_mm2: 8.0 * g / (2.0 - poisson),
+        }
+    }
+
+    /// Same contact with its modulus scaled (a stiffer or softer manufactured skin).
+    pub fn scaled(self, factor: f64) -> Self {
+        Self {
+            hertz_n_per_mm1_5: self.hertz_n_per_mm1_5 * factor,
+            shear_n_per_mm2: self.shear_n_per_mm2 * factor,
+            ..self
+        }
+    }
+
+    /// Indentation of the skin under normal force `normal_n`, mm (Hertz).
+    pub fn indentation_mm(&self, normal_n: f64) -> f64 {
+        (normal_n.max(0.0) / self.hertz_n_per_mm1_5).powf(2.0 / 3.0)
+    }
+
+    /// Normal force at indentation `delta_mm`, N (Hertz).
+    pub fn normal_force_n(&self, delta_mm: f64) -> f64 {
+        self.hertz_n_per_mm1_5 * delta_mm.max(0.0).powf(1.5)
+    }
+
+    /// Radius of the contact patch, `a = sqrt(R delta)`, mm.
+    pub fn contact_radius_mm(&self, normal_n: f64) -> f64 {
+        (self.dome_radius_mm * self.indentation_mm(normal_n)).sqrt()
+    }
+
+    /// Tangential stiffness of the fully stuck patch, `8 G a / (2 - nu)`, N/mm.
+    pub fn tangential_stiffness(&self, normal_n: f64) -> f64 {
+        self.shear_n_per_mm2 * self.contact_radius_mm(normal_n)
+    }
+
+    /// Tangential displacement at which the whole patch slides, mm: Mindlin's
+    /// `3 mu N / (2 k_t)` (1.5 times what the stuck stiffness alone would give).
+    pub fn full_slip_shear_mm(&self, normal_n: f64, mu: f64) -> f64 {
+        let k = self.tangential_stiffness(normal_n);
+        if k <= 0.0 {
+            return 0.0;
+        }
+        1.5 * mu * normal_n / k
+    }
+
+    /// Tangential displacement of the patch under load `tangential_n` (signed) while it does
+    /// not slide as a whole (Cattaneo-Mindlin): `u = u_max (1 - (1 - |T| / mu N)^(2/3))`.
+    /// The edge slips first; as `|T|` nears `mu N` the stuck core shrinks and `u` grows fast.
+    pub fn mindlin_shear_mm(&self, tangential_n: f64, normal_n: f64, mu: f64) -> f64 {
+        let limit = mu * normal_n;
+        if limit <= 0.0 {
+            return 0.0;
+        }
+        let x = (tangential_n.abs() / limit).min(1.0);
+        tangential_n.signum() * self.full_slip_shear_mm(normal_n, mu) * (1.0 - (1.0 - x).powf(2.0 / 3.0))
+    }
+
+    /// The inverse of [`Self::mindlin_shear_mm`]: force the patch carries at displacement
+    /// `shear_mm`, at most `mu N`.
+    pub fn mindlin_force_n(&self, shear_mm: f64, normal_n: f64, mu: f64) -> f64 {
+        let u_max = self.full_slip_shear_mm(normal_n, mu);
+        if u_max <= 0.0 {
+            return 0.0;
+        }
+        let x = (shear_mm.abs() / u_max).min(1.0);
+        shear_mm.signum() * mu * normal_n * (1.0 - (1.0 - x).powf(1.5))
+    }
+
+    /// Radius of the stuck core, mm: `c = a (1 - |T| / mu N)^(1/3)`.
+    pub fn stick_radius_mm(&self, tangential_n: f64, normal_n: f64, mu: f64) -> f64 {
+        let limit = mu * normal_n;
+        if limit <= 0.0 {
+            return 0.0;
+        }
+        let x = (tangential_n.abs() / limit).min(1.0);
+        self.contact_radius_mm(normal_n) * (1.0 - x).cbrt()
+    }
+}
+
+/// Rate-dependent sliding friction of an elastomer:
+/// `mu(v) = mu_k (1 + beta ln(1 + |v| / v_h)) + (mu_s - mu_k) exp(-|v| / v_s)`.
+/// The second term is the static peak that fades within the first mm/s of sliding (so a slip
+/// starts at the static level and weakens as it gets going); the first is the viscoelastic
+/// (hysteresis) friction of rubber, which grows with the log of sliding speed, so a grasp
+/// that has just lost its hold lets the object slide at a speed its friction can balance
+/// instead of dropping it at once.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SlidingFriction {
+    pub mu_static: f64,
+    pub mu_kinetic: f64,
+    /// `v_s`, mm/s.
+    pub stribeck_mm_s: f64,
+    /// `beta`: relative rise per e-fold of speed.
+    pub rate_strengthening: f64,
+    /// `v_h`, mm/s.
+    pub strengthening_from_mm_s: f64,
+}
+
+impl SlidingFriction {
+    pub fn mu(&self, speed_mm_s: f64) -> f64 {
+        let v = speed_mm_s.abs();
+        self.mu_kinetic * (1.0 + self.rate_strengthening * (v / self.strengthening_from_mm_s).ln_1p())
+            + (self.mu_static - self.mu_kinetic) * (-v / self.stribeck_mm_s).exp()
+    }
+}
+
+/// Friction along the object's surface is not uniform (texture, print lines, labels): a
+/// seeded sum of sinusoids in the sliding distance, zero mean, standard deviation `sigma`,
+/// wavelengths between `min_mm` and `max_mm`. A sliding contact's drag, and so its skin's
+/// shear, follows it: the pins move for as long as the object slides, faster the faster it
+/// slides.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SurfaceTexture {
+    /// (wave number rad/mm, phase, amplitude)
+    waves: Vec<[f64; 3]>,
+}
+
+impl SurfaceTexture {
+    pub fn new(sigma: f64, min_mm: f64, max_mm: f64, mut uniform: impl FnMut() -> f64) -> Self {
+        const WAVES: usize = 8;
+        // Each sinusoid has variance a^2 / 2: a = sigma sqrt(2 / WAVES) gives variance sigma^2.
+        let amplitude = sigma * (2.0 / WAVES as f64).sqrt();
+        let waves = (0..WAVES)
+            .map(|_| {
+                let wavelength = min_mm + (max_mm - min_mm) * uniform();
+                [
+                    std::f64::consts::TAU / wavelength,
+                    std::f64::consts::TAU * uniform(),
+                    amplitude,
+                ]
+            })
+            .collect();
+        Self { waves }
+    }
+
+    /// Relative friction variation at `position_mm` along the surface.
+    pub fn at(&self, position_mm: f64) -> f64 {
+        self.waves
+            .iter()
+            .map(|[k, phase, a]| a * (k * position_mm + phase).sin())
+            .sum()
+    }
+}
+
+/// The skin patch of one contact while the object slides over it: the whole patch slides,
+/// carrying the local sliding friction `F = mu(v) (1 + h(x)) N`, so its displacement is the
+/// full-slip (Mindlin) shear at that force, `u = 3 F / (2 k_t)`.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct SlidingPatch {
+    /// Tangential displacement of the patch, mm (positive: object-down direction).
+    pub shear_mm: f64,
+    /// Where on the object's surface the patch is, mm of sliding.
+    pub position_mm: f64,
+}
+
+impl SlidingPatch {
+    /// Advances by one step in which the object moved `slide_mm` over the finger (positive
+    /// down) at `speed_mm_s`; returns the force the patch carries, N (positive: holds the
+    /// object up).
+    pub fn step(
+        &mut self,
+        skin: &SkinContact,
+        friction: &SlidingFriction,
+        texture: &SurfaceTexture,
+        slide_mm: f64,
+        speed_mm_s: f64,
+        normal_n: f64,
+    ) -> f64 {
+        self.position_mm += slide_mm;
+        if normal_n <= 0.0 {
+            self.shear_mm = 0.0;
+            return 0.0;
+        }
+        let direction = if slide_mm > 0.0 {
+            1.0
+        } else if slide_mm < 0.0 {
+            -1.0
+        } else {
+            self.shear_mm.signum()
+        };
+        let force = friction.mu(speed_mm_s) * (1.0 + texture.at(self.position_mm)).max(0.0) * normal_n;
+        let k = skin.tangential_stiffness(normal_n);
+        self.shear_mm = if k > 0.0 { direction * 1.5 * force / k } else { 0.0 };
+        direction * force
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn skin() -> SkinContact {
+        SkinContact::new(350.0, 0.5, 10.0)
+    }
+
+    #[test]
+    fn hertz_indentation_and_radius_grow_sublinearly_with_force() {
+        let s = skin();
+        let (d1, d8) = (s.indentation_mm(1.0), s.indentation_mm(8.0));
+        assert!((d8 / d1 - 4.0).abs() < 1e-9, "delta ~ N^(2/3)");
+        assert!((s.normal_force_n(d1) - 1.0).abs() < 1e-9);
+        let (a1, a8) = (s.contact_radius_mm(1.0), s.contact_radius_mm(8.0));
+        assert!((a8 / a1 - 2.0).abs() < 1e-9, "a ~ N^(1/3)");
+        assert!(s.tangential_stiffness(8.0) > s.tangential_stiffness(1.0));
+    }
+
+    #[test]
+    fn incipient_slip_shrinks_the_stuck_core_as_load_grows() {
+        let s = skin();
+        let n = 2.0;
+        let a = s.contact_radius_mm(n);
+        assert!((s.stick_radius_mm(0.0, n, 0.8) - a).abs() < 1e-12);
+        let radii: Vec<f64> = [0.2, 0.5, 0.8, 0.95, 1.0]
+            .iter()
+            .map(|f| s.stick_radius_mm(f * 0.8 * n, n, 0.8))
+            .collect();
+        assert!(radii.windows(2).all(|w| w[1] < w[0]), "{radii:?}");
+        assert_eq!(radii[4], 0.0);
+        // compliance grows towards full slip: the last 10 % of load moves the patch more than
+        // the first 20 %
+        let u = |f: f64| s.mindlin_shear_mm(f * 0.8 * n, n, 0.8);
+        assert!(u(1.0) - u(0.9) > u(0.2) - u(0.0));
+        // small loads: the stuck stiffness
+        let k = s.tangential_stiffness(n);
+        assert!((u(0.001) * k / (0.001 * 0.8 * n) - 1.0).abs() < 1e-3);
+        // the force law is the inverse
+        for f in [0.1, 0.5, 0.9] {
+            assert!((s.mindlin_force_n(u(f), n, 0.8) - f * 0.8 * n).abs() < 1e-9);
+        }
+    }
+
+    fn friction() -> SlidingFriction {
+        SlidingFriction {
+            mu_static: 0.9,
+            mu_kinetic: 0.8,
+            stribeck_mm_s: 2.0,
+            rate_strengthening: 0.1,
+            strengthening_from_mm_s: 10.0,
+        }
+    }
+
+    #[test]
+    fn friction_weakens_then_strengthens_with_sliding_speed() {
+        let f = friction();
+        assert!((f.mu(0.0) - 0.9).abs() < 1e-12);
+        assert!(f.mu(5.0) < 0.9, "the static peak fades");
+        assert!(f.mu(1000.0) > f.mu(100.0) && f.mu(100.0) > f.mu(10.0));
+    }
+
+    #[test]
+    fn surface_texture_has_the_stated_spread_and_no_mean() {
+        let mut state = 7u64;
+        let t = SurfaceTexture::new(0.1, 0.5, 4.0, || {
+            state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            (state >> 11) as f64 / (1u64 << 53) as f64
+        });
+        let xs: Vec<f64> = (0..200_000).map(|i| t.at(i as f64 * 0.01)).collect();
+        let mean = xs.iter().sum::<f64>() / xs.len() as f64;
+        let sd = (xs.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / xs.len() as f64).sqrt();
+        assert!(mean.abs() < 0.01 && (sd - 0.1).abs() < 0.02, "{mean} {sd}");
+    }
+
+    #[test]
+    fn sliding_patch_shear_changes_for_as_long_as_the_object_slides() {
+        let s = skin();
+        let t = SurfaceTexture::new(0.1, 0.5, 4.0, {
+            let mut k = 0.0;
+            move || {
+                k += 0.37;
+                k % 1.0
+            }
+        });
+        let mut p = SlidingPatch::default();
+        let mut changes = Vec::new();
+        let mut last = 0.0;
+        for step in 0..3000 {
+            let f = p.step(&s, &friction(), &t, 0.02, 20.0, 2.0);
+            assert!(f > 0.0);
+            if step % 17 == 0 {
+                changes.push((p.shear_mm - last).abs());
+                last = p.shear_mm;
+            }
+        }
+        // every 17 steps (a frame at 60 Hz) the patch has moved, all along the 60 mm slide
+        let moving = changes.iter().skip(1).filter(|c| **c > 1e-3).count();
+        assert!(moving as f64 > 0.9 * (changes.len() - 1) as f64, "{moving} of {}", changes.len());
+    }
+}
