@@ -42,10 +42,18 @@ fn the_quick_preset_writes_every_step_and_the_findings_report() {
             .unwrap();
     let findings = json["findings"].as_array().unwrap();
     assert!(findings.len() >= 25);
-    // every finding was measured: each step gave what its rows read
+    // every finding was measured: each step gave what its rows read. Slip distances are
+    // means over caught trials only, and the quick preset's three trials per strategy may
+    // catch none with some strategy, so those rows need only be measured somewhere.
+    let mut distances_measured = 0;
     for f in findings {
+        if f["id"].as_str().unwrap().contains("distance") {
+            distances_measured += usize::from(f["reproduced"] != "not_measured");
+            continue;
+        }
         assert_ne!(f["reproduced"], "not_measured", "{f}");
     }
+    assert!(distances_measured > 0, "no slip distance was measured");
     let html = std::fs::read_to_string(d.join("paper/findings.html")).unwrap();
     assert!(
         html.contains("<table>") && html.contains("<svg"),

@@ -163,9 +163,7 @@ fn bad_config_names_the_file_line_and_field() {
     assert_eq!(o.status.code(), Some(2));
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(
-        err.contains("neg.toml")
-            && err.contains("skin_modulus_kpa")
-            && err.contains("positive"),
+        err.contains("neg.toml") && err.contains("skin_modulus_kpa") && err.contains("positive"),
         "{err}"
     );
 }

@@ -14,7 +14,12 @@ pub enum ServoCommand {
 /// The hand's four position-controlled servos.
 #[derive(Debug, Clone)]
 pub struct Servos {
+    /// Where each servo's motor is (what its encoder reports).
     pub position: HandPositions,
+    /// Where each finger is: it follows its motor through a tendon with free play, so
+    /// after a reversal the motor turns through the backlash before the finger moves.
+    pub finger: HandPositions,
+    backlash: f64,
     pub target: HandPositions,
     pub torque_limit: f64,
     pending: VecDeque<(f64, ServoCommand)>,
@@ -33,6 +38,8 @@ impl Servos {
     ) -> Self {
         Self {
             position: start,
+            finger: start,
+            backlash: 0.0,
             target: start,
             torque_limit,
             pending: VecDeque::new(),
@@ -40,6 +47,12 @@ impl Servos {
             max_speed_per_s,
             position_time_s,
         }
+    }
+
+    /// Free play between motor and finger, fraction of the range.
+    pub fn with_backlash(mut self, backlash: f64) -> Self {
+        self.backlash = backlash;
+        self
     }
 
     pub fn command(&mut self, now_s: f64, command: ServoCommand) {
@@ -65,6 +78,8 @@ impl Servos {
         for i in 0..HAND_ACTUATORS {
             let d = self.target[i] - self.position[i];
             self.position[i] += (d * gain).clamp(-max_move, max_move);
+            let half = 0.5 * self.backlash;
+            self.finger[i] = self.finger[i].clamp(self.position[i] - half, self.position[i] + half);
         }
     }
 }
@@ -163,6 +178,31 @@ mod tests {
             s.step(t, 0.001);
         }
         assert!((s.position[0] - 0.022).abs() < 1e-9, "{}", s.position[0]);
+    }
+
+    #[test]
+    fn after_a_reversal_the_finger_waits_for_the_backlash() {
+        let mut s = Servos::new([0.5; 4], 1.0, 0.0, 1.0, 0.001).with_backlash(0.02);
+        let mut t = 0.0;
+        let mut go = |s: &mut Servos, q: f64| {
+            s.command(t, ServoCommand::Targets([q; 4]));
+            for _ in 0..100 {
+                t += 0.001;
+                s.step(t, 0.001);
+            }
+        };
+        go(&mut s, 0.45);
+        assert!(
+            (s.finger[0] - 0.46).abs() < 1e-9,
+            "opening drags the finger behind"
+        );
+        go(&mut s, 0.47);
+        assert!(
+            (s.finger[0] - 0.46).abs() < 1e-9,
+            "inside the free play nothing moves"
+        );
+        go(&mut s, 0.50);
+        assert!((s.finger[0] - 0.49).abs() < 1e-9);
     }
 
     #[test]

@@ -106,7 +106,7 @@ impl Default for RailSetup {
     fn default() -> Self {
         Self {
             object: "rail_object".into(),
-            preload_mm: 3.0,
+            preload_mm: 6.0,
             rail_mu: 0.05,
             end_stop_mm: 150.0,
             finger_closure: 0.5,
@@ -161,14 +161,14 @@ impl Default for PhysicsParams {
             step_s: 0.001,
             gravity_m_s2: 9.81,
             finger_travel_mm: 75.0,
-            finger_stiffness_n_per_mm: 1.2,
+            finger_stiffness_n_per_mm: 0.5,
             skin_modulus_kpa: 350.0,
             skin_poisson: 0.5,
             dome_radius_mm: 10.0,
             stall_force_n: 25.0,
             thumb_load_bias: 0.3,
             stribeck_speed_mm_s: 2.0,
-            rate_strengthening: 0.1,
+            rate_strengthening: 0.05,
             strengthening_from_mm_s: 10.0,
             surface_friction_sd: 0.1,
             surface_wavelength_mm: [0.5, 4.0],
@@ -189,6 +189,10 @@ pub struct ServoParams {
     /// Time constant of the servo's position loop (proportional control), s: a step in the
     /// target is 63 % done after this long unless the speed limit binds.
     pub position_time_s: f64,
+    /// Free play between each motor and its finger (tendon slack and gear backlash),
+    /// fraction of the range: after a reversal the motor turns this far before the finger
+    /// follows.
+    pub backlash: f64,
     /// Torque limit at start, fraction of maximum.
     pub initial_torque_limit: f64,
 }
@@ -199,6 +203,7 @@ impl Default for ServoParams {
             latency_s: 0.008,
             max_speed_per_s: 1.0,
             position_time_s: 0.05,
+            backlash: 0.02,
             initial_torque_limit: 1.0,
         }
     }

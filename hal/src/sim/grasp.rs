@@ -76,7 +76,8 @@ impl ContactLaw {
         let x = travel_mm / self.step_mm;
         let last = Self::ENTRIES - 1;
         if x >= last as f64 {
-            return self.force_n[last] + (travel_mm - last as f64 * self.step_mm) * self.linear_n_per_mm;
+            return self.force_n[last]
+                + (travel_mm - last as f64 * self.step_mm) * self.linear_n_per_mm;
         }
         let i = x as usize;
         let f = x - i as f64;
@@ -214,7 +215,11 @@ mod tests {
         let law = ContactLaw::new(1.2, SkinContact::new(350.0, 0.5, 10.0), 25.0);
         for n in [0.05, 0.3, 1.0, 5.0, 20.0] {
             let p = law.travel_mm(n);
-            assert!((law.force_n(p) - n).abs() < 0.01 * n + 1e-3, "{n}: {}", law.force_n(p));
+            assert!(
+                (law.force_n(p) - n).abs() < 0.01 * n + 1e-3,
+                "{n}: {}",
+                law.force_n(p)
+            );
         }
         assert_eq!(law.force_n(-1.0), 0.0);
         // the first tenth of a millimetre is far softer than the finger alone

@@ -76,7 +76,9 @@ impl SkinContact {
             return 0.0;
         }
         let x = (tangential_n.abs() / limit).min(1.0);
-        tangential_n.signum() * self.full_slip_shear_mm(normal_n, mu) * (1.0 - (1.0 - x).powf(2.0 / 3.0))
+        tangential_n.signum()
+            * self.full_slip_shear_mm(normal_n, mu)
+            * (1.0 - (1.0 - x).powf(2.0 / 3.0))
     }
 
     /// The inverse of [`Self::mindlin_shear_mm`]: force the patch carries at displacement
@@ -123,7 +125,8 @@ pub struct SlidingFriction {
 impl SlidingFriction {
     pub fn mu(&self, speed_mm_s: f64) -> f64 {
         let v = speed_mm_s.abs();
-        self.mu_kinetic * (1.0 + self.rate_strengthening * (v / self.strengthening_from_mm_s).ln_1p())
+        self.mu_kinetic
+            * (1.0 + self.rate_strengthening * (v / self.strengthening_from_mm_s).ln_1p())
             + (self.mu_static - self.mu_kinetic) * (-v / self.stribeck_mm_s).exp()
     }
 }
@@ -166,9 +169,16 @@ impl SurfaceTexture {
     }
 }
 
-/// The skin patch of one contact while the object slides over it: the whole patch slides,
-/// carrying the local sliding friction `F = mu(v) (1 + h(x)) N`, so its displacement is the
-/// full-slip (Mindlin) shear at that force, `u = 3 F / (2 k_t)`.
+/// The skin patch of one contact while the object slides over it.
+///
+/// Where sliding friction is below the static peak (velocity weakening: `mu(v) < mu_s`), the
+/// patch sticks to the object and is carried along, its force rising with the Mindlin law,
+/// until it reaches the static peak `mu_s (1 + h) N`; then it lets go and springs back as far
+/// below the sliding level as the peak is above it (an elastic release), and sticks again:
+/// stick-slip, a sawtooth whose rate follows the sliding speed and whose size follows
+/// `(mu_s - mu(v)) N / k_t`. Where rate strengthening has brought sliding friction up to the
+/// peak, the patch slides steadily at `u = 3 F / (2 k_t)`, `F = mu(v) (1 + h) N`. Either way
+/// the force follows the surface's friction `h(x)` under the patch.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct SlidingPatch {
     /// Tangential displacement of the patch, mm (positive: object-down direction).
@@ -179,8 +189,8 @@ pub struct SlidingPatch {
 
 impl SlidingPatch {
     /// Advances by one step in which the object moved `slide_mm` over the finger (positive
-    /// down) at `speed_mm_s`; returns the force the patch carries, N (positive: holds the
-    /// object up).
+    /// down) at `speed_mm_s`; returns the force the patch carries over the step, N
+    /// (positive: holds the object up).
     pub fn step(
         &mut self,
         skin: &SkinContact,
@@ -191,7 +201,8 @@ impl SlidingPatch {
         normal_n: f64,
     ) -> f64 {
         self.position_mm += slide_mm;
-        if normal_n <= 0.0 {
+        let k = skin.tangential_stiffness(normal_n);
+        if normal_n <= 0.0 || k <= 0.0 {
             self.shear_mm = 0.0;
             return 0.0;
         }
@@ -199,13 +210,36 @@ impl SlidingPatch {
             1.0
         } else if slide_mm < 0.0 {
             -1.0
+        } else if self.shear_mm < 0.0 {
+            -1.0
         } else {
-            self.shear_mm.signum()
+            1.0
         };
-        let force = friction.mu(speed_mm_s) * (1.0 + texture.at(self.position_mm)).max(0.0) * normal_n;
-        let k = skin.tangential_stiffness(normal_n);
-        self.shear_mm = if k > 0.0 { direction * 1.5 * force / k } else { 0.0 };
-        direction * force
+        let surface = (1.0 + texture.at(self.position_mm)).max(0.0);
+        let mu_sliding = friction.mu(speed_mm_s) * surface;
+        let mu_peak = friction.mu_static * surface;
+        let u_sliding = 1.5 * mu_sliding * normal_n / k;
+        if mu_sliding >= mu_peak {
+            self.shear_mm = direction * u_sliding;
+            return direction * mu_sliding * normal_n;
+        }
+        let u_peak = 1.5 * mu_peak * normal_n / k;
+        let u_low = (2.0 * u_sliding - u_peak).max(0.0);
+        let cycle = u_peak - u_low;
+        // Carried along by the object; several releases may fall within one step.
+        let carried = (direction * self.shear_mm).max(u_low) + slide_mm.abs();
+        if carried >= u_peak && carried - u_low >= 2.0 * cycle {
+            // More than a whole cycle in one step: the step's mean force is the sliding one.
+            self.shear_mm = direction * (u_low + (carried - u_low) % cycle);
+            return direction * mu_sliding * normal_n;
+        }
+        let u = if carried >= u_peak {
+            u_low + (carried - u_peak)
+        } else {
+            carried
+        };
+        self.shear_mm = direction * u;
+        direction * skin.mindlin_force_n(u, normal_n, mu_peak)
     }
 }
 
@@ -275,7 +309,9 @@ mod tests {
     fn surface_texture_has_the_stated_spread_and_no_mean() {
         let mut state = 7u64;
         let t = SurfaceTexture::new(0.1, 0.5, 4.0, || {
-            state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            state = state
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
             (state >> 11) as f64 / (1u64 << 53) as f64
         });
         let xs: Vec<f64> = (0..200_000).map(|i| t.at(i as f64 * 0.01)).collect();
@@ -307,6 +343,10 @@ mod tests {
         }
         // every 17 steps (a frame at 60 Hz) the patch has moved, all along the 60 mm slide
         let moving = changes.iter().skip(1).filter(|c| **c > 1e-3).count();
-        assert!(moving as f64 > 0.9 * (changes.len() - 1) as f64, "{moving} of {}", changes.len());
+        assert!(
+            moving as f64 > 0.9 * (changes.len() - 1) as f64,
+            "{moving} of {}",
+            changes.len()
+        );
     }
 }

@@ -60,6 +60,9 @@ pub struct SkinState {
     pub indentation_mm: f64,
     /// Radius of the contact patch in the image, px.
     pub contact_radius_px: f64,
+    /// Radius of the region that moves with the object, px: the stuck core while the patch
+    /// holds (Cattaneo-Mindlin), the whole patch while it slides.
+    pub carried_radius_px: f64,
     /// Tangential displacement of the patch along the slip direction, px.
     pub shear_px: f64,
     /// Tangential displacement along the roll direction, px.
@@ -97,16 +100,18 @@ impl SensorOptics {
 /// Noise-free pin positions for the skin state `skin`.
 ///
 /// Pin `j` at offset `d_j` (distance `r`) from the contact centre moves by
-/// `G delta g(r / rho) d_j / r + exp(-r^2 / (2 (1.3 rho)^2)) (s u + l v)`, where
+/// `G delta g(r / rho) d_j / r + exp(-r^2 / (2 (1.3 rho_c)^2)) (s u + l v)`, where
 /// `rho = sqrt(rho_0^2 + a^2)` grows with the contact radius `a`, `g(x) = x exp((1 - x^2) / 2)`
 /// (0 at the centre, peak 1 at `r = rho`), `s` and `l` the patch's shear and roll along the
-/// slip and roll directions `u` and `v`.
+/// slip and roll directions `u` and `v`, and `rho_c = sqrt(rho_0^2 + c^2)` with `c` the
+/// radius carried with the object: partial slip moves a narrow field, gross slip a wide one.
 pub fn pin_positions(optics: &SensorOptics, skin: &SkinState, out: &mut Vec<[f64; 2]>) {
     out.clear();
     let rho = optics.spread_px.hypot(skin.contact_radius_px);
     let radial = optics.radial_gain_px_per_mm * skin.indentation_mm;
     let inv_rho = 1.0 / rho;
-    let inv_two_sigma2 = 1.0 / (2.0 * (1.3 * rho).powi(2));
+    let carried = optics.spread_px.hypot(skin.carried_radius_px);
+    let inv_two_sigma2 = 1.0 / (2.0 * (1.3 * carried).powi(2));
     let [ux, uy] = optics.slip_direction;
     let [vx, vy] = optics.roll_direction;
     let (tx, ty) = (
@@ -149,6 +154,7 @@ mod tests {
         SkinState {
             indentation_mm,
             contact_radius_px: 0.0,
+            carried_radius_px: 0.0,
             shear_px,
             roll_px: 0.0,
         }

@@ -138,6 +138,8 @@ pub(crate) struct World {
     /// Where each patch's shear and roll are driven, mm (the pins follow with a lag).
     shear_target_mm: [f64; 3],
     roll_target_mm: [f64; 3],
+    /// Radius of each patch's region carried with the object, mm.
+    carried_mm: [f64; 3],
     sensors: Vec<SensorUnit>,
     markers: MarkerUnit,
     events: TruthEvents,
@@ -211,7 +213,8 @@ impl World {
             cfg.servo.latency_s,
             cfg.servo.max_speed_per_s,
             cfg.servo.position_time_s,
-        );
+        )
+        .with_backlash(cfg.servo.backlash);
         if let RigSetup::Rail(r) = &cfg.rig {
             // The rig's reset leaves the finger still pressing in as the trial starts.
             servos.target[0] = (r.finger_closure + r.press_in_mm / p.finger_travel_mm).min(1.0);
@@ -313,6 +316,7 @@ impl World {
             friction,
             shear_target_mm: [0.0; 3],
             roll_target_mm: [0.0; 3],
+            carried_mm: [0.0; 3],
             sensors,
             markers,
             events: TruthEvents::default(),
@@ -374,6 +378,8 @@ impl World {
     /// Present finger positions: a finger whose force is capped by its torque limit is held
     /// back by the object, short of where its servo is driving.
     pub(crate) fn present_positions(&self) -> HandPositions {
+        // The servos report their motors' positions; the fingers are behind by the free
+        // play and, when pressing, by how far the object holds them back.
         let mut q = self.servos.position;
         let travel = self.cfg.physics.finger_travel_mm;
         for (i, qi) in q.iter_mut().enumerate().take(self.sensors.len()) {
@@ -391,7 +397,7 @@ impl World {
         let travel = self.cfg.physics.finger_travel_mm;
         match self.geometry {
             Geometry::Hand { .. } => {
-                self.object.width_mm / 2.0 - travel * (1.0 - self.servos.position[i])
+                self.object.width_mm / 2.0 - travel * (1.0 - self.servos.finger[i])
             }
             Geometry::Rail {
                 arm_touch_x_mm,
@@ -399,7 +405,7 @@ impl World {
                 ..
             } => {
                 (self.arm.position_mm[0] - arm_touch_x_mm)
-                    + (self.servos.position[0] - finger_touch) * travel
+                    + (self.servos.finger[0] - finger_touch) * travel
             }
         }
     }
@@ -504,13 +510,16 @@ impl World {
                     }
                     self.held_mm = self.z_mm;
                     // Stuck: each patch carries its share with Cattaneo-Mindlin compliance.
-                    for i in 0..skins {
-                        self.shear_target_mm[i] = self.sensors[i].skin.mindlin_shear_mm(
-                            tangential[i],
-                            self.normal_n[i],
-                            mu_s,
-                        );
-                        self.patches[i].shear_mm = self.shear_target_mm[i];
+                    for (i, sensor) in self.sensors.iter().enumerate() {
+                        let u = sensor
+                            .skin
+                            .mindlin_shear_mm(tangential[i], self.normal_n[i], mu_s);
+                        self.shear_target_mm[i] = u;
+                        self.carried_mm[i] =
+                            sensor
+                                .skin
+                                .stick_radius_mm(tangential[i], self.normal_n[i], mu_s);
+                        self.patches[i].shear_mm = u;
                     }
                 }
                 None => {
@@ -525,9 +534,9 @@ impl World {
             // Each patch slides over its strip of the object; the friction it carries is
             // what holds the object up.
             let mut up_n = 0.0;
-            for i in 0..skins {
-                let f = self.patches[i].step(
-                    &self.sensors[i].skin,
+            for (i, (sensor, patch)) in self.sensors.iter().zip(&mut self.patches).enumerate() {
+                let f = patch.step(
+                    &sensor.skin,
                     &self.friction,
                     &self.textures[i],
                     -v_rel * dt,
@@ -536,7 +545,8 @@ impl World {
                 );
                 tangential[i] = f;
                 up_n += f;
-                self.shear_target_mm[i] = self.patches[i].shear_mm;
+                self.shear_target_mm[i] = patch.shear_mm;
+                self.carried_mm[i] = sensor.skin.contact_radius_mm(self.normal_n[i]);
             }
             // The rail's guides: plain sliding friction against the object's motion.
             let direction = if v_rel < -1e-9 {
@@ -661,6 +671,7 @@ impl World {
                         let skin = SkinState {
                             indentation_mm: s.skin.indentation_mm(n),
                             contact_radius_px: s.skin.contact_radius_mm(n) * s.px_per_mm,
+                            carried_radius_px: self.carried_mm[i] * s.px_per_mm,
                             shear_px: s.shear_mm * s.px_per_mm,
                             roll_px: s.roll_mm * s.px_per_mm,
                         };
@@ -736,12 +747,17 @@ impl World {
             normal_n: self.normal_n[..n].to_vec(),
             tangential_n: self.tangential_n[..n].to_vec(),
             local_slip: self.local_slip[..n].to_vec(),
-            indentation_mm: self.sensors
+            indentation_mm: self
+                .sensors
                 .iter()
                 .zip(&self.normal_n)
                 .map(|(s, f)| s.skin.indentation_mm(*f))
                 .collect(),
-            shear_px: self.sensors.iter().map(|s| s.shear_mm * s.px_per_mm).collect(),
+            shear_px: self
+                .sensors
+                .iter()
+                .map(|s| s.shear_mm * s.px_per_mm)
+                .collect(),
             sliding: !self.stuck,
             capacity_n: self.capacity_n,
             weight_n: self.mass_kg() * self.cfg.physics.gravity_m_s2,
@@ -797,6 +813,7 @@ fn validate(cfg: &SimConfig) -> Result<(), SimError> {
         ("faults.dropped_frame", cfg.faults.dropped_frame),
         ("faults.stale_frame", cfg.faults.stale_frame),
         ("servo.initial_torque_limit", cfg.servo.initial_torque_limit),
+        ("servo.backlash", cfg.servo.backlash),
     ] {
         if !(0.0..=1.0).contains(&v) {
             return Err(bad(name, "a fraction in 0..=1"));
