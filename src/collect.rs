@@ -115,7 +115,7 @@ pub fn collect_trial(
                 + COLLECT_LIFT_MM / 20.0
                 + 0.2
                 + hold_s
-                + (closure - contact) / 0.01
+                + (closure - contact + base.servo.backlash) / 0.01
                 + 1.5;
             (config, script, duration)
         }

@@ -57,7 +57,8 @@ pub fn contact_closure(base: &SimConfig, object: &str) -> Result<f64, SimError> 
 /// The thumb carries `(1 + b) / 2` of the weight (`b` the grasp's load bias) and holds while
 /// that is at most `mu_s N_thumb`. The object shifts until each finger presses with half the
 /// thumb's force, so with equal finger travel `a` past touch and the contact law's travel
-/// `p(N)`: `a + y = p(N_thumb)`, `a - y = p(N_thumb / 2)`.
+/// `p(N)`: `a + y = p(N_thumb)`, `a - y = p(N_thumb / 2)`. The servos are commanded half
+/// the tendon's free play further, as the fingers trail them while closing.
 pub fn holding_closure(
     base: &SimConfig,
     object: &str,
@@ -70,7 +71,9 @@ pub fn holding_closure(
     let thumb_force = safety * weight * (1.0 + p.thumb_load_bias.abs()) / (2.0 * spec.mu_static);
     let law = tmo_hal::sim::nominal_contact_law(p, &spec);
     let travel = 0.5 * (law.travel_mm(thumb_force) + law.travel_mm(thumb_force / 2.0));
-    Ok((contact_closure(base, object)? + travel / p.finger_travel_mm).min(1.0))
+    // Closing from open, each finger trails its motor by half the tendon's free play.
+    let trail = 0.5 * base.servo.backlash;
+    Ok((contact_closure(base, object)? + travel / p.finger_travel_mm + trail).min(1.0))
 }
 
 /// Builds the rig for `preset` on top of `base` (whose physics, sensor, fault and marker

@@ -170,7 +170,7 @@ impl Default for PhysicsParams {
             stribeck_speed_mm_s: 2.0,
             rate_strengthening: 0.05,
             strengthening_from_mm_s: 10.0,
-            surface_friction_sd: 0.1,
+            surface_friction_sd: 0.2,
             surface_wavelength_mm: [0.5, 4.0],
             finger_roll_ratio: 0.3,
             drop_limit_mm: 80.0,
@@ -201,7 +201,7 @@ impl Default for ServoParams {
     fn default() -> Self {
         Self {
             latency_s: 0.008,
-            max_speed_per_s: 1.0,
+            max_speed_per_s: 2.0,
             position_time_s: 0.05,
             backlash: 0.02,
             initial_torque_limit: 1.0,
