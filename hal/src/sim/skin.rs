@@ -206,11 +206,8 @@ impl SlidingPatch {
             self.shear_mm = 0.0;
             return 0.0;
         }
-        let direction = if slide_mm > 0.0 {
-            1.0
-        } else if slide_mm < 0.0 {
-            -1.0
-        } else if self.shear_mm < 0.0 {
+        // The way the object moves over the patch; at rest, the way the patch is loaded.
+        let direction = if slide_mm < 0.0 || (slide_mm == 0.0 && self.shear_mm < 0.0) {
             -1.0
         } else {
             1.0
