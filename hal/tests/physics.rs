@@ -161,6 +161,32 @@ fn rail_object_slips_when_the_arm_retracts() {
     assert!(onset > 1.0 && onset < 4.0, "onset at {onset}");
 }
 
+#[test]
+fn each_rail_trial_starts_with_the_finger_pressing_in() {
+    let cfg = SimConfig {
+        seed: 3,
+        rig: RigSetup::Rail(RailSetup::default()),
+        faults: FaultRates::none(),
+        ..Default::default()
+    };
+    let rig = SimRig::new(cfg).unwrap();
+    let (mut clock, probe) = (rig.clock(), rig.probe());
+    clock.sleep(0.01);
+    let early = probe.state();
+    clock.sleep(0.5);
+    let pressed = probe.state();
+    // the object is held from the start, and the contact grows as the finger presses in
+    assert!(early.capacity_n > early.weight_n, "{early:?}");
+    assert!(
+        pressed.normal_n[0] > early.normal_n[0] + 0.3,
+        "{} N -> {} N",
+        early.normal_n[0],
+        pressed.normal_n[0]
+    );
+    assert!(pressed.indentation_mm[0] > early.indentation_mm[0]);
+    assert!(probe.events().slip_onsets_s.is_empty());
+}
+
 /// Lifts the object off the table with all fingers at `closure`; true if it came up.
 fn lifts(extra_mass_g: f64, closure: f64) -> bool {
     let mut cfg = hand_config("soup_can", closure, ObjectStart::OnTable);

@@ -205,3 +205,36 @@ fn faults_appear_at_their_configured_rates() {
     let rate = (thumb.last().unwrap().seq - thumb[0].seq) as f64 / span;
     assert!((rate - 60.0).abs() < 0.1, "{rate} fps");
 }
+
+#[test]
+fn the_contact_gauge_fires_at_a_light_touch() {
+    // The paper's contact test: mean pin displacement from the untouched pins over 0.5 px.
+    let rig = SimRig::new(config(9, 0.0, ObjectStart::OnTable, FaultRates::none())).unwrap();
+    let (mut clock, mut hand, probe) = (rig.clock(), rig.hand(), rig.probe());
+    let mut sensors = rig.tactile_sensors();
+    let start = contact_closure() - 0.02;
+    let mut reference: Vec<Option<Vec<[f32; 2]>>> = vec![None; 3];
+    while clock.now_s() < 3.0 {
+        // close at 2 % of range per second, as the first-time lift does
+        let q = start + 0.02 * clock.now_s();
+        hand.set_targets([q, q, q, 0.0]).unwrap();
+        clock.sleep(0.005);
+        for (i, s) in sensors.iter_mut().enumerate() {
+            while let Some(f) = s.next_frame().unwrap() {
+                let reference = reference[i].get_or_insert_with(|| f.pins.clone());
+                let d: f64 = reference
+                    .iter()
+                    .zip(&f.pins)
+                    .map(|(a, b)| ((b[0] - a[0]) as f64).hypot((b[1] - a[1]) as f64))
+                    .sum::<f64>()
+                    / f.pins.len() as f64;
+                if d > 0.5 {
+                    let n = probe.state().normal_n[i];
+                    assert!((0.05..=0.4).contains(&n), "sensor {i} fired at {n} N");
+                    return;
+                }
+            }
+        }
+    }
+    panic!("no sensor reached 0.5 px");
+}
