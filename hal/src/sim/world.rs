@@ -140,6 +140,10 @@ pub(crate) struct World {
     roll_target_mm: [f64; 3],
     /// Radius of each patch's region carried with the object, mm.
     carried_mm: [f64; 3],
+    /// Normal force each fingertip's roll was last worked out for, N.
+    rolled_at_n: [f64; 3],
+    /// Tangential and normal load each stuck patch's shear was last worked out for.
+    stuck_load: [Option<(f64, f64)>; 3],
     sensors: Vec<SensorUnit>,
     markers: MarkerUnit,
     events: TruthEvents,
@@ -317,6 +321,8 @@ impl World {
             shear_target_mm: [0.0; 3],
             roll_target_mm: [0.0; 3],
             carried_mm: [0.0; 3],
+            stuck_load: [None; 3],
+            rolled_at_n: [f64::NAN; 3],
             sensors,
             markers,
             events: TruthEvents::default(),
@@ -511,14 +517,15 @@ impl World {
                     self.held_mm = self.z_mm;
                     // Stuck: each patch carries its share with Cattaneo-Mindlin compliance.
                     for (i, sensor) in self.sensors.iter().enumerate() {
-                        let u = sensor
-                            .skin
-                            .mindlin_shear_mm(tangential[i], self.normal_n[i], mu_s);
+                        // The power laws cost most of a step; a held grasp keeps its loads.
+                        let load = (tangential[i], self.normal_n[i]);
+                        if self.stuck_load[i] == Some(load) {
+                            continue;
+                        }
+                        self.stuck_load[i] = Some(load);
+                        let u = sensor.skin.mindlin_shear_mm(load.0, load.1, mu_s);
                         self.shear_target_mm[i] = u;
-                        self.carried_mm[i] =
-                            sensor
-                                .skin
-                                .stick_radius_mm(tangential[i], self.normal_n[i], mu_s);
+                        self.carried_mm[i] = sensor.skin.stick_radius_mm(load.0, load.1, mu_s);
                         self.patches[i].shear_mm = u;
                     }
                 }
@@ -547,6 +554,7 @@ impl World {
                 up_n += f;
                 self.shear_target_mm[i] = patch.shear_mm;
                 self.carried_mm[i] = sensor.skin.contact_radius_mm(self.normal_n[i]);
+                self.stuck_load[i] = None;
             }
             // The rail's guides: plain sliding friction against the object's motion.
             let direction = if v_rel < -1e-9 {
@@ -611,6 +619,11 @@ impl World {
         let mu_s = self.object.mu_static;
         for i in 0..self.sensors.len() {
             let n = self.normal_n[i];
+            // Only a change of normal force rolls the fingertip further.
+            if self.rolled_at_n[i] == n {
+                continue;
+            }
+            self.rolled_at_n[i] = n;
             self.roll_target_mm[i] = if n > 0.0 {
                 let pressed = self.laws[i].travel_mm(n);
                 (ratio * pressed).min(self.sensors[i].skin.full_slip_shear_mm(n, mu_s))
