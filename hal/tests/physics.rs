@@ -131,15 +131,20 @@ fn grasp_angle_changes_which_finger_carries_the_load() {
     );
 }
 
-#[test]
-fn rail_object_slips_when_the_arm_retracts() {
-    let cfg = SimConfig {
+/// The slip rail with its default set-up, no tracker faults.
+fn rail_rig() -> SimRig {
+    SimRig::new(SimConfig {
         seed: 3,
         rig: RigSetup::Rail(RailSetup::default()),
         faults: FaultRates::none(),
         ..Default::default()
-    };
-    let rig = SimRig::new(cfg).unwrap();
+    })
+    .unwrap()
+}
+
+#[test]
+fn rail_object_slips_when_the_arm_retracts() {
+    let rig = rail_rig();
     let (mut clock, mut arm, probe) = (rig.clock(), rig.arm(), rig.probe());
     clock.sleep(1.0);
     assert!(
@@ -163,13 +168,7 @@ fn rail_object_slips_when_the_arm_retracts() {
 
 #[test]
 fn each_rail_trial_starts_with_the_finger_pressing_in() {
-    let cfg = SimConfig {
-        seed: 3,
-        rig: RigSetup::Rail(RailSetup::default()),
-        faults: FaultRates::none(),
-        ..Default::default()
-    };
-    let rig = SimRig::new(cfg).unwrap();
+    let rig = rail_rig();
     let (mut clock, probe) = (rig.clock(), rig.probe());
     clock.sleep(0.01);
     let early = probe.state();
