@@ -428,3 +428,94 @@ fn an_error_says_its_cause_once() {
     ));
     assert_eq!(err.matches("invalid C = 0").count(), 1, "{err}");
 }
+
+/// A model the rig's frames do not fit is refused before the first trial, not run as a
+/// detector that never fires (every trial would then be scored a miss).
+#[test]
+fn a_model_that_does_not_fit_the_rig_is_refused_before_any_trial() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    // a local model of the rail's single fingertip, run on the three-fingered hand
+    ok(&tmo(
+        d,
+        &[
+            "sim", "collect", "--rig", "rail", "--trials", "3", "--seed", "2", "--out", "rail",
+        ],
+    ));
+    ok(&tmo(
+        d,
+        &[
+            "train",
+            "rail",
+            "--classifier",
+            "logreg",
+            "--C",
+            "1",
+            "--scope",
+            "local",
+            "--out",
+            "rail_local.json",
+        ],
+    ));
+    std::fs::write(
+        d.join("release.toml"),
+        "kind = \"hand_release\"\nobjects = [\"crisps_can\"]\nmodels = [\"rail_local.json\"]\nstrategies = [\"2x2\"]\nrepetitions = 1\n",
+    )
+    .unwrap();
+    let err = fails(&tmo(d, &["run", "release.toml", "--out", "out"]));
+    assert!(
+        err.contains("rail_local.json") && err.contains("sensor 1"),
+        "{err}"
+    );
+    assert!(!d.join("out").join("trial-00000.mcap").exists());
+}
+
+/// Replaying recorded trials through a model their frames do not fit is an error naming
+/// both, not a replay in which the detector never fires.
+#[test]
+fn a_replay_through_a_model_the_trials_do_not_fit_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    ok(&tmo(
+        d,
+        &[
+            "sim", "collect", "--rig", "rail", "--trials", "2", "--seed", "2", "--out", "rail",
+        ],
+    ));
+    ok(&tmo(
+        d,
+        &[
+            "train",
+            "rail",
+            "--classifier",
+            "logreg",
+            "--C",
+            "1",
+            "--scope",
+            "local",
+            "--out",
+            "rail_local.json",
+        ],
+    ));
+    ok(&tmo(
+        d,
+        &[
+            "sim", "collect", "--trials", "1", "--seed", "3", "--out", "hand",
+        ],
+    ));
+    let err = fails(&tmo(
+        d,
+        &[
+            "replay",
+            "hand",
+            "--model",
+            "rail_local.json",
+            "--strategy",
+            "2x2",
+        ],
+    ));
+    assert!(
+        err.contains("rail_local.json") && err.contains("sensor 1"),
+        "{err}"
+    );
+}

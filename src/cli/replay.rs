@@ -163,6 +163,13 @@ pub fn replay_with(
         "none of the {} trial log(s) could be read (see above)",
         paths.len()
     );
+    for (tpath, t) in &trials {
+        for (mpath, _, m) in &models {
+            if let Err(e) = m.fits(usize::from(t.meta.sensors), t.meta.pins) {
+                anyhow::bail!("{mpath} cannot replay {tpath}: {e}");
+            }
+        }
+    }
     let mut jobs = Vec::new();
     for (ti, (_, t)) in trials.iter().enumerate() {
         for (mi, _) in models.iter().enumerate() {

@@ -360,6 +360,28 @@ impl ModelFile {
         Ok(model)
     }
 
+    /// Whether this model can classify the frames of a rig or recording with `sensors`
+    /// fingertips of `pins` pins each; the error says what does not fit and what to do.
+    /// A model that cannot read the frames would never fire, and every trial would be
+    /// scored as a missed slip.
+    pub fn fits(&self, sensors: usize, pins: usize) -> Result<(), String> {
+        if self.features.pins != pins {
+            return Err(format!(
+                "features.pins = {}, but the fingertips report {pins} pins each; train the model on trials from this rig",
+                self.features.pins
+            ));
+        }
+        if self.scope == Scope::Local {
+            if let Some(k) = (0..sensors).find(|k| !self.sensors.contains(&(*k as u8))) {
+                return Err(format!(
+                    "a local model for sensors {:?} has no classifier for sensor {k} of {sensors}; train it on trials from all of them, or use a global model",
+                    self.sensors
+                ));
+            }
+        }
+        Ok(())
+    }
+
     /// The file's internal consistency: what every classifier needs to classify a frame of
     /// the file's feature layout without panicking or answering nonsense. The error names
     /// the field and what was expected.
@@ -736,6 +758,22 @@ mod tests {
             }
             other => panic!("expected {field} refused, got {other:?}"),
         }
+    }
+
+    #[test]
+    fn a_model_fits_only_frames_of_its_pin_count_and_local_sensors() {
+        let global = load(&trained(ClassifierKind::Logreg)).unwrap();
+        assert!(global.fits(3, 30).is_ok() && global.fits(1, 30).is_ok());
+        assert!(global
+            .fits(3, 20)
+            .unwrap_err()
+            .contains("features.pins = 30"));
+        // a local model of sensor 0 only: fine for the rail, not for the hand
+        let mut local = global.clone();
+        local.scope = Scope::Local;
+        local.sensors = vec![0];
+        assert!(local.fits(1, 30).is_ok());
+        assert!(local.fits(3, 30).unwrap_err().contains("sensor 1"));
     }
 
     #[test]

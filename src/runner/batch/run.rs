@@ -89,6 +89,40 @@ pub fn load_models(plan: &Plan) -> Result<Vec<(ModelFile, String)>, BatchError> 
         .collect()
 }
 
+/// The fingertips a rig has and the pins each reports: the simulator's three (one on the
+/// rail) of 30 pins, or what the hardware file names.
+fn rig_sensors(plan: &Plan, rig: &BatchRig) -> (usize, usize) {
+    match rig {
+        BatchRig::Sim => {
+            let sensors = if plan.kind == crate::protocol::Kind::RailCatch {
+                1
+            } else {
+                3
+            };
+            (sensors, tmo_hal::TMO_PINS_PER_SENSOR)
+        }
+        BatchRig::Real { rig, .. } => (rig.hw.cameras.fingertips.len(), rig.hw.cameras.pins),
+    }
+}
+
+/// Refuses, before the first trial, a model that could never classify this rig's frames.
+pub fn check_models_fit_rig(
+    plan: &Plan,
+    models: &[(ModelFile, String)],
+    sensors: usize,
+    pins: usize,
+) -> Result<(), BatchError> {
+    for (path, (model, _)) in plan.models.iter().zip(models) {
+        model
+            .fits(sensors, pins)
+            .map_err(|message| BatchError::ModelDoesNotFitRig {
+                path: path.clone(),
+                message: format!("{message} (this rig has {sensors} fingertips)"),
+            })?;
+    }
+    Ok(())
+}
+
 /// Runs (or finishes) the batch `req` asks for and scores it; `bar` shows trial progress
 /// (its length is set here; pass a hidden bar for none).
 pub fn run_batch(
@@ -107,6 +141,8 @@ pub fn run_batch(
         _ => None,
     };
     let models = load_models(plan)?;
+    let (sensors, pins) = rig_sensors(plan, rig);
+    check_models_fit_rig(plan, &models, sensors, pins)?;
     // One writer per batch directory, for as long as the batch runs.
     let _lock = crate::lock::OutputLock::acquire(out)?;
     let trials = expand(plan);
