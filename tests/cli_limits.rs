@@ -429,6 +429,28 @@ fn an_error_says_its_cause_once() {
     assert_eq!(err.matches("invalid C = 0").count(), 1, "{err}");
 }
 
+/// Trains `d/rail_local.json`: a local model of the rail's single fingertip.
+fn train_rail_local_model(d: &std::path::Path) {
+    let collect = [
+        "sim", "collect", "--rig", "rail", "--trials", "3", "--seed", "2",
+    ];
+    ok(&tmo(d, &[&collect[..], &["--out", "rail"]].concat()));
+    let train = [
+        "train",
+        "rail",
+        "--classifier",
+        "logreg",
+        "--C",
+        "1",
+        "--scope",
+        "local",
+    ];
+    ok(&tmo(
+        d,
+        &[&train[..], &["--out", "rail_local.json"]].concat(),
+    ));
+}
+
 /// A model the rig's frames do not fit is refused before the first trial, not run as a
 /// detector that never fires (every trial would then be scored a miss).
 #[test]
@@ -436,27 +458,7 @@ fn a_model_that_does_not_fit_the_rig_is_refused_before_any_trial() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     // a local model of the rail's single fingertip, run on the three-fingered hand
-    ok(&tmo(
-        d,
-        &[
-            "sim", "collect", "--rig", "rail", "--trials", "3", "--seed", "2", "--out", "rail",
-        ],
-    ));
-    ok(&tmo(
-        d,
-        &[
-            "train",
-            "rail",
-            "--classifier",
-            "logreg",
-            "--C",
-            "1",
-            "--scope",
-            "local",
-            "--out",
-            "rail_local.json",
-        ],
-    ));
+    train_rail_local_model(d);
     std::fs::write(
         d.join("release.toml"),
         "kind = \"hand_release\"\nobjects = [\"crisps_can\"]\nmodels = [\"rail_local.json\"]\nstrategies = [\"2x2\"]\nrepetitions = 1\n",
@@ -476,27 +478,7 @@ fn a_model_that_does_not_fit_the_rig_is_refused_before_any_trial() {
 fn a_replay_through_a_model_the_trials_do_not_fit_is_refused() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    ok(&tmo(
-        d,
-        &[
-            "sim", "collect", "--rig", "rail", "--trials", "2", "--seed", "2", "--out", "rail",
-        ],
-    ));
-    ok(&tmo(
-        d,
-        &[
-            "train",
-            "rail",
-            "--classifier",
-            "logreg",
-            "--C",
-            "1",
-            "--scope",
-            "local",
-            "--out",
-            "rail_local.json",
-        ],
-    ));
+    train_rail_local_model(d);
     ok(&tmo(
         d,
         &[
