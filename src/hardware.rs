@@ -198,6 +198,20 @@ impl HardwareFile {
                 return err(field, format!("baud {b} is not one of {BAUDS:?}"));
             }
         }
+        for (field, id) in [
+            (
+                "marker_camera.object_marker",
+                &self.marker_camera.object_marker,
+            ),
+            ("marker_camera.hand_marker", &self.marker_camera.hand_marker),
+        ] {
+            if id.trim().is_empty() {
+                return err(
+                    field,
+                    "expected the marker's id as DemoArUco reports it (e.g. \"U42\")".into(),
+                );
+            }
+        }
         if self.marker_camera.object_marker == self.marker_camera.hand_marker {
             return err(
                 "marker_camera.hand_marker",
@@ -222,8 +236,13 @@ impl HardwareFile {
                 );
             }
             if h.min[i] >= h.encoder_range || h.max[i] >= h.encoder_range {
+                let which = if h.min[i] >= h.encoder_range {
+                    "min"
+                } else {
+                    "max"
+                };
                 return err(
-                    &format!("hand.max.{i}"),
+                    &format!("hand.{which}.{i}"),
                     format!(
                         "expected encoder counts below hand.encoder_range ({})",
                         h.encoder_range
@@ -252,8 +271,45 @@ impl HardwareFile {
                 format!("expected 1..=6000 mA, got {}", h.current_limit_ma),
             );
         }
-        if self.arm.host.trim().is_empty() {
-            return err("arm.host", "expected the UR controller's address".into());
+        if !is_host(&self.arm.host) {
+            return err(
+                "arm.host",
+                format!(
+                    "expected the UR controller's address (an IP address or host name), got {:?}",
+                    self.arm.host
+                ),
+            );
+        }
+        for (field, port) in [
+            ("arm.rtde_port", self.arm.rtde_port),
+            ("arm.script_port", self.arm.script_port),
+        ] {
+            if port == 0 {
+                return err(field, "expected a TCP port 1..=65535, got 0".into());
+            }
+        }
+        if self.arm.rtde_port == self.arm.script_port {
+            return err(
+                "arm.script_port",
+                format!(
+                    "expected a different port from arm.rtde_port ({}): RTDE and URScript are separate interfaces",
+                    self.arm.rtde_port
+                ),
+            );
+        }
+        if let Some(served) = &self.served_simulator {
+            let ok = served.control.rsplit_once(':').is_some_and(|(host, port)| {
+                is_host(host) && port.parse::<u16>().is_ok_and(|p| p > 0)
+            });
+            if !ok {
+                return err(
+                    "served_simulator.control",
+                    format!(
+                        "expected host:port of `tmo sim serve`'s control port (e.g. \"127.0.0.1:30010\"), got {:?}",
+                        served.control
+                    ),
+                );
+            }
         }
         if !matches!(self.arm.frequency_hz, 125 | 500) {
             return err(
@@ -268,6 +324,20 @@ impl HardwareFile {
             .check()
             .map_err(|(s, f, m)| (format!("{s}.{f}"), m))
     }
+}
+
+/// An IP address or a host name (letters, digits, `-` and `.`; no spaces).
+fn is_host(host: &str) -> bool {
+    host.parse::<std::net::IpAddr>().is_ok()
+        || (!host.is_empty()
+            && host.len() <= 253
+            && host.split('.').all(|label| {
+                !label.is_empty()
+                    && label.len() <= 63
+                    && !label.starts_with('-')
+                    && !label.ends_with('-')
+                    && label.chars().all(|c| c.is_ascii_alphanumeric() || c == '-')
+            }))
 }
 
 /// Reads, parses and checks a hardware file.
@@ -317,6 +387,47 @@ mod tests {
         assert_eq!(hw.cameras.fingertips.len(), 3);
         assert_eq!(hw.arm.rtde_port, 30004);
         assert_eq!(hw.safety.max_grip, 0.95);
+    }
+
+    #[test]
+    fn addresses_ports_and_marker_ids_must_be_usable() {
+        let cases = [
+            (
+                "host = \"192.168.1.10\"",
+                "host = \"not a host!!\"",
+                "arm.host",
+            ),
+            ("rtde_port = 30004", "rtde_port = 0", "arm.rtde_port"),
+            (
+                "script_port = 30002",
+                "script_port = 30004",
+                "arm.script_port",
+            ),
+            (
+                "object_marker = \"U42\"",
+                "object_marker = \"\"",
+                "marker_camera.object_marker",
+            ),
+            ("min = [1200,", "min = [9000,", "hand.min.0"),
+        ];
+        for (good, bad, field) in cases {
+            let text = example().replace(good, bad);
+            assert_ne!(text, example(), "{good}");
+            let e = check(&text).unwrap_err();
+            assert_eq!(e.field, field, "{e}");
+        }
+        let served = format!("{}\n[served_simulator]\ncontrol = \"garbage\"\n", example());
+        assert_eq!(
+            check(&served).unwrap_err().field,
+            "served_simulator.control"
+        );
+        let served = format!(
+            "{}\n[served_simulator]\ncontrol = \"127.0.0.1:30010\"\n",
+            example()
+        );
+        check(&served).unwrap();
+        let named = example().replace("host = \"192.168.1.10\"", "host = \"ur5.lab-2.local\"");
+        check(&named).unwrap();
     }
 
     #[test]
