@@ -115,6 +115,9 @@ pub(crate) struct World {
     laws: Vec<ContactLaw>,
     /// Travels and force cap the normal forces were last solved for.
     solved_for: Option<([f64; 3], f64)>,
+    /// How far each contact is pressed in at its normal force, mm: read by every poll of
+    /// the hand's positions, so worked out once per solve rather than per call.
+    pressed_mm: [f64; 3],
     // Object state along the vertical axis (mm, mm/s) and its relation to the hand.
     z_mm: f64,
     vz_mm_s: f64,
@@ -304,6 +307,7 @@ impl World {
             arm,
             laws,
             solved_for: None,
+            pressed_mm: [0.0; 3],
             z_mm: hand_z,
             vz_mm_s: 0.0,
             stuck: true,
@@ -390,8 +394,7 @@ impl World {
         let travel = self.cfg.physics.finger_travel_mm;
         for (i, qi) in q.iter_mut().enumerate().take(self.sensors.len()) {
             if self.in_grasp && self.normal_n[i] > 0.0 {
-                let pressed = self.laws[i].travel_mm(self.normal_n[i]);
-                let excess = (self.travel_past_contact(i) - pressed).max(0.0);
+                let excess = (self.travel_past_contact(i) - self.pressed_mm[i]).max(0.0);
                 *qi -= excess / travel;
             }
         }
@@ -420,6 +423,7 @@ impl World {
         let cap = self.servos.torque_limit * self.cfg.physics.stall_force_n;
         if !self.in_grasp {
             self.normal_n = [0.0; 3];
+            self.pressed_mm = [0.0; 3];
             return;
         }
         let travel = match self.geometry {
@@ -438,6 +442,9 @@ impl World {
             }
             Geometry::Rail { .. } => [laws[0].force_n(travel[0]).clamp(0.0, cap), 0.0, 0.0],
         };
+        for (i, law) in self.laws.iter().enumerate() {
+            self.pressed_mm[i] = law.travel_mm(self.normal_n[i]);
+        }
     }
 
     fn contacts(&self) -> ([Contact; MAX_CONTACTS], usize) {
@@ -625,8 +632,7 @@ impl World {
             }
             self.rolled_at_n[i] = n;
             self.roll_target_mm[i] = if n > 0.0 {
-                let pressed = self.laws[i].travel_mm(n);
-                (ratio * pressed).min(self.sensors[i].skin.full_slip_shear_mm(n, mu_s))
+                (ratio * self.pressed_mm[i]).min(self.sensors[i].skin.full_slip_shear_mm(n, mu_s))
             } else {
                 0.0
             };
