@@ -93,6 +93,13 @@ fn a_reset_sets_the_next_world_up_behind_the_same_devices() {
         Err(ControlError::Refused(why)) => assert!(why.contains("--rig"), "{why}"),
         other => panic!("expected a refusal, got {other:?}"),
     }
+    // nonsense physics is refused with the field that is wrong
+    let mut heavy = hand_world(0.1);
+    heavy.physics.gravity_m_s2 = 1e300;
+    match control.reset(&heavy) {
+        Err(ControlError::Refused(why)) => assert!(why.contains("physics.gravity_m_s2"), "{why}"),
+        other => panic!("expected a refusal, got {other:?}"),
+    }
     stop.store(true, Ordering::Relaxed);
     assert_eq!(server.join().unwrap(), 1);
 }

@@ -160,3 +160,31 @@ fn moves_start_from_the_newest_state_not_a_buffered_one() {
     stop.store(true, Ordering::Relaxed);
     server.join().unwrap();
 }
+
+#[test]
+fn a_script_line_with_no_end_is_refused_not_buffered() {
+    use std::io::{Read, Write};
+    let (_, script_port, stop, server) = serve();
+    let mut raw = std::net::TcpStream::connect(("127.0.0.1", script_port)).unwrap();
+    raw.set_read_timeout(Some(Duration::from_secs(10))).unwrap();
+    // 4 MB without a newline: the controller drops the client after its line limit
+    let chunk = vec![b'x'; 64 * 1024];
+    let mut sent = 0usize;
+    for _ in 0..64 {
+        match raw.write_all(&chunk) {
+            Ok(()) => sent += chunk.len(),
+            Err(_) => break,
+        }
+    }
+    let mut buf = [0u8; 16];
+    let closed = match raw.read(&mut buf) {
+        Ok(0) => true,
+        Err(e) => e.kind() == std::io::ErrorKind::ConnectionReset,
+        Ok(_) => false,
+    };
+    assert!(closed, "the controller kept a line of {sent} bytes open");
+    stop.store(true, Ordering::Relaxed);
+    let stats = server.join().unwrap();
+    assert_eq!(stats.script_lines, 0);
+    assert!(stats.script_errors >= 1);
+}

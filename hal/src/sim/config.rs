@@ -32,6 +32,189 @@ impl Default for SimConfig {
     }
 }
 
+/// A field of a [`SimConfig`] outside the range the simulator can stand for.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("`{field}` = {value}: expected {expected}")]
+pub struct ConfigProblem {
+    pub field: String,
+    pub value: String,
+    pub expected: String,
+}
+
+/// Inclusive lower bound, or exclusive when `open`.
+#[derive(Clone, Copy)]
+struct Low(f64, bool);
+
+impl SimConfig {
+    /// Every numeric field inside the range of a physical rig, so that a world built from
+    /// it neither divides by zero nor overflows (a configuration may come from a file or
+    /// over `sim serve`'s control port). The ranges are generous: they catch mistakes and
+    /// garbage, not unusual rigs.
+    pub fn check(&self) -> Result<(), ConfigProblem> {
+        let positive = Low(0.0, true);
+        let zero = Low(0.0, false);
+        let mut fields: Vec<(&str, f64, Low, f64)> = Vec::with_capacity(64);
+        let p = &self.physics;
+        fields.extend([
+            ("physics.step_s", p.step_s, positive, 0.005),
+            ("physics.gravity_m_s2", p.gravity_m_s2, positive, 100.0),
+            (
+                "physics.finger_travel_mm",
+                p.finger_travel_mm,
+                positive,
+                1e3,
+            ),
+            (
+                "physics.finger_stiffness_n_per_mm",
+                p.finger_stiffness_n_per_mm,
+                positive,
+                1e5,
+            ),
+            (
+                "physics.skin_modulus_kpa",
+                p.skin_modulus_kpa,
+                positive,
+                1e7,
+            ),
+            ("physics.skin_poisson", p.skin_poisson, zero, 0.5),
+            ("physics.dome_radius_mm", p.dome_radius_mm, positive, 1e3),
+            ("physics.stall_force_n", p.stall_force_n, positive, 1e4),
+            ("physics.thumb_load_bias", p.thumb_load_bias, zero, 0.9),
+            (
+                "physics.stribeck_speed_mm_s",
+                p.stribeck_speed_mm_s,
+                positive,
+                1e5,
+            ),
+            (
+                "physics.rate_strengthening",
+                p.rate_strengthening,
+                zero,
+                10.0,
+            ),
+            (
+                "physics.strengthening_from_mm_s",
+                p.strengthening_from_mm_s,
+                positive,
+                1e5,
+            ),
+            (
+                "physics.surface_friction_sd",
+                p.surface_friction_sd,
+                zero,
+                1.0,
+            ),
+            (
+                "physics.surface_wavelength_mm[0]",
+                p.surface_wavelength_mm[0],
+                positive,
+                1e3,
+            ),
+            (
+                "physics.surface_wavelength_mm[1]",
+                p.surface_wavelength_mm[1],
+                Low(p.surface_wavelength_mm[0], false),
+                1e3,
+            ),
+            ("physics.finger_roll_ratio", p.finger_roll_ratio, zero, 10.0),
+            ("physics.drop_limit_mm", p.drop_limit_mm, positive, 1e4),
+            ("physics.floor_mm", p.floor_mm, Low(-1e4, false), 1e4),
+        ]);
+        let s = &self.servo;
+        fields.extend([
+            ("servo.latency_s", s.latency_s, zero, 1.0),
+            ("servo.max_speed_per_s", s.max_speed_per_s, positive, 100.0),
+            ("servo.position_time_s", s.position_time_s, positive, 10.0),
+            ("servo.backlash", s.backlash, zero, 1.0),
+            (
+                "servo.initial_torque_limit",
+                s.initial_torque_limit,
+                zero,
+                1.0,
+            ),
+        ]);
+        let a = &self.arm;
+        fields.extend([
+            ("arm.max_speed_mm_s", a.max_speed_mm_s, positive, 1e4),
+            (
+                "arm.acceleration_mm_s2",
+                a.acceleration_mm_s2,
+                positive,
+                1e6,
+            ),
+            ("arm.start_mm[0]", a.start_mm[0], Low(-1e4, false), 1e4),
+            ("arm.start_mm[1]", a.start_mm[1], Low(-1e4, false), 1e4),
+            ("arm.start_mm[2]", a.start_mm[2], Low(-1e4, false), 1e4),
+            (
+                "arm.hand_marker_offset_mm",
+                a.hand_marker_offset_mm,
+                Low(-1e4, false),
+                1e4,
+            ),
+        ]);
+        let t = &self.tactip;
+        fields.extend([
+            ("tactip.pins", t.pins as f64, Low(1.0, false), 1000.0),
+            ("tactip.image_px[0]", t.image_px[0], positive, 1e5),
+            ("tactip.image_px[1]", t.image_px[1], positive, 1e5),
+            ("tactip.dome_radius_px", t.dome_radius_px, positive, 1e5),
+            ("tactip.frame_rate_hz", t.frame_rate_hz, positive, 1e4),
+            ("tactip.frame_jitter_s", t.frame_jitter_s, zero, 1.0),
+            ("tactip.clock_error_ppm", t.clock_error_ppm, zero, 1e5),
+            ("tactip.noise_px", t.noise_px, zero, 1e3),
+            (
+                "tactip.radial_gain_px_per_mm",
+                t.radial_gain_px_per_mm,
+                zero,
+                1e4,
+            ),
+            ("tactip.spread_radius_px", t.spread_radius_px, positive, 1e5),
+            ("tactip.skin_time_s", t.skin_time_s, positive, 10.0),
+            ("tactip.creep_fraction", t.creep_fraction, zero, 1.0),
+            ("tactip.creep_time_s", t.creep_time_s, positive, 100.0),
+            ("tactip.contact_offset_px", t.contact_offset_px, zero, 1e5),
+            ("tactip.unit_variation", t.unit_variation, zero, 0.9),
+        ]);
+        let f = &self.faults;
+        fields.extend([
+            ("faults.pin_misdetect", f.pin_misdetect, zero, 1.0),
+            ("faults.dropped_frame", f.dropped_frame, zero, 1.0),
+            ("faults.stale_frame", f.stale_frame, zero, 1.0),
+            ("marker.rate_hz", self.marker.rate_hz, positive, 1e4),
+            ("marker.noise_mm", self.marker.noise_mm, zero, 1e3),
+        ]);
+        match &self.rig {
+            RigSetup::Hand(h) => fields.extend([
+                ("rig.extra_mass_g", h.extra_mass_g, zero, 1e5),
+                ("rig.grasp_deg", h.grasp_deg, Low(-360.0, false), 360.0),
+                ("rig.initial_closure", h.initial_closure, zero, 1.0),
+                ("rig.pour_rate_g_per_s", h.pour_rate_g_per_s, zero, 1e5),
+                ("rig.pour_start_s", h.pour_start_s, zero, 1e6),
+            ]),
+            RigSetup::Rail(r) => fields.extend([
+                ("rig.preload_mm", r.preload_mm, zero, 100.0),
+                ("rig.rail_mu", r.rail_mu, zero, 10.0),
+                ("rig.end_stop_mm", r.end_stop_mm, positive, 1e4),
+                ("rig.finger_closure", r.finger_closure, zero, 1.0),
+                ("rig.press_in_mm", r.press_in_mm, zero, 100.0),
+            ]),
+        }
+        for (field, value, Low(lo, open), hi) in fields {
+            let above = if open { value > lo } else { value >= lo };
+            // NaN fails both comparisons
+            if !(above && value <= hi) {
+                let (bracket, symbol) = if open { ("(", "<") } else { ("[", "<=") };
+                return Err(ConfigProblem {
+                    field: field.to_string(),
+                    value: value.to_string(),
+                    expected: format!("a number in {bracket}{lo}, {hi}] ({lo} {symbol} x <= {hi})"),
+                });
+            }
+        }
+        Ok(())
+    }
+}
+
 /// Which rig is built.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(tag = "kind", rename_all = "snake_case")]
@@ -252,6 +435,10 @@ pub struct TactipParams {
     pub spread_radius_px: f64,
     /// Viscoelastic time constant of the skin, s.
     pub skin_time_s: f64,
+    /// Share of the skin's displacement that creeps (the slow term of its Prony series).
+    pub creep_fraction: f64,
+    /// Time constant of that creep, s.
+    pub creep_time_s: f64,
     /// Spread of the contact centre from the image centre (standard deviation), px.
     pub contact_offset_px: f64,
     /// Unit-to-unit variation of the gains (uniform, +-), fraction.
@@ -271,6 +458,8 @@ impl Default for TactipParams {
             radial_gain_px_per_mm: 8.0,
             spread_radius_px: 30.0,
             skin_time_s: 0.008,
+            creep_fraction: 0.3,
+            creep_time_s: 0.15,
             contact_offset_px: 20.0,
             unit_variation: 0.25,
         }
@@ -322,5 +511,55 @@ impl Default for MarkerParams {
             rate_hz: 60.0,
             noise_mm: 0.3,
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_defaults_and_the_rail_pass_the_check() {
+        SimConfig::default().check().unwrap();
+        let rail = SimConfig {
+            rig: RigSetup::Rail(RailSetup::default()),
+            ..SimConfig::default()
+        };
+        rail.check().unwrap();
+    }
+
+    #[test]
+    fn garbage_is_refused_with_the_field_named() {
+        let refused = |edit: &dyn Fn(&mut SimConfig)| {
+            let mut c = SimConfig::default();
+            edit(&mut c);
+            c.check().unwrap_err()
+        };
+        let e = refused(&|c| c.physics.gravity_m_s2 = 1e300);
+        assert_eq!(e.field, "physics.gravity_m_s2");
+        assert!(
+            e.to_string().contains("expected a number in (0, 100]"),
+            "{e}"
+        );
+        let e = refused(&|c| {
+            c.rig = RigSetup::Hand(HandSetup {
+                extra_mass_g: -1e9,
+                ..HandSetup::default()
+            })
+        });
+        assert_eq!(e.field, "rig.extra_mass_g");
+        assert_eq!(
+            refused(&|c| c.arm.max_speed_mm_s = -5.0).field,
+            "arm.max_speed_mm_s"
+        );
+        assert_eq!(
+            refused(&|c| c.tactip.noise_px = f64::NAN).field,
+            "tactip.noise_px"
+        );
+        assert_eq!(refused(&|c| c.tactip.pins = 0).field, "tactip.pins");
+        assert_eq!(
+            refused(&|c| c.physics.surface_wavelength_mm = [4.0, 0.5]).field,
+            "physics.surface_wavelength_mm[1]"
+        );
     }
 }

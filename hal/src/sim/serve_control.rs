@@ -70,10 +70,12 @@ impl ControlPort {
         }
         for k in 0..self.clients.len() {
             let c = &mut self.clients[k];
-            c.open &= read_available(&mut c.stream, &mut c.pending);
-            if c.pending.len() > MAX_LINE {
+            c.open &= read_available(&mut c.stream, &mut c.pending, MAX_LINE + 1);
+            if c.pending.len() > MAX_LINE && !c.pending[..=MAX_LINE].contains(&b'\n') {
                 c.pending.clear();
                 self.answer(k, Err("request longer than 1 MiB".into()))?;
+                // what follows is the rest of that request, not a new one
+                self.clients[k].open = false;
                 continue;
             }
             let Some(end) = c.pending.iter().position(|&b| b == b'\n') else {

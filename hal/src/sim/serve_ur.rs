@@ -240,7 +240,16 @@ impl UrEmulator {
         rtde_conns.retain(|c| c.open);
 
         for c in script_conns.iter_mut() {
-            c.open &= read_available(&mut c.stream, &mut c.pending);
+            c.open &= read_available(&mut c.stream, &mut c.pending, MAX_SCRIPT_LINE);
+            if c.pending.len() >= MAX_SCRIPT_LINE && !c.pending.contains(&b'\n') {
+                // No command is this long: a controller stops the program and the client
+                // is dropped, rather than the server buffering without end.
+                stats.script_errors += 1;
+                let _ = arm.stop();
+                c.pending.clear();
+                c.open = false;
+                continue;
+            }
             while let Some(end) = c.pending.iter().position(|b| *b == b'\n') {
                 let line: Vec<u8> = c.pending.drain(..=end).collect();
                 stats.script_lines += 1;
@@ -273,10 +282,14 @@ impl UrEmulator {
     }
 }
 
-/// Reads what a non-blocking client has sent into `pending`; false once it has gone.
-pub(super) fn read_available(stream: &mut TcpStream, pending: &mut Vec<u8>) -> bool {
+/// Longest URScript line the emulated controller takes; real commands are under 200 bytes.
+pub(super) const MAX_SCRIPT_LINE: usize = 64 * 1024;
+
+/// Reads what a non-blocking client has sent into `pending`, up to about `cap` bytes (the
+/// rest waits in the socket); false once the client has gone.
+pub(super) fn read_available(stream: &mut TcpStream, pending: &mut Vec<u8>, cap: usize) -> bool {
     let mut buf = [0u8; 4096];
-    loop {
+    while pending.len() < cap {
         match stream.read(&mut buf) {
             Ok(0) => return false,
             Ok(n) => pending.extend_from_slice(&buf[..n]),
@@ -284,6 +297,7 @@ pub(super) fn read_available(stream: &mut TcpStream, pending: &mut Vec<u8>) -> b
             Err(_) => return false,
         }
     }
+    true
 }
 
 /// Serves the arm until `stop` is set; the sim clock follows the wall clock from the call.

@@ -13,7 +13,9 @@ use super::config::{ObjectStart, PhysicsParams, RigSetup, SimConfig};
 use super::grasp::{pinch_normal_forces, share_stuck_load, Contact, ContactLaw, MAX_CONTACTS};
 use super::objects::{ObjectLibrary, ObjectSpec};
 use super::skin::{SkinContact, SlidingFriction, SlidingPatch, SurfaceTexture};
-use super::tactip::{dome_layout, pin_positions, relax_towards, SensorOptics, SkinState};
+use super::tactip::{
+    dome_layout, pin_positions, CreepingDisplacement, SensorOptics, SkinState, SkinTimes,
+};
 use super::SimError;
 use crate::types::{HandPositions, MarkerSample, PinFrame};
 
@@ -73,9 +75,12 @@ struct SensorUnit {
     /// Image pixels per mm on the dome.
     px_per_mm: f64,
     /// Tangential displacement of the contact patch the pins show, after the skin's
-    /// viscoelastic lag, mm: along the slip direction and along the roll direction.
-    shear_mm: f64,
-    roll_mm: f64,
+    /// viscoelastic lag and creep, mm: along the slip direction and along the roll direction.
+    shear_mm: CreepingDisplacement,
+    roll_mm: CreepingDisplacement,
+    /// Indentation the pins show, mm, and the normal force it was last worked out for.
+    indentation_mm: CreepingDisplacement,
+    indentation_target: (f64, f64),
     period_s: f64,
     next_capture_s: f64,
     seq: u64,
@@ -258,8 +263,10 @@ impl World {
                     optics,
                     skin,
                     px_per_mm: t.dome_radius_px / p.dome_radius_mm,
-                    shear_mm: 0.0,
-                    roll_mm: 0.0,
+                    shear_mm: CreepingDisplacement::default(),
+                    roll_mm: CreepingDisplacement::default(),
+                    indentation_mm: CreepingDisplacement::default(),
+                    indentation_target: (0.0, 0.0),
                     period_s: period,
                     next_capture_s: srng.gen_range(0.0..period),
                     seq: 0,
@@ -656,21 +663,37 @@ impl World {
         }
     }
 
-    /// The pins follow the patch with the skin's viscoelastic lag.
+    fn skin_times(&self) -> SkinTimes {
+        let t = &self.cfg.tactip;
+        SkinTimes {
+            fast_s: t.skin_time_s,
+            creep_s: t.creep_time_s,
+            creep_fraction: t.creep_fraction,
+        }
+    }
+
+    /// The pins follow the patch with the skin's viscoelastic lag and creep.
     fn update_skins(&mut self, dt: f64) {
-        let tau = self.cfg.tactip.skin_time_s;
+        let times = self.skin_times();
         for (i, s) in self.sensors.iter_mut().enumerate() {
-            let (shear, roll) = if self.normal_n[i] > 0.0 {
+            let n = self.normal_n[i];
+            let (shear, roll) = if n > 0.0 {
                 (self.shear_target_mm[i], self.roll_target_mm[i])
             } else {
                 (0.0, 0.0)
             };
-            s.shear_mm = relax_towards(s.shear_mm, shear, dt, tau);
-            s.roll_mm = relax_towards(s.roll_mm, roll, dt, tau);
+            // The Hertz power law costs most of a step; a steady grip keeps its indentation.
+            if s.indentation_target.0 != n {
+                s.indentation_target = (n, s.skin.indentation_mm(n));
+            }
+            s.shear_mm.step(shear, dt, &times);
+            s.roll_mm.step(roll, dt, &times);
+            s.indentation_mm.step(s.indentation_target.1, dt, &times);
         }
     }
 
     fn capture_frames(&mut self, now: f64) {
+        let times = self.skin_times();
         let t = &self.cfg.tactip;
         let faults = &self.cfg.faults;
         let noise = Normal::new(0.0, t.noise_px.max(1e-12)).expect("valid normal");
@@ -688,11 +711,11 @@ impl World {
                     _ => {
                         let n = self.normal_n[i];
                         let skin = SkinState {
-                            indentation_mm: s.skin.indentation_mm(n),
+                            indentation_mm: s.indentation_mm.shown(&times),
                             contact_radius_px: s.skin.contact_radius_mm(n) * s.px_per_mm,
                             carried_radius_px: self.carried_mm[i] * s.px_per_mm,
-                            shear_px: s.shear_mm * s.px_per_mm,
-                            roll_px: s.roll_mm * s.px_per_mm,
+                            shear_px: s.shear_mm.shown(&times) * s.px_per_mm,
+                            roll_px: s.roll_mm.shown(&times) * s.px_per_mm,
                         };
                         pin_positions(&s.optics, &skin, &mut s.scratch);
                         let mut pins = Vec::with_capacity(s.scratch.len());
@@ -755,6 +778,7 @@ impl World {
     }
 
     pub(crate) fn truth(&self) -> TruthState {
+        let times = self.skin_times();
         let n = self.sensors.len();
         TruthState {
             time_s: self.now_s(),
@@ -775,7 +799,7 @@ impl World {
             shear_px: self
                 .sensors
                 .iter()
-                .map(|s| s.shear_mm * s.px_per_mm)
+                .map(|s| s.shear_mm.shown(&times) * s.px_per_mm)
                 .collect(),
             sliding: !self.stuck,
             capacity_n: self.capacity_n,
@@ -788,60 +812,8 @@ impl World {
 }
 
 fn validate(cfg: &SimConfig) -> Result<(), SimError> {
-    let bad = |field: &str, expected: &str| SimError::Config {
+    cfg.check().map_err(|problem| SimError::Config {
         origin: "sim config".into(),
-        message: format!("`{field}`: expected {expected}"),
-    };
-    let p = &cfg.physics;
-    if !(p.step_s > 0.0 && p.step_s <= 0.005) {
-        return Err(bad("physics.step_s", "0 < step_s <= 0.005 s"));
-    }
-    for (name, v) in [
-        (
-            "physics.finger_stiffness_n_per_mm",
-            p.finger_stiffness_n_per_mm,
-        ),
-        ("physics.skin_modulus_kpa", p.skin_modulus_kpa),
-        ("physics.dome_radius_mm", p.dome_radius_mm),
-        ("physics.stall_force_n", p.stall_force_n),
-        ("physics.stribeck_speed_mm_s", p.stribeck_speed_mm_s),
-        ("physics.finger_travel_mm", p.finger_travel_mm),
-        ("servo.position_time_s", cfg.servo.position_time_s),
-        ("tactip.frame_rate_hz", cfg.tactip.frame_rate_hz),
-        ("tactip.skin_time_s", cfg.tactip.skin_time_s),
-        ("tactip.spread_radius_px", cfg.tactip.spread_radius_px),
-        ("marker.rate_hz", cfg.marker.rate_hz),
-        ("servo.max_speed_per_s", cfg.servo.max_speed_per_s),
-        ("arm.acceleration_mm_s2", cfg.arm.acceleration_mm_s2),
-    ] {
-        if !(v > 0.0 && v.is_finite()) {
-            return Err(bad(name, "a positive number"));
-        }
-    }
-    if !(0.0..0.5).contains(&p.skin_poisson) && p.skin_poisson != 0.5 {
-        return Err(bad("physics.skin_poisson", "a Poisson ratio in 0..=0.5"));
-    }
-    if !(p.finger_roll_ratio >= 0.0 && p.finger_roll_ratio.is_finite()) {
-        return Err(bad("physics.finger_roll_ratio", "a ratio >= 0"));
-    }
-    if cfg.tactip.pins == 0 {
-        return Err(bad("tactip.pins", "at least one pin"));
-    }
-    for (name, v) in [
-        ("faults.pin_misdetect", cfg.faults.pin_misdetect),
-        ("faults.dropped_frame", cfg.faults.dropped_frame),
-        ("faults.stale_frame", cfg.faults.stale_frame),
-        ("servo.initial_torque_limit", cfg.servo.initial_torque_limit),
-        ("servo.backlash", cfg.servo.backlash),
-    ] {
-        if !(0.0..=1.0).contains(&v) {
-            return Err(bad(name, "a fraction in 0..=1"));
-        }
-    }
-    if let RigSetup::Hand(h) = &cfg.rig {
-        if !(0.0..=1.0).contains(&h.initial_closure) {
-            return Err(bad("rig.initial_closure", "a position in 0..=1"));
-        }
-    }
-    Ok(())
+        message: problem.to_string(),
+    })
 }
