@@ -71,6 +71,21 @@ pub struct Trial {
     pub events: Vec<TrialEvent>,
 }
 
+impl Trial {
+    /// Why this log cannot be learnt from, labelled or scored, if it cannot: a log with no
+    /// tactile frames has nothing to classify, and one with no marker track has no slip
+    /// onset to label or score against. Such a log is refused, never counted as a trial.
+    pub fn unusable(&self) -> Option<&'static str> {
+        if self.frames.is_empty() {
+            Some("it has no tactile frames (nothing to classify)")
+        } else if self.markers.is_empty() {
+            Some("it has no marker track (no slip onset to label or score against)")
+        } else {
+            None
+        }
+    }
+}
+
 /// One runner message: `topic` is its channel (e.g. `/classifier`, `/detector`,
 /// `/command/hand`), `data` its JSON body.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

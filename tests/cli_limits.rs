@@ -501,3 +501,48 @@ fn a_replay_through_a_model_the_trials_do_not_fit_is_refused() {
         "{err}"
     );
 }
+
+#[test]
+fn a_log_with_no_frames_or_no_marker_track_is_refused_not_counted() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    ok(&tmo(d, &["sim", "collect", "--trials", "2", "--out", "t"]));
+    let path = d.join("t/trial-0001.mcap");
+    let trial = tmo::trial::read_trial(&path).unwrap();
+    for (name, edit, says) in [
+        (
+            "no_frames",
+            (|t: &mut tmo::trial::Trial| {
+                t.frames.clear();
+                t.arrivals_s.clear();
+            }) as fn(&mut tmo::trial::Trial),
+            "no tactile frames",
+        ),
+        ("no_markers", |t| t.markers.clear(), "no marker track"),
+    ] {
+        let mut broken = trial.clone();
+        edit(&mut broken);
+        std::fs::copy(
+            d.join("t/trial-0000.mcap"),
+            d.join(format!("{name}-good.mcap")),
+        )
+        .unwrap();
+        tmo::trial::write_trial(&d.join(format!("{name}.mcap")), &broken).unwrap();
+        let err = fails(&tmo(
+            d,
+            &[
+                "dataset",
+                "export",
+                &format!("{name}-good.mcap"),
+                &format!("{name}.mcap"),
+                "--out",
+                "x.csv",
+            ],
+        ));
+        assert!(
+            err.contains(&format!("{name}.mcap")) && err.contains(says),
+            "{err}"
+        );
+        assert!(!d.join("x.csv").exists());
+    }
+}

@@ -118,7 +118,7 @@ fn closing_off_centre_gives_a_mean_vector_but_less_colinear_than_slip() {
     let mut sensors = rig.tactile_sensors();
     let q = contact_closure() + 0.06;
     let mut frames = Vec::new();
-    while clock.now_s() < 1.5 {
+    while clock.now_s() < 2.0 {
         // close at 5 % of range per second, as data collection does
         let target = (contact_closure() - 0.02 + 0.05 * clock.now_s()).min(q);
         hand.set_targets([target, target, target, 0.0]).unwrap();

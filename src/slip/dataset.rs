@@ -17,6 +17,11 @@ pub enum LoadError {
     Trial(#[from] crate::trial::TrialError),
     #[error("no trial logs (.mcap) found in {0}")]
     NoTrials(String),
+    #[error("{path}: cannot be used as a trial: {why}")]
+    Unusable {
+        path: std::path::PathBuf,
+        why: &'static str,
+    },
     #[error("{path}: {found} pins per sensor, but {first} has {expected}")]
     Pins {
         path: std::path::PathBuf,
@@ -45,6 +50,12 @@ pub fn load_labelled(
     };
     let pins = first.2.meta.pins;
     for (path, _, t) in &loaded {
+        if let Some(why) = t.unusable() {
+            return Err(LoadError::Unusable {
+                path: path.clone(),
+                why,
+            });
+        }
         if t.meta.pins != pins {
             return Err(LoadError::Pins {
                 path: path.clone(),

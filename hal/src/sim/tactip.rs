@@ -136,6 +136,38 @@ pub fn relax_towards(state: f64, target: f64, step_s: f64, time_constant_s: f64)
     state + (target - state) * (1.0 - (-step_s / time_constant_s).exp())
 }
 
+/// One displacement of the skin that the pins show, with the elastomer's two time scales:
+/// a fraction `1 - g` follows its target within milliseconds and a fraction `g` creeps
+/// towards it over a slower time (a two-term Prony series of the gel-filled skin). A change
+/// of load therefore keeps the pins moving, ever more slowly, for some frames after it.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct CreepingDisplacement {
+    fast: f64,
+    slow: f64,
+}
+
+/// The two time scales of [`CreepingDisplacement`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SkinTimes {
+    pub fast_s: f64,
+    pub creep_s: f64,
+    /// Share `g` of the displacement that creeps.
+    pub creep_fraction: f64,
+}
+
+impl CreepingDisplacement {
+    pub fn step(&mut self, target: f64, step_s: f64, times: &SkinTimes) {
+        self.fast = relax_towards(self.fast, target, step_s, times.fast_s);
+        self.slow = relax_towards(self.slow, target, step_s, times.creep_s);
+    }
+
+    /// What the pins show.
+    pub fn shown(&self, times: &SkinTimes) -> f64 {
+        let g = times.creep_fraction;
+        (1.0 - g) * self.fast + g * self.slow
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -231,6 +263,27 @@ mod tests {
             .iter()
             .zip(&o.rest_px)
             .all(|(p, r)| p[0] == r[0] && p[1] >= r[1]));
+    }
+
+    #[test]
+    fn a_step_of_load_shows_at_once_in_part_then_creeps_the_rest_of_the_way() {
+        let times = SkinTimes {
+            fast_s: 0.008,
+            creep_s: 0.15,
+            creep_fraction: 0.3,
+        };
+        let mut d = CreepingDisplacement::default();
+        let mut shown = Vec::new();
+        for _ in 0..1000 {
+            d.step(1.0, 0.001, &times);
+            shown.push(d.shown(&times));
+        }
+        // after 50 ms the fast part is there and the creep is on its way
+        assert!((0.7..0.85).contains(&shown[49]), "{}", shown[49]);
+        // it keeps moving for frames afterwards, ever more slowly
+        let frame = |k: usize| shown[(k + 1) * 17] - shown[k * 17];
+        assert!(frame(3) > 0.01 && frame(8) > 0.005 && frame(8) < frame(3));
+        assert!((shown[999] - 1.0).abs() < 0.01);
     }
 
     #[test]
