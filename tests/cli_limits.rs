@@ -546,3 +546,41 @@ fn a_log_with_no_frames_or_no_marker_track_is_refused_not_counted() {
         assert!(!d.join("x.csv").exists());
     }
 }
+
+#[test]
+fn an_svm_fit_that_stops_at_its_cap_warns_and_under_strict_fails() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    ok(&tmo(d, &["sim", "collect", "--trials", "3", "--out", "t"]));
+    let train = |extra: &[&str], out: &str| {
+        let mut args = vec![
+            "train",
+            "t",
+            "--classifier",
+            "svm-linear",
+            "--C",
+            "50",
+            "--max-iterations",
+            "50",
+            "--out",
+            out,
+        ];
+        args.extend_from_slice(extra);
+        tmo(d, &args)
+    };
+    let lax = train(&[], "lax.json");
+    ok(&lax);
+    let warned = String::from_utf8_lossy(&lax.stderr).to_string();
+    assert!(
+        warned.contains("warning: the SVM stopped at its iteration limit (50 iterations)"),
+        "{warned}"
+    );
+    let model = std::fs::read_to_string(d.join("lax.json")).unwrap();
+    assert!(model.contains("\"unconverged_gap\"") && model.contains("\"max_iterations\": 50"));
+    let err = fails(&train(&["--strict"], "strict.json"));
+    assert!(
+        err.contains("--strict") && err.contains("no model written"),
+        "{err}"
+    );
+    assert!(!d.join("strict.json").exists());
+}

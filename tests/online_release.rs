@@ -50,7 +50,11 @@ fn logreg_on(trials: &[tmo::trial::Trial]) -> ModelFile {
         &data,
         &TrainSpec {
             kind: ClassifierKind::Logreg,
-            hyper: Hyperparameters { c: 1.0, gamma: 0.0 },
+            hyper: Hyperparameters {
+                c: 1.0,
+                gamma: 0.0,
+                max_iterations: None,
+            },
             scope: Scope::Global,
             features,
             labels,

@@ -137,6 +137,7 @@ fn rbf_svm_matches_scikit_learn() {
         Hyperparameters {
             c: 3.989,
             gamma: 0.02,
+            max_iterations: None,
         },
     );
 }
@@ -146,7 +147,11 @@ fn linear_svm_matches_scikit_learn() {
     check(
         "svm_linear",
         ClassifierKind::SvmLinear,
-        Hyperparameters { c: 0.1, gamma: 0.0 },
+        Hyperparameters {
+            c: 0.1,
+            gamma: 0.0,
+            max_iterations: None,
+        },
     );
 }
 
@@ -155,6 +160,10 @@ fn logistic_regression_matches_scikit_learn() {
     check(
         "logreg",
         ClassifierKind::Logreg,
-        Hyperparameters { c: 1.0, gamma: 0.0 },
+        Hyperparameters {
+            c: 1.0,
+            gamma: 0.0,
+            max_iterations: None,
+        },
     );
 }

@@ -143,7 +143,11 @@ fn stricter_strategies_never_react_earlier_on_recorded_trials() {
     };
     let features = FeatureSpec::new(30);
     let data = Dataset::from_trials(train, &features, &labels);
-    let hyper = Hyperparameters { c: 1.0, gamma: 0.0 };
+    let hyper = Hyperparameters {
+        c: 1.0,
+        gamma: 0.0,
+        max_iterations: None,
+    };
     let model = ModelFile::train(
         &data,
         &TrainSpec {

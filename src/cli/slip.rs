@@ -71,6 +71,13 @@ pub struct TrainArgs {
     /// Cross-validation folds (split by trial) of the search.
     #[arg(long, default_value_t = 3)]
     folds: usize,
+    /// Cap on the SVM solver's iterations (default libsvm's: max(100 x rows, 10,000,000)).
+    #[arg(long)]
+    max_iterations: Option<usize>,
+    /// An SVM fit that stops at its iteration cap before converging is an error (exit 2,
+    /// no model written) instead of a warning.
+    #[arg(long)]
+    strict: bool,
     #[arg(long)]
     out: PathBuf,
 }
@@ -162,6 +169,7 @@ pub fn train(args: TrainArgs) -> Result<()> {
             Hyperparameters {
                 c: args.c,
                 gamma: args.gamma,
+                max_iterations: None,
             },
             None,
         ),
@@ -188,6 +196,10 @@ pub fn train(args: TrainArgs) -> Result<()> {
             (hyper, Some(record))
         }
     };
+    let hyper = Hyperparameters {
+        max_iterations: args.max_iterations,
+        ..hyper
+    };
     let spec = model::TrainSpec {
         kind: args.classifier,
         hyper,
@@ -198,12 +210,24 @@ pub fn train(args: TrainArgs) -> Result<()> {
         seed: args.labels.seed,
     };
     let file = ModelFile::train(&ds, &spec, refs, search)?;
+    let unconverged: Vec<String> = file
+        .unconverged()
+        .into_iter()
+        .map(|(sensor, iterations, gap)| {
+            format!(
+                "the SVM{} stopped at its iteration limit ({iterations} iterations) with an optimality gap of {gap:.4} (converged means below 0.001): its boundary is approximate; a smaller C converges sooner",
+                sensor.map_or(String::new(), |s| format!(" of sensor {s}"))
+            )
+        })
+        .collect();
+    anyhow::ensure!(
+        !(args.strict && !unconverged.is_empty()),
+        "--strict: {}; no model written",
+        unconverged.join("; ")
+    );
     file.save(&args.out)?;
-    for (sensor, iterations, gap) in file.unconverged() {
-        eprintln!(
-            "warning: the SVM{} stopped at its iteration limit ({iterations} iterations) with an optimality gap of {gap:.4} (converged means below 0.001): its boundary is approximate; a smaller C converges sooner",
-            sensor.map_or(String::new(), |s| format!(" of sensor {s}"))
-        );
+    for u in &unconverged {
+        eprintln!("warning: {u}");
     }
     println!(
         "trained {} ({:?} scope) on {} trials, {} rows, in {:.2} s",

@@ -103,6 +103,7 @@ pub fn sweep(args: SweepArgs) -> Result<()> {
         SearchMethod::None => HyperChoice::Fixed(Hyperparameters {
             c: args.c,
             gamma: args.gamma,
+            max_iterations: None,
         }),
         SearchMethod::Bayes => HyperChoice::Search {
             iterations: args.iters,

@@ -465,6 +465,7 @@ fn rail_sweep(ctx: &Context, c: &Counts, dir: &Path) -> Result<bool, ReproduceEr
             None => HyperChoice::Fixed(Hyperparameters {
                 c: SWEEP_C,
                 gamma: SWEEP_GAMMA,
+                max_iterations: None,
             }),
         },
         seed: 0,
@@ -537,6 +538,7 @@ fn rail_model(ctx: &Context, c: &Counts, dir: &Path) -> Result<(), ReproduceErro
                 Hyperparameters {
                     c: SWEEP_C,
                     gamma: SWEEP_GAMMA,
+                    max_iterations: None,
                 },
                 None,
             )

@@ -43,6 +43,10 @@ impl ClassifierKind {
 pub struct Hyperparameters {
     pub c: f64,
     pub gamma: f64,
+    /// Cap on the SVM solver's iterations (`None`: libsvm's `max(100 n, 10^7)`). A fit that
+    /// reaches it is approximate and says so (`unconverged_gap`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub max_iterations: Option<usize>,
 }
 
 impl Default for Hyperparameters {
@@ -51,6 +55,7 @@ impl Default for Hyperparameters {
         Self {
             c: 3.989,
             gamma: 1.104,
+            max_iterations: None,
         }
     }
 }
@@ -113,14 +118,20 @@ impl SensorModel {
                 let x = scaler.transform(&data.x);
                 let classifier = match kind {
                     ClassifierKind::SvmRbf => Classifier::Svm(
-                        SvmParams::rbf(hyper.c, hyper.gamma)
-                            .check()?
-                            .fit(data.dim, &x, &data.y)?,
+                        SvmParams {
+                            max_iterations: hyper.max_iterations,
+                            ..SvmParams::rbf(hyper.c, hyper.gamma)
+                        }
+                        .check()?
+                        .fit(data.dim, &x, &data.y)?,
                     ),
                     ClassifierKind::SvmLinear => Classifier::Svm(
-                        SvmParams::linear(hyper.c)
-                            .check()?
-                            .fit(data.dim, &x, &data.y)?,
+                        SvmParams {
+                            max_iterations: hyper.max_iterations,
+                            ..SvmParams::linear(hyper.c)
+                        }
+                        .check()?
+                        .fit(data.dim, &x, &data.y)?,
                     ),
                     ClassifierKind::Logreg => Classifier::LogReg(
                         LogRegParams::new(hyper.c)
@@ -728,6 +739,7 @@ mod tests {
             hyper: Hyperparameters {
                 c: 1.0,
                 gamma: 0.05,
+                max_iterations: None,
             },
             scope: Scope::Global,
             features: FeatureSpec::new(30),

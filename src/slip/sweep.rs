@@ -425,7 +425,11 @@ mod tests {
             downsample: vec![0.5, 1.0],
             n_slip: vec![2, 10],
             scope: Scope::Global,
-            hyper: HyperChoice::Fixed(Hyperparameters { c: 1.0, gamma: 0.0 }),
+            hyper: HyperChoice::Fixed(Hyperparameters {
+                c: 1.0,
+                gamma: 0.0,
+                max_iterations: None,
+            }),
             seed: 1,
         };
         let seen = std::sync::atomic::AtomicUsize::new(0);

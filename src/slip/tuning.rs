@@ -119,6 +119,7 @@ pub fn search(
     let to_hyper = |p: &[f64]| Hyperparameters {
         c: p[0],
         gamma: p.get(1).copied().unwrap_or(0.0),
+        max_iterations: None,
     };
     let search = BayesSearch {
         ranges: ranges.clone(),
@@ -215,7 +216,11 @@ mod tests {
         let f1 = cross_validated_f1(
             &blobs(),
             &spec(ClassifierKind::Logreg, 1, 3),
-            Hyperparameters { c: 1.0, gamma: 0.0 },
+            Hyperparameters {
+                c: 1.0,
+                gamma: 0.0,
+                max_iterations: None,
+            },
         )
         .unwrap();
         assert!(f1 > 0.8 && f1 <= 1.0, "f1 {f1}");
@@ -249,7 +254,11 @@ mod tests {
             cross_validated_f1(
                 &data,
                 &spec(ClassifierKind::Logreg, 1, 7),
-                Hyperparameters { c: 1.0, gamma: 0.0 }
+                Hyperparameters {
+                    c: 1.0,
+                    gamma: 0.0,
+                    max_iterations: None
+                }
             ),
             Err(TuneError::TooFewTrials {
                 folds: 7,

@@ -117,6 +117,7 @@ impl SimConfig {
                 1e3,
             ),
             ("physics.finger_roll_ratio", p.finger_roll_ratio, zero, 10.0),
+            ("physics.load_transfer_s", p.load_transfer_s, zero, 10.0),
             ("physics.drop_limit_mm", p.drop_limit_mm, positive, 1e4),
             ("physics.floor_mm", p.floor_mm, Low(-1e4, false), 1e4),
         ]);
@@ -332,6 +333,9 @@ pub struct PhysicsParams {
     /// How far the fingertip rolls along the object per mm it presses past first touch
     /// (the under-actuated finger curls as its proximal link stops), mm/mm.
     pub finger_roll_ratio: f64,
+    /// Time over which an object that starts held passes from whatever held it before the
+    /// trial (the operator's hand, the rail's support) to the fingertips, s.
+    pub load_transfer_s: f64,
     /// Fall below the held height that counts as a drop, mm.
     pub drop_limit_mm: f64,
     /// Height of the floor a dropped object lands on, mm.
@@ -356,6 +360,7 @@ impl Default for PhysicsParams {
             surface_friction_sd: 0.2,
             surface_wavelength_mm: [0.5, 4.0],
             finger_roll_ratio: 0.3,
+            load_transfer_s: 0.2,
             drop_limit_mm: 80.0,
             floor_mm: 0.0,
         }

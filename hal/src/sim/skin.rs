@@ -167,6 +167,38 @@ impl SurfaceTexture {
             .map(|[k, phase, a]| a * (k * position_mm + phase).sin())
             .sum()
     }
+
+    /// How much of the variation at `position_mm` shows as a local displacement of the skin
+    /// over a contact of radius `contact_radius_mm`, relative to the patch's mean shear.
+    ///
+    /// The patch's shear answers the friction summed over the whole contact; the skin over
+    /// one spot answers its own. An elastic half-space under a traction varying with
+    /// wavelength `L` moves by about `L / 2 pi` times the traction over the modulus, against
+    /// about `0.6 a` times the mean traction for the whole patch (Mindlin, `nu` = 0.5), so
+    /// each wave shows locally at `min(1, L / (3.8 a))` of its share: fine texture barely
+    /// moves the skin, texture as long as the contact moves it fully. While the surface
+    /// slides past at `speed_mm_s`, a wave passes at `v / L` Hz, and the skin, a first-order
+    /// lag of time constant `skin_time_s`, follows it at `1 / sqrt(1 + (2 pi tau v / L)^2)`.
+    pub fn local_at(
+        &self,
+        position_mm: f64,
+        contact_radius_mm: f64,
+        speed_mm_s: f64,
+        skin_time_s: f64,
+    ) -> f64 {
+        if contact_radius_mm <= 0.0 {
+            return 0.0;
+        }
+        self.waves
+            .iter()
+            .map(|[k, phase, a]| {
+                let wavelength = std::f64::consts::TAU / k;
+                let spatial = (wavelength / (3.8 * contact_radius_mm)).min(1.0);
+                let lag = (k * speed_mm_s * skin_time_s).hypot(1.0).recip();
+                spatial * lag * a * (k * position_mm + phase).sin()
+            })
+            .sum()
+    }
 }
 
 /// The skin patch of one contact while the object slides over it.
@@ -315,6 +347,24 @@ mod tests {
         let mean = xs.iter().sum::<f64>() / xs.len() as f64;
         let sd = (xs.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / xs.len() as f64).sqrt();
         assert!(mean.abs() < 0.01 && (sd - 0.1).abs() < 0.02, "{mean} {sd}");
+    }
+
+    #[test]
+    fn fine_texture_moves_the_skin_locally_less_than_coarse() {
+        let fine = SurfaceTexture::new(0.2, 0.5, 0.6, || 0.5);
+        let coarse = SurfaceTexture::new(0.2, 20.0, 21.0, || 0.5);
+        let spread = |t: &SurfaceTexture| {
+            (0..2000)
+                .map(|i| t.local_at(i as f64 * 0.013, 3.0, 0.0, 0.008).abs())
+                .fold(0.0, f64::max)
+        };
+        assert!(spread(&fine) < 0.2 * spread(&coarse));
+        // texture longer than the contact shows in full at rest
+        assert!((coarse.local_at(1.234, 3.0, 0.0, 0.008) - coarse.at(1.234)).abs() < 1e-12);
+        assert_eq!(fine.local_at(1.0, 0.0, 0.0, 0.008), 0.0);
+        // and less the faster it passes
+        let at = |v: f64| coarse.local_at(1.234, 3.0, v, 0.008).abs();
+        assert!(at(1000.0) < 0.5 * at(100.0) && at(100.0) < at(1.0));
     }
 
     #[test]

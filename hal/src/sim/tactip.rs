@@ -131,6 +131,36 @@ pub fn pin_positions(optics: &SensorOptics, skin: &SkinState, out: &mut Vec<[f64
     }
 }
 
+/// Adds the skin's local deviations from the patch's shear to pins `out` (as
+/// [`pin_positions`] left them): each pin moves along the slip direction by
+/// `w_j shear_at(xi_j)`, where `xi_j` is its offset from the contact centre along the slip
+/// direction (px) and `w_j = exp(-r_j^2 / (2 a^2))` fades it outside the contact of radius
+/// `a` (px). Over a sliding contact this is the spot-to-spot variation of friction the object's
+/// surface drags each part of the skin with: pins in the contact move each their own way,
+/// so much of it cancels in the pins' mean.
+pub fn add_local_shear(
+    optics: &SensorOptics,
+    contact_radius_px: f64,
+    shear_at: impl Fn(f64) -> f64,
+    out: &mut [[f64; 2]],
+) {
+    if contact_radius_px <= 0.0 {
+        return;
+    }
+    let [ux, uy] = optics.slip_direction;
+    let inv_two_a2 = 1.0 / (2.0 * contact_radius_px * contact_radius_px);
+    for (pin, &[dx, dy, r]) in out.iter_mut().zip(&optics.offsets) {
+        let w = (-r * r * inv_two_a2).exp();
+        // pins far outside the contact do not move (and cost no texture evaluation)
+        if w < 1e-3 {
+            continue;
+        }
+        let shift = w * shear_at(dx * ux + dy * uy);
+        pin[0] += shift * ux;
+        pin[1] += shift * uy;
+    }
+}
+
 /// First-order (viscoelastic) response of the skin to its target, one step.
 pub fn relax_towards(state: f64, target: f64, step_s: f64, time_constant_s: f64) -> f64 {
     state + (target - state) * (1.0 - (-step_s / time_constant_s).exp())
@@ -263,6 +293,31 @@ mod tests {
             .iter()
             .zip(&o.rest_px)
             .all(|(p, r)| p[0] == r[0] && p[1] >= r[1]));
+    }
+
+    #[test]
+    fn local_shear_moves_only_pins_in_the_contact_and_along_the_slip_direction() {
+        let o = optics();
+        let mut pins = o.rest_px.clone();
+        add_local_shear(&o, 20.0, |xi| 1.0 + 0.01 * xi, &mut pins);
+        let [ux, uy] = o.slip_direction;
+        let mut moved = 0;
+        for (p, r) in pins.iter().zip(&o.rest_px) {
+            let (dx, dy) = (p[0] - r[0], p[1] - r[1]);
+            // along the slip direction only
+            assert!((dx * uy - dy * ux).abs() < 1e-9);
+            let d = dx.hypot(dy);
+            let from_centre = (r[0] - o.contact_centre_px[0]).hypot(r[1] - o.contact_centre_px[1]);
+            if from_centre > 80.0 {
+                assert_eq!(d, 0.0);
+            } else if d > 0.1 {
+                moved += 1;
+            }
+        }
+        assert!(moved >= 1);
+        let before = pins.clone();
+        add_local_shear(&o, 0.0, |_| 1.0, &mut pins);
+        assert_eq!(pins, before);
     }
 
     #[test]

@@ -14,7 +14,8 @@ use super::grasp::{pinch_normal_forces, share_stuck_load, Contact, ContactLaw, M
 use super::objects::{ObjectLibrary, ObjectSpec};
 use super::skin::{SkinContact, SlidingFriction, SlidingPatch, SurfaceTexture};
 use super::tactip::{
-    dome_layout, pin_positions, CreepingDisplacement, SensorOptics, SkinState, SkinTimes,
+    add_local_shear, dome_layout, pin_positions, CreepingDisplacement, SensorOptics, SkinState,
+    SkinTimes,
 };
 use super::SimError;
 use crate::types::{HandPositions, MarkerSample, PinFrame};
@@ -511,7 +512,7 @@ impl World {
         let need_n = if on_support && hand_v <= 0.0 && hand_a <= 0.0 {
             0.0
         } else {
-            m * (g + hand_a / 1000.0)
+            m * (g + hand_a / 1000.0) * self.load_transferred(now)
         };
         let skins = self.sensors.len();
         let mu_s = self.object.mu_static;
@@ -646,6 +647,23 @@ impl World {
         }
     }
 
+    /// Share of the object's weight the grasp carries at `now`. An object that starts held
+    /// (on the rail, or in the hand) is let go by whatever held it before the trial (the
+    /// operator's hand, the rig's support) over `physics.load_transfer_s`, smoothly: its
+    /// weight passes to the fingertips over that time, not in one step.
+    fn load_transferred(&self, now: f64) -> f64 {
+        let held_at_start = match &self.cfg.rig {
+            RigSetup::Rail(_) => true,
+            RigSetup::Hand(h) => h.start == ObjectStart::InHand,
+        };
+        let span = self.cfg.physics.load_transfer_s;
+        if !held_at_start || now >= span {
+            return 1.0;
+        }
+        let x = now / span;
+        x * x * (3.0 - 2.0 * x)
+    }
+
     /// Ground truth of how far the object has fallen in the grasp (diagnostics only).
     fn track_fall(&mut self) {
         let relative = self.z_mm - self.hand_z();
@@ -698,6 +716,11 @@ impl World {
         let faults = &self.cfg.faults;
         let noise = Normal::new(0.0, t.noise_px.max(1e-12)).expect("valid normal");
         let jitter = Normal::new(0.0, t.frame_jitter_s.max(1e-12)).expect("valid normal");
+        let sliding_mm_s = if self.stuck {
+            0.0
+        } else {
+            (self.vz_mm_s - self.arm.velocity_mm_s[2]).abs()
+        };
         for (i, s) in self.sensors.iter_mut().enumerate() {
             while s.next_capture_s <= now {
                 s.next_capture_s += s.period_s;
@@ -718,6 +741,24 @@ impl World {
                             roll_px: s.roll_mm.shown(&times) * s.px_per_mm,
                         };
                         pin_positions(&s.optics, &skin, &mut s.scratch);
+                        // Each spot of the contact is dragged by the friction of the surface
+                        // under it, not the patch's mean.
+                        let (texture, slid_mm) = (&self.textures[i], self.patches[i].position_mm);
+                        let (a_mm, px_per_mm) = (s.skin.contact_radius_mm(n), s.px_per_mm);
+                        add_local_shear(
+                            &s.optics,
+                            skin.contact_radius_px,
+                            |xi_px| {
+                                skin.shear_px
+                                    * texture.local_at(
+                                        slid_mm + xi_px / px_per_mm,
+                                        a_mm,
+                                        sliding_mm_s,
+                                        t.skin_time_s,
+                                    )
+                            },
+                            &mut s.scratch,
+                        );
                         let mut pins = Vec::with_capacity(s.scratch.len());
                         // At most one pin per frame is mis-detected: with the rates seen on
                         // real trackers (well under 1 %) two in one frame are negligible, and one
