@@ -148,6 +148,44 @@ fn a_sweep_fills_its_grid_and_resumes_after_an_interruption() {
         "same cells, same scores"
     );
 
+    // A write cut short (full disk, kill) leaves a torn last line: the resume drops it and
+    // runs that cell again instead of failing on it for ever.
+    let torn = format!(
+        "{}\n{}",
+        partial.join("\n"),
+        &full.lines().nth(5).unwrap()[..9]
+    );
+    std::fs::write(d.join("out/sweep.csv.partial"), torn).unwrap();
+    std::fs::remove_file(&csv_path).unwrap();
+    let resumed = tmo(
+        d,
+        &[
+            "sweep",
+            "trials",
+            "--classifiers",
+            "logreg,threshold",
+            "--downsample",
+            "0.5,1.0",
+            "--n-slip",
+            "3:5",
+            "--C",
+            "1",
+            "--out",
+            "out/sweep.csv",
+            "--resume",
+        ],
+    );
+    let stdout = ok(&resumed);
+    assert!(
+        stdout.contains("8 cells to run (4 already done)"),
+        "{stdout}"
+    );
+    assert!(String::from_utf8_lossy(&resumed.stderr).contains("cut short"));
+    assert_eq!(
+        strip_seconds(&std::fs::read_to_string(&csv_path).unwrap()),
+        strip_seconds(&full)
+    );
+
     let err = fails(&sweep(&["--n-slip", "0:x"]));
     assert!(err.contains("--n-slip"), "{err}");
 }

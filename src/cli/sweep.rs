@@ -198,7 +198,13 @@ pub fn sweep(args: SweepArgs) -> Result<()> {
         },
     );
     bar.finish_and_clear();
-    let rows = result?.rows;
+    let result = result?;
+    if result.cut_torn_line {
+        eprintln!(
+            "note: the partial results ended in a line cut short (a write that did not finish); that cell ran again"
+        );
+    }
+    let rows = result.rows;
 
     let (tmo_version, git_revision) = TrialMeta::code_version();
     let provenance = SweepProvenance {

@@ -81,6 +81,27 @@ pub fn read_rows(path: &Path) -> Result<Vec<SweepRow>, SweepFileError> {
         .collect()
 }
 
+/// Cuts a torn last line (a cell whose write was cut short, e.g. by a full disk or a kill)
+/// off a partial file, so that its cell runs again instead of every `--resume` failing on
+/// it. Complete lines are kept as they are; returns whether a line was cut.
+fn drop_torn_last_line(path: &Path) -> Result<bool, SweepFileError> {
+    let io = |source| SweepFileError::Io {
+        path: path.to_path_buf(),
+        source,
+    };
+    let bytes = std::fs::read(path).map_err(io)?;
+    if bytes.is_empty() || bytes.ends_with(b"\n") {
+        return Ok(false);
+    }
+    let keep = bytes.iter().rposition(|&b| b == b'\n').map_or(0, |i| i + 1);
+    let file = std::fs::OpenOptions::new()
+        .write(true)
+        .open(path)
+        .map_err(io)?;
+    file.set_len(keep as u64).map_err(io)?;
+    Ok(true)
+}
+
 /// Writes `rows` to `path` through a temporary file.
 pub fn write_rows(path: &Path, rows: &[SweepRow]) -> Result<(), SweepFileError> {
     let tmp = partial_path(&path.with_extension("writing"));
@@ -105,6 +126,9 @@ pub struct SweepResult {
     pub rows: Vec<SweepRow>,
     pub already_done: usize,
     pub ran: usize,
+    /// The partial file ended in a torn line (a write cut short), which was dropped: that
+    /// cell ran again.
+    pub cut_torn_line: bool,
 }
 
 /// Where a sweep's cells go, and how.
@@ -160,10 +184,13 @@ pub fn run_to_file(
     let (out, resume, stop) = (target.out, target.resume, target.stop);
     let _lock = crate::lock::OutputLock::acquire(out)?;
     let partial = partial_path(out);
+    let mut cut_torn_line = false;
     let done: Vec<SweepRow> = if resume {
         let mut rows = Vec::new();
+        cut_torn_line = partial.exists() && drop_torn_last_line(&partial)?;
         for p in [out, partial.as_path()] {
-            if p.exists() {
+            // a partial file cut back to nothing (or to its header) has no cells
+            if p.exists() && std::fs::metadata(p).is_ok_and(|m| m.len() > 0) {
                 rows.extend(read_rows(p)?);
             }
         }
@@ -188,7 +215,7 @@ pub fn run_to_file(
     }
     check_identity(target, !done.is_empty())?;
     on_start(cells.len(), finished.len());
-    let append_header = !partial.exists();
+    let append_header = std::fs::metadata(&partial).map_or(true, |m| m.len() == 0);
     let file = std::fs::OpenOptions::new()
         .create(true)
         .append(true)
@@ -237,6 +264,7 @@ pub fn run_to_file(
     write_rows(out, &rows)?;
     let _ = std::fs::remove_file(&partial);
     Ok(SweepResult {
+        cut_torn_line,
         already_done: finished.len(),
         ran,
         rows,
