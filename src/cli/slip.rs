@@ -221,7 +221,7 @@ pub fn train(args: TrainArgs) -> Result<()> {
         })
         .collect();
     anyhow::ensure!(
-        !(args.strict && !unconverged.is_empty()),
+        !args.strict || unconverged.is_empty(),
         "--strict: {}; no model written",
         unconverged.join("; ")
     );
