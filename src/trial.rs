@@ -393,9 +393,12 @@ pub fn expand_trial_paths(paths: &[PathBuf]) -> Result<Vec<PathBuf>, TrialError>
                 })?
                 .filter_map(|e| e.ok().map(|e| e.path()))
                 .filter(|q| q.extension().is_some_and(|x| x == "mcap"))
+                // logs kept beside a batch as evidence, not as its trials
                 .filter(|q| {
-                    !q.file_name()
-                        .is_some_and(|n| n.to_string_lossy().ends_with(".aborted.mcap"))
+                    !q.file_name().is_some_and(|n| {
+                        let n = n.to_string_lossy();
+                        n.ends_with(".aborted.mcap") || n.contains(".faulted-")
+                    })
                 })
                 .collect();
             found.sort();

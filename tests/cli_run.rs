@@ -319,3 +319,69 @@ fn a_calibration_then_a_first_time_lift_batch() {
     assert_eq!(trial.meta.kind, "first_time_lift");
     assert_eq!(trial.meta.parameters["extra_mass_g"], "450.0");
 }
+
+#[test]
+fn a_resume_keeps_faulted_trials_unless_asked_to_run_them_again() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let protocol =
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("protocols/rail_collect.toml");
+    let protocol = protocol.to_str().unwrap();
+    ok(&tmo(d, &["run", protocol, "--repeat", "2", "--out", "b"]));
+    let log = d.join("b/trial-00001.mcap");
+    let clean = std::fs::read(&log).unwrap();
+    // as if the trial had ended on a device error
+    let mut trial = tmo::trial::read_trial(&log).unwrap();
+    trial
+        .meta
+        .parameters
+        .insert("fault".into(), "servo bus: no answer".into());
+    tmo::trial::write_trial(&log, &trial).unwrap();
+
+    let kept = ok(&tmo(
+        d,
+        &["run", protocol, "--repeat", "2", "--out", "b", "--resume"],
+    ));
+    assert!(kept.contains("(0 run, 2 already there)"), "{kept}");
+    assert!(kept.contains("1 trial(s) aborted by a fault"), "{kept}");
+
+    let err = fails(&tmo(
+        d,
+        &[
+            "run",
+            protocol,
+            "--repeat",
+            "2",
+            "--out",
+            "b",
+            "--rerun-faulted",
+        ],
+    ));
+    assert!(err.contains("--resume"), "{err}");
+
+    let rerun = ok(&tmo(
+        d,
+        &[
+            "run",
+            protocol,
+            "--repeat",
+            "2",
+            "--out",
+            "b",
+            "--resume",
+            "--rerun-faulted",
+        ],
+    ));
+    assert!(rerun.contains("(1 run, 1 already there)"), "{rerun}");
+    assert!(rerun.contains("1 faulted trial(s) run again"), "{rerun}");
+    assert!(!rerun.contains("aborted by a fault"), "{rerun}");
+    // the same seed gives the same trial; the faulted log is kept beside the batch
+    let again = tmo::trial::read_trial(&log).unwrap();
+    let first = {
+        let p = d.join("clean.mcap");
+        std::fs::write(&p, &clean).unwrap();
+        tmo::trial::read_trial(&p).unwrap()
+    };
+    assert_eq!(again.frames, first.frames);
+    assert!(d.join("b/trial-00001.faulted-1.mcap").exists());
+}

@@ -37,6 +37,11 @@ pub struct RunArgs {
     /// Finish a batch: run only the trials whose logs are missing.
     #[arg(long)]
     resume: bool,
+    /// With --resume: also run again the trials that ended on a fault (their logs are kept
+    /// beside the batch as <id>.faulted-<n>.mcap). Without it a faulted trial is kept: a
+    /// fault is an outcome (a refused motion, a device error), and the report counts it.
+    #[arg(long, requires = "resume")]
+    rerun_faulted: bool,
     /// With `--backend real`: the hardware file.
     #[arg(long)]
     hardware: Option<PathBuf>,
@@ -129,6 +134,7 @@ pub fn run(args: RunArgs) -> Result<u8> {
         plan: &plan,
         out: &out,
         resume: args.resume,
+        rerun_faulted: args.rerun_faulted,
     };
     let end = run_batch(&request, &mut rig, &stop, &bar)
         .with_context(|| args.protocol.display().to_string())?;
@@ -186,6 +192,12 @@ pub fn print_summary(out: &Path, kind: Kind, summary: BatchSummary) -> Result<()
         summary.kept,
         summary.wall_s
     );
+    if summary.rerun_faulted > 0 {
+        println!(
+            "{} faulted trial(s) run again; their earlier logs are beside the batch as <id>.faulted-<n>.mcap",
+            summary.rerun_faulted
+        );
+    }
     let aborted = summary.rows.aborted();
     if aborted > 0 {
         println!("{aborted} trial(s) aborted by a fault (see the fault column)");

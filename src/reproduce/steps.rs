@@ -413,6 +413,7 @@ fn run_batch_step(
         plan: &plan,
         out: dir,
         resume: true,
+        rerun_faulted: false,
     };
     let end = run_batch(&request, &mut rig, ctx.stop, ctx.bar).map_err(batch)?;
     Ok(matches!(end, BatchEnd::Finished(_)))

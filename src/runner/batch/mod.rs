@@ -241,6 +241,15 @@ pub fn aborted_trial_path(dir: &Path, t: &PlannedTrial) -> PathBuf {
     dir.join(format!("{}.aborted.mcap", t.trial_id))
 }
 
+/// Where a faulted trial's log goes when `--rerun-faulted` runs the trial again: the first
+/// free `<id>.faulted-<n>.mcap`, so that no earlier attempt is overwritten.
+pub fn faulted_trial_path(dir: &Path, t: &PlannedTrial) -> PathBuf {
+    (1..)
+        .map(|n| dir.join(format!("{}.faulted-{n}.mcap", t.trial_id)))
+        .find(|p| !p.exists())
+        .expect("some attempt number is free")
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

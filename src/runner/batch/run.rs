@@ -11,7 +11,9 @@ use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
 
 use super::rows::ScoredRows;
-use super::{aborted_trial_path, catch_spec, expand, trial_path, BatchError, Manifest};
+use super::{
+    aborted_trial_path, catch_spec, expand, faulted_trial_path, trial_path, BatchError, Manifest,
+};
 use crate::protocol::{Kind, KindParams, Plan};
 use crate::runner::real_trial::{run_real_trial, RealRig};
 use crate::runner::score::{self, GMinTable};
@@ -26,6 +28,10 @@ pub struct BatchRequest<'a> {
     pub out: &'a Path,
     /// Finish a batch whose directory already holds some of its trials.
     pub resume: bool,
+    /// With `resume`: also run again the trials whose kept log ended on a fault (a device
+    /// error or a safety abort), moving each such log aside as `<id>.faulted.mcap`. Without
+    /// it a faulted trial is an outcome like any other and is kept.
+    pub rerun_faulted: bool,
 }
 
 /// The rig a batch drives: the simulator (one world per trial) or an open real rig.
@@ -40,6 +46,8 @@ pub struct BatchSummary {
     pub rows: ScoredRows,
     pub ran: usize,
     pub kept: usize,
+    /// Of `ran`: faulted trials run again (`rerun_faulted`), their old logs moved aside.
+    pub rerun_faulted: usize,
     pub wall_s: f64,
     /// `outcomes.csv`, `outcomes.json`, `g_min.json` for a calibration, `batch.json`.
     pub outputs: Vec<PathBuf>,
@@ -196,8 +204,20 @@ pub fn run_batch(
     let started = std::time::Instant::now();
     let mut rows = ScoredRows::default();
     let (mut ran, mut kept) = (0, 0);
+    let mut rerun = 0;
     for t in &trials {
         let path = trial_path(out, t);
+        if req.rerun_faulted
+            && path.exists()
+            && read_trial(&path)?.meta.parameters.contains_key("fault")
+        {
+            let aside = faulted_trial_path(out, t);
+            std::fs::rename(&path, &aside).map_err(|source| BatchError::Io {
+                path: aside.clone(),
+                source,
+            })?;
+            rerun += 1;
+        }
         // Outcomes are always scored from the log as written, so a resumed batch and an
         // uninterrupted one agree to the last bit.
         if path.exists() {
@@ -308,6 +328,7 @@ pub fn run_batch(
         rows,
         ran,
         kept,
+        rerun_faulted: rerun,
         wall_s: started.elapsed().as_secs_f64(),
         outputs,
         without_calibration: plan.kind == Kind::FirstTimeLift && g_min.is_none(),
