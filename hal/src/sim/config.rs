@@ -204,11 +204,20 @@ impl SimConfig {
             let above = if open { value > lo } else { value >= lo };
             // NaN fails both comparisons
             if !(above && value <= hi) {
-                let (bracket, symbol) = if open { ("(", "<") } else { ("[", "<=") };
+                let expected = match (lo, open) {
+                    (0.0, true) => format!("a positive number, at most {hi}"),
+                    (lo, true) => format!("a number above {lo}, at most {hi}"),
+                    (lo, false) => format!("a number from {lo} to {hi}"),
+                };
                 return Err(ConfigProblem {
                     field: field.to_string(),
-                    value: value.to_string(),
-                    expected: format!("a number in {bracket}{lo}, {hi}] ({lo} {symbol} x <= {hi})"),
+                    // 1e300 as 1e300, not three hundred digits
+                    value: if value == 0.0 || (1e-4..1e6).contains(&value.abs()) {
+                        value.to_string()
+                    } else {
+                        format!("{value:e}")
+                    },
+                    expected,
                 });
             }
         }
@@ -542,9 +551,9 @@ mod tests {
         };
         let e = refused(&|c| c.physics.gravity_m_s2 = 1e300);
         assert_eq!(e.field, "physics.gravity_m_s2");
-        assert!(
-            e.to_string().contains("expected a number in (0, 100]"),
-            "{e}"
+        assert_eq!(
+            e.to_string(),
+            "`physics.gravity_m_s2` = 1e300: expected a positive number, at most 100"
         );
         let e = refused(&|c| {
             c.rig = RigSetup::Hand(HandSetup {

@@ -131,31 +131,45 @@ pub fn pin_positions(optics: &SensorOptics, skin: &SkinState, out: &mut Vec<[f64
     }
 }
 
-/// Adds the skin's local deviations from the patch's shear to pins `out` (as
-/// [`pin_positions`] left them): each pin moves along the slip direction by
-/// `w_j shear_at(xi_j)`, where `xi_j` is its offset from the contact centre along the slip
-/// direction (px) and `w_j = exp(-r_j^2 / (2 a^2))` fades it outside the contact of radius
-/// `a` (px). Over a sliding contact this is the spot-to-spot variation of friction the object's
-/// surface drags each part of the skin with: pins in the contact move each their own way,
-/// so much of it cancels in the pins' mean.
-pub fn add_local_shear(
+/// The skin's local deviations from the patch's shear, per unit of that shear: pin `j`
+/// moves along the slip direction by `shear w_j local(xi_j)`, where `xi_j` is its offset
+/// from the contact centre along the slip direction (px) and `w_j = exp(-r_j^2 / (2 a^2))`
+/// fades it outside the contact of radius `a` (px). Over a sliding contact this is the
+/// spot-to-spot variation of friction the object's surface drags each part of the skin
+/// with: pins in the contact move each their own way, so much of it cancels in the pins'
+/// mean. Worked out into `out` (one factor a pin) so that a frame whose contact has not
+/// moved reuses them.
+pub fn local_shear_factors(
     optics: &SensorOptics,
     contact_radius_px: f64,
-    shear_at: impl Fn(f64) -> f64,
-    out: &mut [[f64; 2]],
+    local: impl Fn(f64) -> f64,
+    out: &mut Vec<f64>,
 ) {
-    if contact_radius_px <= 0.0 {
-        return;
-    }
+    out.clear();
     let [ux, uy] = optics.slip_direction;
-    let inv_two_a2 = 1.0 / (2.0 * contact_radius_px * contact_radius_px);
-    for (pin, &[dx, dy, r]) in out.iter_mut().zip(&optics.offsets) {
+    let inv_two_a2 = 1.0 / (2.0 * contact_radius_px * contact_radius_px).max(1e-12);
+    out.extend(optics.offsets.iter().map(|&[dx, dy, r]| {
         let w = (-r * r * inv_two_a2).exp();
         // pins far outside the contact do not move (and cost no texture evaluation)
-        if w < 1e-3 {
-            continue;
+        if w < 1e-3 || contact_radius_px <= 0.0 {
+            0.0
+        } else {
+            w * local(dx * ux + dy * uy)
         }
-        let shift = w * shear_at(dx * ux + dy * uy);
+    }));
+}
+
+/// Moves pins `out` (as [`pin_positions`] left them) by `shear_px` times their
+/// [`local_shear_factors`], along the slip direction.
+pub fn add_local_shear(
+    optics: &SensorOptics,
+    factors: &[f64],
+    shear_px: f64,
+    out: &mut [[f64; 2]],
+) {
+    let [ux, uy] = optics.slip_direction;
+    for (pin, f) in out.iter_mut().zip(factors) {
+        let shift = shear_px * f;
         pin[0] += shift * ux;
         pin[1] += shift * uy;
     }
@@ -299,7 +313,9 @@ mod tests {
     fn local_shear_moves_only_pins_in_the_contact_and_along_the_slip_direction() {
         let o = optics();
         let mut pins = o.rest_px.clone();
-        add_local_shear(&o, 20.0, |xi| 1.0 + 0.01 * xi, &mut pins);
+        let mut factors = Vec::new();
+        local_shear_factors(&o, 20.0, |xi| 1.0 + 0.01 * xi, &mut factors);
+        add_local_shear(&o, &factors, 1.0, &mut pins);
         let [ux, uy] = o.slip_direction;
         let mut moved = 0;
         for (p, r) in pins.iter().zip(&o.rest_px) {
@@ -316,7 +332,8 @@ mod tests {
         }
         assert!(moved >= 1);
         let before = pins.clone();
-        add_local_shear(&o, 0.0, |_| 1.0, &mut pins);
+        local_shear_factors(&o, 0.0, |_| 1.0, &mut factors);
+        add_local_shear(&o, &factors, 1.0, &mut pins);
         assert_eq!(pins, before);
     }
 

@@ -14,8 +14,8 @@ use super::grasp::{pinch_normal_forces, share_stuck_load, Contact, ContactLaw, M
 use super::objects::{ObjectLibrary, ObjectSpec};
 use super::skin::{SkinContact, SlidingFriction, SlidingPatch, SurfaceTexture};
 use super::tactip::{
-    add_local_shear, dome_layout, pin_positions, CreepingDisplacement, SensorOptics, SkinState,
-    SkinTimes,
+    add_local_shear, dome_layout, local_shear_factors, pin_positions, CreepingDisplacement,
+    SensorOptics, SkinState, SkinTimes,
 };
 use super::SimError;
 use crate::types::{HandPositions, MarkerSample, PinFrame};
@@ -90,6 +90,10 @@ struct SensorUnit {
     queue: VecDeque<PinFrame>,
     rng: ChaCha8Rng,
     scratch: Vec<[f64; 2]>,
+    /// The local drag's factors per pin and the (slid mm, contact radius mm, sliding
+    /// speed) they were worked out for.
+    local_factors: Vec<f64>,
+    local_key: Option<[f64; 3]>,
 }
 
 struct MarkerUnit {
@@ -276,6 +280,8 @@ impl World {
                     queue: VecDeque::new(),
                     rng: srng,
                     scratch: Vec::with_capacity(t.pins),
+                    local_factors: Vec::with_capacity(t.pins),
+                    local_key: None,
                 }
             })
             .collect::<Vec<SensorUnit>>();
@@ -742,23 +748,28 @@ impl World {
                         };
                         pin_positions(&s.optics, &skin, &mut s.scratch);
                         // Each spot of the contact is dragged by the friction of the surface
-                        // under it, not the patch's mean.
+                        // under it, not the patch's mean. The texture sums cost more than the
+                        // rest of a frame: a contact that has not moved reuses them.
                         let (texture, slid_mm) = (&self.textures[i], self.patches[i].position_mm);
                         let (a_mm, px_per_mm) = (s.skin.contact_radius_mm(n), s.px_per_mm);
-                        add_local_shear(
-                            &s.optics,
-                            skin.contact_radius_px,
-                            |xi_px| {
-                                skin.shear_px
-                                    * texture.local_at(
+                        let key = [slid_mm, a_mm, sliding_mm_s];
+                        if s.local_key != Some(key) {
+                            s.local_key = Some(key);
+                            local_shear_factors(
+                                &s.optics,
+                                skin.contact_radius_px,
+                                |xi_px| {
+                                    texture.local_at(
                                         slid_mm + xi_px / px_per_mm,
                                         a_mm,
                                         sliding_mm_s,
                                         t.skin_time_s,
                                     )
-                            },
-                            &mut s.scratch,
-                        );
+                                },
+                                &mut s.local_factors,
+                            );
+                        }
+                        add_local_shear(&s.optics, &s.local_factors, skin.shear_px, &mut s.scratch);
                         let mut pins = Vec::with_capacity(s.scratch.len());
                         // At most one pin per frame is mis-detected: with the rates seen on
                         // real trackers (well under 1 %) two in one frame are negligible, and one
