@@ -348,6 +348,23 @@ pub fn read_trial(path: &Path) -> Result<Trial, TrialError> {
             ),
         });
     }
+    // A tracker reports positions in its image; a coordinate beyond any camera's image is
+    // a damaged log, not a pin (features and figures would take it as a number).
+    if let Some((index, f, [x, y])) = frames.iter().enumerate().find_map(|(i, f)| {
+        f.pins
+            .iter()
+            .find(|[x, y]| !(x.abs() <= MAX_PIN_COORDINATE_PX && y.abs() <= MAX_PIN_COORDINATE_PX))
+            .map(|p| (i, f, *p))
+    }) {
+        return Err(TrialError::BadMessage {
+            path: path.into(),
+            topic: format!("/tactile/{}", f.sensor),
+            index,
+            message: format!(
+                "a pin at ({x:e}, {y:e}) px: expected image coordinates within +-{MAX_PIN_COORDINATE_PX:e}"
+            ),
+        });
+    }
     Ok(Trial {
         meta,
         frames,
@@ -356,6 +373,10 @@ pub fn read_trial(path: &Path) -> Result<Trial, TrialError> {
         events,
     })
 }
+
+/// Largest pin coordinate a log may hold, px: far beyond any camera's image (the T-MO's
+/// are 340 x 280), so only damage is refused.
+pub const MAX_PIN_COORDINATE_PX: f32 = 1e5;
 
 /// SHA-256 of a file's bytes, hex.
 pub fn sha256_hex(bytes: &[u8]) -> String {

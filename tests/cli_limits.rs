@@ -519,6 +519,11 @@ fn a_log_with_no_frames_or_no_marker_track_is_refused_not_counted() {
             "no tactile frames",
         ),
         ("no_markers", |t| t.markers.clear(), "no marker track"),
+        (
+            "pin_far_away",
+            |t| t.frames[3].pins[0] = [f32::MAX, -f32::MAX],
+            "a pin at (3.4028235e38, -3.4028235e38) px",
+        ),
     ] {
         let mut broken = trial.clone();
         edit(&mut broken);

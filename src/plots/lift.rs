@@ -315,10 +315,7 @@ pub fn lift_figures(inputs: &Inputs, dir: &Path) -> Result<Vec<PathBuf>, PlotErr
         _ => None,
     });
     if let Some(path) = pick {
-        let trial = crate::trial::read_trial(&path).map_err(|e| PlotError::Input {
-            path: path.clone(),
-            message: e.to_string(),
-        })?;
+        let trial = crate::trial::read_trial(&path)?;
         if let Some(l) = LiftTrace::from_trial(&trial, 1.0) {
             out.extend(crate::svg_and_png!(
                 dir.join("fig9_lift_heights"),

@@ -28,6 +28,9 @@ pub enum PlotError {
     },
     #[error("{path}: {message}")]
     Input { path: PathBuf, message: String },
+    /// A trial log that cannot be read (the error names the log).
+    #[error(transparent)]
+    Trial(#[from] crate::trial::TrialError),
 }
 
 /// What a figure function returns for backend `DB`.

@@ -478,15 +478,10 @@ pub fn trial_figures(
     threshold: Option<f32>,
     dir: &Path,
 ) -> Result<Vec<PathBuf>, PlotError> {
-    let input = |path: &Path, message: String| PlotError::Input {
-        path: path.to_path_buf(),
-        message,
-    };
-    let paths =
-        crate::trial::expand_trial_paths(dirs).map_err(|e| input(&dirs[0], e.to_string()))?;
+    let paths = crate::trial::expand_trial_paths(dirs)?;
     let trials = paths
         .iter()
-        .map(|p| crate::trial::read_trial(p).map_err(|e| input(p, e.to_string())))
+        .map(|p| crate::trial::read_trial(p))
         .collect::<Result<Vec<_>, _>>()?;
     let Some(first) = trials.first() else {
         return Ok(Vec::new());
