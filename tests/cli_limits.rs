@@ -589,3 +589,29 @@ fn an_svm_fit_that_stops_at_its_cap_warns_and_under_strict_fails() {
     );
     assert!(!d.join("strict.json").exists());
 }
+
+#[test]
+fn a_file_of_the_wrong_kind_is_named_with_its_field_and_what_it_is() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    train_rail_local_model(d);
+    let cases = [
+        (
+            "kind = \"rail_catch\"\nmodels = [\"/dev/null\"]\n",
+            "models.0: /dev/null is not a regular file",
+        ),
+        (
+            "kind = \"rail_catch\"\nmodels = [\"rail/trial-0000.mcap\"]\n",
+            "models.0: rail/trial-0000.mcap: not a tmo model file: not text",
+        ),
+        (
+            "kind = \"first_time_lift\"\nmodels = [\"rail_local.json\"]\n[first_time_lift]\ncalibration = \"rail_local.json\"\n",
+            "first_time_lift.calibration: rail_local.json: not a g_min table (it is a model file)",
+        ),
+    ];
+    for (text, says) in cases {
+        std::fs::write(d.join("p.toml"), text).unwrap();
+        let err = fails(&tmo(d, &["run", "p.toml", "--out", "b"]));
+        assert!(err.contains(says), "{text}: {err}");
+    }
+}

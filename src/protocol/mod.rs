@@ -28,6 +28,15 @@ pub enum Kind {
     CalibrateLift,
 }
 
+/// Every kind, as protocol files spell them.
+pub const KINDS: [Kind; 5] = [
+    Kind::RailCatch,
+    Kind::HandRelease,
+    Kind::RicePour,
+    Kind::FirstTimeLift,
+    Kind::CalibrateLift,
+];
+
 impl std::fmt::Display for Kind {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.write_str(match self {
@@ -214,6 +223,40 @@ pub(crate) fn field_at(text: &str, offset: usize) -> Option<String> {
     (!path.is_empty()).then(|| path.join("."))
 }
 
+/// Longest name an error message repeats whole.
+const MAX_ECHO: usize = 60;
+
+/// `text` itself, or its start and its length when it is too long to repeat.
+fn shorten(text: &str) -> String {
+    let n = text.chars().count();
+    if n <= MAX_ECHO {
+        return text.to_string();
+    }
+    let head: String = text.chars().take(40).collect();
+    format!("{head}... ({n} characters)")
+}
+
+/// `message` with every `quoted` name [`shorten`]ed.
+fn shorten_quoted(message: &str) -> String {
+    let parts: Vec<&str> = message.split('`').collect();
+    if parts.len() < 3 {
+        return message.to_string();
+    }
+    parts
+        .iter()
+        .enumerate()
+        .map(|(i, p)| {
+            // odd parts lie between backticks
+            if i % 2 == 1 && i + 1 < parts.len() {
+                shorten(p)
+            } else {
+                p.to_string()
+            }
+        })
+        .collect::<Vec<_>>()
+        .join("`")
+}
+
 /// Parses a TOML file into `T`; a syntax or type error names its line, column and field.
 pub(crate) fn parse_toml<T: serde::de::DeserializeOwned>(
     path: &Path,
@@ -222,14 +265,36 @@ pub(crate) fn parse_toml<T: serde::de::DeserializeOwned>(
     toml::from_str(text).map_err(|e| {
         let start = e.span().map(|s| s.start);
         let (line, column) = start.map_or((1, 1), |s| line_column(text, s));
+        let field = start
+            .and_then(|s| field_at(text, s))
+            .unwrap_or_else(|| "(file)".into());
+        let mut message = e.message().trim().to_string();
+        if message.is_empty() {
+            // the parser has no words for some characters; say which one it stopped at
+            message = match start
+                .and_then(|s| text.get(s..))
+                .and_then(|t| t.chars().next())
+            {
+                Some(c) if c.is_control() => format!(
+                    "a control character (U+{:04X}) that TOML does not allow here",
+                    u32::from(c)
+                ),
+                Some(c) => format!("TOML syntax error at {c:?}"),
+                None => "TOML syntax error".into(),
+            };
+        }
+        if field == "kind" && !message.contains("rail_catch") {
+            message = format!(
+                "{message}; expected one of {}",
+                KINDS.map(|k| format!("\"{k}\"")).join(", ")
+            );
+        }
         ProtocolError {
             path: path.to_path_buf(),
             line,
             column,
-            field: start
-                .and_then(|s| field_at(text, s))
-                .unwrap_or_else(|| "(file)".into()),
-            message: e.message().to_string(),
+            field: shorten(&field),
+            message: shorten_quoted(&message),
         }
     })
 }
@@ -341,6 +406,15 @@ pub fn validate(
         }
         for (i, m) in file.models.iter().enumerate() {
             let resolved = base.join(m);
+            if resolved.exists() && !resolved.is_file() {
+                return Err(err(
+                    &format!("models.{i}"),
+                    format!(
+                        "{} is not a regular file; a model is the JSON file `tmo train` writes",
+                        resolved.display()
+                    ),
+                ));
+            }
             if !resolved.is_file() {
                 return Err(err(
                     &format!("models.{i}"),

@@ -168,3 +168,33 @@ fn safety_limits_come_from_the_protocol_and_bound_what_it_asks() {
     .unwrap_err();
     assert_eq!(e.field, "rail_catch.initial_torque", "{e}");
 }
+
+#[test]
+fn long_names_are_not_repeated_whole() {
+    assert_eq!(
+        super::shorten_quoted("unknown field `abc`"),
+        "unknown field `abc`"
+    );
+    let long = "k".repeat(100_000);
+    let m = super::shorten_quoted(&format!("unknown field `{long}`, expected `kind`"));
+    assert!(m.len() < 120, "{m}");
+    assert!(
+        m.contains("(100000 characters)") && m.ends_with("expected `kind`"),
+        "{m}"
+    );
+}
+
+#[test]
+fn a_kind_that_is_not_a_string_lists_the_kinds_and_a_nul_byte_is_named() {
+    let e = ProtocolFile::parse(std::path::Path::new("p.toml"), "kind = true\n").unwrap_err();
+    assert!(
+        e.to_string().contains("\"rail_catch\", \"hand_release\""),
+        "{e}"
+    );
+    let e = ProtocolFile::parse(
+        std::path::Path::new("p.toml"),
+        "# a \0 b\nkind = \"rail_catch\"\n",
+    )
+    .unwrap_err();
+    assert!(e.to_string().contains("U+0000"), "{e}");
+}

@@ -265,6 +265,8 @@ pub enum GMinError {
     },
     #[error("{path}: g_min table format {found}, this tmo reads {GMIN_FORMAT_VERSION}")]
     Version { path: String, found: u32 },
+    #[error("{path}: not a g_min table ({what}); a calibration batch writes one as g_min.json")]
+    NotATable { path: String, what: &'static str },
 }
 
 fn median(mut v: Vec<f64>) -> f64 {
@@ -326,10 +328,19 @@ impl GMinTable {
                 path: p.clone(),
                 source,
             })?;
-        let found = version
-            .get("format_version")
-            .and_then(|v| v.as_u64())
-            .unwrap_or(0) as u32;
+        let Some(found) = version.get("format_version").and_then(|v| v.as_u64()) else {
+            return Err(GMinError::NotATable {
+                path: p,
+                what: if version.get("format").and_then(|f| f.as_str())
+                    == Some(crate::slip::model::MODEL_FORMAT)
+                {
+                    "it is a model file"
+                } else {
+                    "it has no format_version"
+                },
+            });
+        };
+        let found = found.min(u64::from(u32::MAX)) as u32;
         if found != GMIN_FORMAT_VERSION {
             return Err(GMinError::Version { path: p, found });
         }

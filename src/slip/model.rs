@@ -328,9 +328,17 @@ impl ModelFile {
 
     pub fn load(path: &Path) -> Result<Self, ModelFileError> {
         let p = path.display().to_string();
-        let text = std::fs::read_to_string(path).map_err(|source| ModelFileError::Io {
-            path: p.clone(),
-            source,
+        let text = std::fs::read_to_string(path).map_err(|source| match source.kind() {
+            std::io::ErrorKind::InvalidData => ModelFileError::Parse {
+                path: p.clone(),
+                message:
+                    "not text (a model is the JSON file `tmo train` writes; is this a trial log?)"
+                        .into(),
+            },
+            _ => ModelFileError::Io {
+                path: p.clone(),
+                source,
+            },
         })?;
         // Check the header first, so a newer file says so instead of failing to parse.
         #[derive(Deserialize)]

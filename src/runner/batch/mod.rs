@@ -192,6 +192,12 @@ pub enum BatchError {
     Lock(#[from] crate::lock::LockError),
     #[error(transparent)]
     Model(#[from] crate::slip::model::ModelFileError),
+    /// A protocol's model that cannot be loaded: `models.<index>` names it in the protocol.
+    #[error("models.{index}: {source}")]
+    ProtocolModel {
+        index: usize,
+        source: crate::slip::model::ModelFileError,
+    },
     #[error("first_time_lift.calibration: {0}")]
     Calibration(#[from] crate::runner::score::GMinError),
 }

@@ -81,7 +81,8 @@ pub(crate) fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), BatchError> 
 pub fn load_models(plan: &Plan) -> Result<Vec<(ModelFile, String)>, BatchError> {
     plan.models
         .iter()
-        .map(|path| {
+        .enumerate()
+        .map(|(index, path)| {
             let bytes = std::fs::read(path).map_err(|source| {
                 if source.kind() == std::io::ErrorKind::NotFound {
                     BatchError::MissingModel(path.clone())
@@ -92,7 +93,9 @@ pub fn load_models(plan: &Plan) -> Result<Vec<(ModelFile, String)>, BatchError> 
                     }
                 }
             })?;
-            Ok((ModelFile::load(path)?, sha256_hex(&bytes)))
+            let model = ModelFile::load(path)
+                .map_err(|source| BatchError::ProtocolModel { index, source })?;
+            Ok((model, sha256_hex(&bytes)))
         })
         .collect()
 }
