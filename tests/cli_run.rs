@@ -352,40 +352,19 @@ fn a_resume_keeps_faulted_trials_unless_asked_to_run_them_again() {
         .insert("fault".into(), "servo bus: no answer".into());
     tmo::trial::write_trial(&log, &trial).unwrap();
 
-    let kept = ok(&tmo(
-        d,
-        &["run", protocol, "--repeat", "2", "--out", "b", "--resume"],
-    ));
+    let run = |extra: &[&str]| {
+        let mut args = vec!["run", protocol, "--repeat", "2", "--out", "b"];
+        args.extend_from_slice(extra);
+        tmo(d, &args)
+    };
+    let kept = ok(&run(&["--resume"]));
     assert!(kept.contains("(0 run, 2 already there)"), "{kept}");
     assert!(kept.contains("1 trial(s) aborted by a fault"), "{kept}");
 
-    let err = fails(&tmo(
-        d,
-        &[
-            "run",
-            protocol,
-            "--repeat",
-            "2",
-            "--out",
-            "b",
-            "--rerun-faulted",
-        ],
-    ));
+    let err = fails(&run(&["--rerun-faulted"]));
     assert!(err.contains("--resume"), "{err}");
 
-    let rerun = ok(&tmo(
-        d,
-        &[
-            "run",
-            protocol,
-            "--repeat",
-            "2",
-            "--out",
-            "b",
-            "--resume",
-            "--rerun-faulted",
-        ],
-    ));
+    let rerun = ok(&run(&["--resume", "--rerun-faulted"]));
     assert!(rerun.contains("(1 run, 1 already there)"), "{rerun}");
     assert!(rerun.contains("1 faulted trial(s) run again"), "{rerun}");
     assert!(!rerun.contains("aborted by a fault"), "{rerun}");

@@ -157,24 +157,7 @@ fn a_sweep_fills_its_grid_and_resumes_after_an_interruption() {
     );
     std::fs::write(d.join("out/sweep.csv.partial"), torn).unwrap();
     std::fs::remove_file(&csv_path).unwrap();
-    let resumed = tmo(
-        d,
-        &[
-            "sweep",
-            "trials",
-            "--classifiers",
-            "logreg,threshold",
-            "--downsample",
-            "0.5,1.0",
-            "--n-slip",
-            "3:5",
-            "--C",
-            "1",
-            "--out",
-            "out/sweep.csv",
-            "--resume",
-        ],
-    );
+    let resumed = sweep(&["--resume"]);
     let stdout = ok(&resumed);
     assert!(
         stdout.contains("8 cells to run (4 already done)"),
