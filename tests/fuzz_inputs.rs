@@ -1,0 +1,319 @@
+//! Fuzzing of every file a user hands tmo: protocol TOML, hardware TOML, model JSON, MCAP
+//! trial logs and report inputs (a batch's `outcomes.json` and `batch.json`, a sweep CSV).
+//!
+//! Each target starts from real files (the repository's protocols and hardware file, and
+//! models, logs and batches made here by the real binary on the simulator) and mutates
+//! their bytes: flips, inserts, deletions, repeats of a slice, and splices of interesting
+//! tokens (huge and non-finite numbers, NUL, quotes, brackets). Whatever comes out, reading
+//! it must end in a value or an error: never a panic, never a hang (a watchdog fails the
+//! case after 20 s).
+//!
+//! CI runs a few hundred cases per target; set `TMO_FUZZ_CASES` for a long local run, e.g.
+//! `TMO_FUZZ_CASES=100000 cargo test --release --test fuzz_inputs`.
+
+mod common;
+
+use std::path::{Path, PathBuf};
+use std::sync::{mpsc, OnceLock};
+use std::time::Duration;
+
+use proptest::prelude::*;
+
+use common::*;
+
+/// Cases per target: `TMO_FUZZ_CASES`, or a CI-sized default.
+fn cases() -> u32 {
+    std::env::var("TMO_FUZZ_CASES")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(300)
+}
+
+/// Seed files made once for every target: real outputs of the binary.
+struct Seeds {
+    _dir: tempfile::TempDir,
+    models: Vec<Vec<u8>>,
+    trial_log: Vec<u8>,
+    outcomes: Vec<u8>,
+    batch: Vec<u8>,
+    sweep_csv: Vec<u8>,
+}
+
+fn seeds() -> &'static Seeds {
+    static SEEDS: OnceLock<Seeds> = OnceLock::new();
+    SEEDS.get_or_init(|| {
+        let dir = tempfile::tempdir().unwrap();
+        let d = dir.path();
+        ok(&tmo(
+            d,
+            &[
+                "sim", "collect", "--rig", "rail", "--trials", "4", "--out", "t",
+            ],
+        ));
+        let mut models = Vec::new();
+        for (kind, extra) in [
+            ("svm-rbf", &["--C", "1"][..]),
+            ("svm-linear", &["--C", "0.1"][..]),
+            ("logreg", &["--C", "1"][..]),
+            ("threshold", &[][..]),
+        ] {
+            let out = format!("{kind}.json");
+            let mut args = vec!["train", "t", "--classifier", kind, "--out", &out];
+            args.extend_from_slice(extra);
+            ok(&tmo(d, &args));
+            models.push(std::fs::read(d.join(&out)).unwrap());
+        }
+        let protocol = Path::new(env!("CARGO_MANIFEST_DIR")).join("protocols/rail_collect.toml");
+        ok(&tmo(
+            d,
+            &[
+                "run",
+                protocol.to_str().unwrap(),
+                "--repeat",
+                "2",
+                "--out",
+                "b",
+            ],
+        ));
+        ok(&tmo(
+            d,
+            &[
+                "sweep",
+                "t",
+                "--classifiers",
+                "threshold",
+                "--n-slip",
+                "3:4",
+                "--downsample",
+                "1.0",
+                "--out",
+                "s/sweep.csv",
+            ],
+        ));
+        Seeds {
+            models,
+            trial_log: std::fs::read(d.join("b/trial-00000.mcap")).unwrap(),
+            outcomes: std::fs::read(d.join("b/outcomes.json")).unwrap(),
+            batch: std::fs::read(d.join("b/batch.json")).unwrap(),
+            sweep_csv: std::fs::read(d.join("s/sweep.csv")).unwrap(),
+            _dir: dir,
+        }
+    })
+}
+
+fn repo_files(dir: &str) -> Vec<Vec<u8>> {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join(dir);
+    let mut files: Vec<PathBuf> = std::fs::read_dir(root)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|x| x == "toml"))
+        .collect();
+    files.sort();
+    files.iter().map(|p| std::fs::read(p).unwrap()).collect()
+}
+
+/// Tokens that have broken parsers before.
+const TOKENS: &[&[u8]] = &[
+    b"1e308",
+    b"-1e308",
+    b"nan",
+    b"inf",
+    b"-0",
+    b"18446744073709551616",
+    b"4294967295",
+    b"\0",
+    b"\"",
+    b"[",
+    b"]]",
+    b"{",
+    b"}",
+    b"=",
+    b",",
+    b"\n",
+    b"null",
+    b"true",
+    b"[[",
+    b"\xff\xfe",
+    b"0.0",
+    b"-1",
+];
+
+#[derive(Debug, Clone)]
+enum Edit {
+    Flip(usize, u8),
+    Insert(usize, u8),
+    Delete(usize, usize),
+    Repeat(usize, usize, usize),
+    Token(usize, usize),
+}
+
+fn edits() -> impl Strategy<Value = Vec<Edit>> {
+    let edit = prop_oneof![
+        (any::<usize>(), any::<u8>()).prop_map(|(p, b)| Edit::Flip(p, b)),
+        (any::<usize>(), any::<u8>()).prop_map(|(p, b)| Edit::Insert(p, b)),
+        (any::<usize>(), 1usize..64).prop_map(|(p, n)| Edit::Delete(p, n)),
+        (any::<usize>(), 1usize..64, 1usize..20).prop_map(|(p, n, k)| Edit::Repeat(p, n, k)),
+        (any::<usize>(), any::<usize>()).prop_map(|(p, t)| Edit::Token(p, t)),
+    ];
+    prop::collection::vec(edit, 1..6)
+}
+
+fn mutate(seed: &[u8], edits: &[Edit]) -> Vec<u8> {
+    let mut b = seed.to_vec();
+    for e in edits {
+        let len = b.len();
+        let at = |p: usize| if len == 0 { 0 } else { p % (len + 1) };
+        match *e {
+            Edit::Flip(p, x) if len > 0 => b[p % len] ^= x.max(1),
+            Edit::Flip(..) => {}
+            Edit::Insert(p, x) => b.insert(at(p), x),
+            Edit::Delete(p, n) => {
+                let s = at(p);
+                b.drain(s..(s + n).min(len));
+            }
+            Edit::Repeat(p, n, k) => {
+                let s = at(p);
+                let slice: Vec<u8> = b[s..(s + n).min(len)].to_vec();
+                for _ in 0..k {
+                    b.splice(s..s, slice.iter().copied());
+                }
+            }
+            Edit::Token(p, t) => {
+                let s = at(p);
+                b.splice(s..s, TOKENS[t % TOKENS.len()].iter().copied());
+            }
+        }
+    }
+    b
+}
+
+/// Runs `read` on `bytes` written to `name` in a fresh directory (with the unmutated files
+/// `beside` next to it); fails the case on a panic or if it takes longer than a watchdog's
+/// 20 s.
+fn survives(
+    name: &str,
+    bytes: Vec<u8>,
+    beside: &[(&str, &[u8])],
+    read: fn(&Path),
+) -> Result<(), TestCaseError> {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join(name);
+    let parent = path.parent().unwrap().to_path_buf();
+    std::fs::create_dir_all(&parent).unwrap();
+    for (other, content) in beside {
+        std::fs::write(parent.join(other), content).unwrap();
+    }
+    std::fs::write(&path, &bytes).unwrap();
+    let (tx, rx) = mpsc::channel();
+    let worker = std::thread::spawn(move || {
+        let outcome = std::panic::catch_unwind(|| read(&path));
+        let _ = tx.send(outcome.is_ok());
+    });
+    let shown = || String::from_utf8_lossy(&bytes[..bytes.len().min(400)]).into_owned();
+    match rx.recv_timeout(Duration::from_secs(20)) {
+        Ok(true) => {
+            let _ = worker.join();
+            Ok(())
+        }
+        Ok(false) => Err(TestCaseError::fail(format!(
+            "{name}: panicked on {} bytes: {:?}",
+            bytes.len(),
+            shown()
+        ))),
+        Err(_) => Err(TestCaseError::fail(format!(
+            "{name}: no answer within 20 s on {} bytes: {:?}",
+            bytes.len(),
+            shown()
+        ))),
+    }
+}
+
+fn read_protocol(path: &Path) {
+    // models named by a mutated protocol are looked up beside it: none exist, which is an error
+    let _ = tmo::protocol::load(path, 3);
+}
+
+fn read_hardware(path: &Path) {
+    let _ = tmo::hardware::load(path);
+}
+
+fn read_model(path: &Path) {
+    if let Ok(m) = tmo::slip::model::ModelFile::load(path) {
+        // a model that loads must also classify and describe itself without panicking
+        let _ = m.fits(1, m.features.pins);
+        let _ = m.unconverged();
+        let frame = vec![0.5f32; 2 * m.features.pins];
+        if let Some(s) = m.for_sensor(0) {
+            let _ = s.predict(&frame, &mut Vec::new());
+        }
+    }
+}
+
+fn read_trial_log(path: &Path) {
+    if let Ok(t) = tmo::trial::read_trial(path) {
+        let _ = t.unusable();
+        let _ = tmo::runner::score::score_trial(&t, &Default::default());
+    }
+}
+
+fn read_batch_dir(path: &Path) {
+    // `path` is the mutated outcomes.json or batch.json inside a batch directory
+    let dir = path.parent().unwrap().to_path_buf();
+    if let Ok(inputs) = tmo::report::inputs::load(&[dir]) {
+        let _ = tmo::report::build::tables(&inputs);
+    }
+}
+
+fn read_sweep(path: &Path) {
+    if let Ok(inputs) = tmo::report::inputs::load(&[path.to_path_buf()]) {
+        let _ = tmo::report::build::tables(&inputs);
+    }
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig {
+        cases: cases(),
+        failure_persistence: None,
+        ..ProptestConfig::default()
+    })]
+
+    #[test]
+    fn protocol_files(pick in any::<usize>(), e in edits()) {
+        let seeds = repo_files("protocols");
+        survives("p.toml", mutate(&seeds[pick % seeds.len()], &e), &[], read_protocol)?;
+    }
+
+    #[test]
+    fn hardware_files(pick in any::<usize>(), e in edits()) {
+        let seeds = repo_files("hardware");
+        survives("hw.toml", mutate(&seeds[pick % seeds.len()], &e), &[], read_hardware)?;
+    }
+
+    #[test]
+    fn model_files(pick in any::<usize>(), e in edits()) {
+        let models = &seeds().models;
+        survives("m.json", mutate(&models[pick % models.len()], &e), &[], read_model)?;
+    }
+
+    #[test]
+    fn trial_logs(e in edits()) {
+        survives("trial-00000.mcap", mutate(&seeds().trial_log, &e), &[], read_trial_log)?;
+    }
+
+    #[test]
+    fn batch_outcomes(e in edits(), outcomes in any::<bool>()) {
+        let s = seeds();
+        // one of the batch's two files is mutated, the other stays as written
+        let (name, bytes, beside) = if outcomes {
+            ("b/outcomes.json", mutate(&s.outcomes, &e), ("batch.json", &s.batch[..]))
+        } else {
+            ("b/batch.json", mutate(&s.batch, &e), ("outcomes.json", &s.outcomes[..]))
+        };
+        survives(name, bytes, &[beside], read_batch_dir)?;
+    }
+
+    #[test]
+    fn sweep_csvs(e in edits()) {
+        survives("s/sweep.csv", mutate(&seeds().sweep_csv, &e), &[], read_sweep)?;
+    }
+}
