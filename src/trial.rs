@@ -108,6 +108,8 @@ fn is_event_topic(topic: &str) -> bool {
 
 #[derive(Debug, thiserror::Error)]
 pub enum TrialError {
+    #[error("cannot write the trial log {path}: {message}")]
+    Write { path: PathBuf, message: String },
     #[error("{path}: {source}")]
     Io {
         path: PathBuf,
@@ -132,6 +134,26 @@ pub enum TrialError {
     },
 }
 
+/// Why a write failed, in words that name a full disk as such.
+fn describe_write_error(e: &std::io::Error) -> String {
+    // ENOSPC and EDQUOT: the kind is not stable on every toolchain, the OS code is
+    if e.kind() == std::io::ErrorKind::StorageFull || matches!(e.raw_os_error(), Some(28 | 122)) {
+        format!("the disk is full ({e}); free space and run again with --resume")
+    } else {
+        e.to_string()
+    }
+}
+
+fn mcap_write_err(path: &Path) -> impl Fn(mcap::McapError) -> TrialError + '_ {
+    move |e| TrialError::Write {
+        path: path.into(),
+        message: match &e {
+            mcap::McapError::Io(io) => describe_write_error(io),
+            other => other.to_string(),
+        },
+    }
+}
+
 fn mcap_err(path: &Path) -> impl Fn(mcap::McapError) -> TrialError + '_ {
     move |e| TrialError::Mcap {
         path: path.into(),
@@ -145,9 +167,9 @@ fn nanos(t: f64) -> u64 {
 
 /// Writes `trial` to `path` atomically (temporary file, then rename).
 pub fn write_trial(path: &Path, trial: &Trial) -> Result<(), TrialError> {
-    let io = |source| TrialError::Io {
+    let io = |source: std::io::Error| TrialError::Write {
         path: path.into(),
-        source,
+        message: describe_write_error(&source),
     };
     if let Some(dir) = path.parent() {
         fs::create_dir_all(dir).map_err(io)?;
@@ -155,22 +177,22 @@ pub fn write_trial(path: &Path, trial: &Trial) -> Result<(), TrialError> {
     let tmp = path.with_extension("mcap.partial");
     {
         let file = fs::File::create(&tmp).map_err(io)?;
-        let mut w = mcap::Writer::new(BufWriter::new(file)).map_err(mcap_err(path))?;
+        let mut w = mcap::Writer::new(BufWriter::new(file)).map_err(mcap_write_err(path))?;
         let frame_schema = w
             .add_schema("tmo.PinFrame", "jsonschema", PIN_FRAME_SCHEMA.as_bytes())
-            .map_err(mcap_err(path))?;
+            .map_err(mcap_write_err(path))?;
         let marker_schema = w
             .add_schema("tmo.MarkerSample", "jsonschema", MARKER_SCHEMA.as_bytes())
-            .map_err(mcap_err(path))?;
+            .map_err(mcap_write_err(path))?;
         let none = BTreeMap::new();
         let marker_channel = w
             .add_channel(marker_schema, "/marker", "json", &none)
-            .map_err(mcap_err(path))?;
+            .map_err(mcap_write_err(path))?;
         let mut sensor_channels = BTreeMap::new();
         for s in 0..trial.meta.sensors {
             let id = w
                 .add_channel(frame_schema, &format!("/tactile/{s}"), "json", &none)
-                .map_err(mcap_err(path))?;
+                .map_err(mcap_write_err(path))?;
             sensor_channels.insert(s, id);
         }
         let mut sequence = 0u32;
@@ -178,7 +200,7 @@ pub fn write_trial(path: &Path, trial: &Trial) -> Result<(), TrialError> {
             let arrival = trial.arrivals_s.get(k).copied().unwrap_or(f.time_s);
             let channel_id = *sensor_channels
                 .get(&f.sensor)
-                .ok_or_else(|| TrialError::Mcap {
+                .ok_or_else(|| TrialError::Write {
                     path: path.into(),
                     message: format!(
                         "frame from sensor {} but the trial has {} sensors",
@@ -193,7 +215,7 @@ pub fn write_trial(path: &Path, trial: &Trial) -> Result<(), TrialError> {
                 publish_time: nanos(f.time_s),
             };
             w.write_to_known_channel(&header, &data)
-                .map_err(mcap_err(path))?;
+                .map_err(mcap_write_err(path))?;
             sequence += 1;
         }
         for m in &trial.markers {
@@ -205,12 +227,12 @@ pub fn write_trial(path: &Path, trial: &Trial) -> Result<(), TrialError> {
                 publish_time: nanos(m.time_s),
             };
             w.write_to_known_channel(&header, &data)
-                .map_err(mcap_err(path))?;
+                .map_err(mcap_write_err(path))?;
             sequence += 1;
         }
         let event_schema = w
             .add_schema("tmo.Event", "jsonschema", EVENT_SCHEMA.as_bytes())
-            .map_err(mcap_err(path))?;
+            .map_err(mcap_write_err(path))?;
         let mut event_channels: BTreeMap<&str, u16> = BTreeMap::new();
         for e in &trial.events {
             if !is_event_topic(&e.topic) || !e.topic.starts_with('/') {
@@ -224,7 +246,7 @@ pub fn write_trial(path: &Path, trial: &Trial) -> Result<(), TrialError> {
                 None => {
                     let id = w
                         .add_channel(event_schema, &e.topic, "json", &none)
-                        .map_err(mcap_err(path))?;
+                        .map_err(mcap_write_err(path))?;
                     event_channels.insert(&e.topic, id);
                     id
                 }
@@ -237,7 +259,7 @@ pub fn write_trial(path: &Path, trial: &Trial) -> Result<(), TrialError> {
                 publish_time: nanos(e.time_s),
             };
             w.write_to_known_channel(&header, &data)
-                .map_err(mcap_err(path))?;
+                .map_err(mcap_write_err(path))?;
             sequence += 1;
         }
         let meta = serde_json::to_string(&trial.meta).expect("metadata serialises");
@@ -245,8 +267,8 @@ pub fn write_trial(path: &Path, trial: &Trial) -> Result<(), TrialError> {
             name: "tmo.trial".into(),
             metadata: BTreeMap::from([("json".to_string(), meta)]),
         })
-        .map_err(mcap_err(path))?;
-        w.finish().map_err(mcap_err(path))?;
+        .map_err(mcap_write_err(path))?;
+        w.finish().map_err(mcap_write_err(path))?;
         let file = w
             .into_inner()
             .into_inner()
@@ -442,6 +464,22 @@ pub fn expand_trial_paths(paths: &[PathBuf]) -> Result<Vec<PathBuf>, TrialError>
 #[cfg(test)]
 pub(crate) mod tests {
     use super::*;
+
+    #[test]
+    fn a_write_that_fails_says_so_and_names_a_full_disk() {
+        let full = std::io::Error::from_raw_os_error(28);
+        assert!(describe_write_error(&full).starts_with("the disk is full"));
+        let other = std::io::Error::from_raw_os_error(13);
+        assert!(!describe_write_error(&other).contains("disk is full"));
+        // a file where the log's folder should be: a write error, not "not readable"
+        let dir = tempfile::tempdir().unwrap();
+        std::fs::write(dir.path().join("f"), b"").unwrap();
+        let e = write_trial(&dir.path().join("f/t.mcap"), &sample_trial()).unwrap_err();
+        assert!(
+            e.to_string().starts_with("cannot write the trial log"),
+            "{e}"
+        );
+    }
 
     pub(crate) fn sample_trial() -> Trial {
         let (tmo_version, git_revision) = TrialMeta::code_version();
