@@ -101,7 +101,19 @@ fn seeds() -> &'static Seeds {
     })
 }
 
-fn repo_files(dir: &str) -> Vec<Vec<u8>> {
+/// The repository's own files of one folder, read once.
+fn repo_files(dir: &'static str) -> &'static [Vec<u8>] {
+    static PROTOCOLS: OnceLock<Vec<Vec<u8>>> = OnceLock::new();
+    static HARDWARE: OnceLock<Vec<Vec<u8>>> = OnceLock::new();
+    let cell = if dir == "protocols" {
+        &PROTOCOLS
+    } else {
+        &HARDWARE
+    };
+    cell.get_or_init(|| read_repo_files(dir))
+}
+
+fn read_repo_files(dir: &str) -> Vec<Vec<u8>> {
     let root = Path::new(env!("CARGO_MANIFEST_DIR")).join(dir);
     let mut files: Vec<PathBuf> = std::fs::read_dir(root)
         .unwrap()

@@ -151,15 +151,13 @@ pub fn replay_with(
     let mut skipped = 0;
     for p in &paths {
         match read_trial(p) {
-            Ok(t) if t.unusable().is_some() => {
-                eprintln!(
-                    "skipped {}: cannot be used as a trial: {}",
-                    p.display(),
-                    t.unusable().unwrap_or_default()
-                );
-                skipped += 1;
-            }
-            Ok(t) => trials.push((p.display().to_string(), t)),
+            Ok(t) => match t.unusable() {
+                Some(why) => {
+                    eprintln!("skipped {}: cannot be used as a trial: {why}", p.display());
+                    skipped += 1;
+                }
+                None => trials.push((p.display().to_string(), t)),
+            },
             Err(e) => {
                 eprintln!("skipped {}: {e}", p.display());
                 skipped += 1;
