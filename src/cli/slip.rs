@@ -71,7 +71,8 @@ pub struct TrainArgs {
     /// Cross-validation folds (split by trial) of the search.
     #[arg(long, default_value_t = 3)]
     folds: usize,
-    /// Cap on the SVM solver's iterations (default libsvm's: max(100 x rows, 10,000,000)).
+    /// Cap on the SVM solver's iterations: SMO pair steps for svm-rbf (default libsvm's,
+    /// max(100 x rows, 10,000,000)), Newton steps for svm-linear (default 200).
     #[arg(long)]
     max_iterations: Option<usize>,
     /// An SVM fit that stops at its iteration cap before converging is an error (exit 2,

@@ -43,8 +43,9 @@ impl ClassifierKind {
 pub struct Hyperparameters {
     pub c: f64,
     pub gamma: f64,
-    /// Cap on the SVM solver's iterations (`None`: libsvm's `max(100 n, 10^7)`). A fit that
-    /// reaches it is approximate and says so (`unconverged_gap`).
+    /// Cap on the SVM solver's iterations (`None`: for the RBF kernel's SMO, libsvm's
+    /// `max(100 n, 10^7)` pair steps; for the linear kernel's interior-point method, 200
+    /// Newton steps). A fit that reaches it is approximate and says so (`unconverged_gap`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub max_iterations: Option<usize>,
 }
