@@ -132,26 +132,40 @@ pub enum ControlError {
     },
     #[error("the served simulator's control port stopped answering: {0}")]
     Io(#[from] std::io::Error),
+    #[error(
+        "the served simulator did not answer a reset within {seconds} s (is `tmo sim serve` \
+         stopped or overloaded?)"
+    )]
+    Timeout { seconds: f64 },
     #[error("the served simulator refused the reset: {0}")]
     Refused(String),
     #[error("the served simulator answered {0:?}, not {{\"ok\": true}} or {{\"error\": ...}}")]
     Garbled(String),
 }
 
+/// How long a reset may take: building a world takes milliseconds; a loaded machine gets
+/// ample room.
+const RESET_TIMEOUT_S: u64 = 10;
+
 /// The client a batch uses to set up each trial on the served simulator.
 pub struct SimControlClient {
     reader: BufReader<TcpStream>,
+    timeout: Duration,
 }
 
 impl SimControlClient {
     pub fn connect(addr: &str) -> Result<Self, ControlError> {
+        Self::connect_with_timeout(addr, Duration::from_secs(RESET_TIMEOUT_S))
+    }
+
+    /// [`Self::connect`] with another limit on the wait for an answer.
+    pub fn connect_with_timeout(addr: &str, timeout: Duration) -> Result<Self, ControlError> {
         let connect = || -> std::io::Result<TcpStream> {
             let a = addr.to_socket_addrs()?.next().ok_or_else(|| {
                 std::io::Error::new(std::io::ErrorKind::InvalidInput, "no address")
             })?;
             let s = TcpStream::connect_timeout(&a, Duration::from_secs(2))?;
-            // Building a world takes milliseconds; a loaded machine gets ample room.
-            s.set_read_timeout(Some(Duration::from_secs(10)))?;
+            s.set_read_timeout(Some(timeout))?;
             s.set_nodelay(true)?;
             Ok(s)
         };
@@ -161,6 +175,7 @@ impl SimControlClient {
         })?;
         Ok(Self {
             reader: BufReader::new(stream),
+            timeout,
         })
     }
 
@@ -171,11 +186,50 @@ impl SimControlClient {
         line.push(b'\n');
         self.reader.get_mut().write_all(&line)?;
         let mut answer = String::new();
-        self.reader.read_line(&mut answer)?;
+        self.reader
+            .read_line(&mut answer)
+            .map_err(|e| match e.kind() {
+                // A read timeout shows as WouldBlock on Unix and TimedOut on Windows.
+                std::io::ErrorKind::WouldBlock | std::io::ErrorKind::TimedOut => {
+                    ControlError::Timeout {
+                        seconds: self.timeout.as_secs_f64(),
+                    }
+                }
+                _ => ControlError::Io(e),
+            })?;
         match serde_json::from_str::<Answer>(&answer) {
             Ok(Answer { ok: true, .. }) => Ok(()),
             Ok(Answer { error: Some(e), .. }) => Err(ControlError::Refused(e)),
             _ => Err(ControlError::Garbled(answer.trim_end().to_string())),
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_server_that_never_answers_is_a_timeout_said_once() {
+        let listener = TcpListener::bind("127.0.0.1:0").unwrap();
+        let addr = listener.local_addr().unwrap().to_string();
+        // Accepts and reads, never answers (a stopped `sim serve`).
+        let server = std::thread::spawn(move || {
+            let (mut s, _) = listener.accept().unwrap();
+            let mut buf = [0u8; 4096];
+            while matches!(std::io::Read::read(&mut s, &mut buf), Ok(n) if n > 0) {}
+        });
+        let mut client =
+            SimControlClient::connect_with_timeout(&addr, Duration::from_millis(200)).unwrap();
+        let e = client.reset(&SimConfig::default()).unwrap_err();
+        assert!(matches!(e, ControlError::Timeout { .. }), "{e:?}");
+        let text = e.to_string();
+        assert!(
+            text.contains("did not answer a reset within 0.2 s"),
+            "{text}"
+        );
+        assert!(!text.contains("os error"), "{text}");
+        drop(client);
+        server.join().unwrap();
     }
 }
