@@ -8,51 +8,17 @@
 //! both side by side (time ratio, weight distance, rows that disagree).
 //! `TMO_LINEAR_C=0.1,20` chooses the values of C.
 
+mod common;
+
 use std::time::Instant;
 
-use tmo::collect::{collect_trial, trial_seed, CollectRig, CollectSpec};
-use tmo::slip::dataset::{Dataset, LabelSpec};
-use tmo::slip::features::FeatureSpec;
-use tmo::slip::labels::OnsetSpec;
 use tmo::slip::metrics::macro_f1;
 use tmo::slip::scaler::Scaler;
 use tmo::slip::svm::SvmParams;
 use tmo::slip::Class;
-use tmo_hal::sim::SimConfig;
-
-fn rows() -> Dataset {
-    let objects = [
-        "crisps_can",
-        "windex_bottle",
-        "bleach_bottle",
-        "mustard_bottle",
-        "banana",
-    ];
-    let trials: Vec<_> = (0..40u64)
-        .map(|i| {
-            let spec = CollectSpec {
-                rig: CollectRig::Hand,
-                object: objects[(i % 5) as usize].into(),
-                grasp_deg: 0.0,
-                seed: trial_seed(1, i),
-                base: SimConfig::default(),
-            };
-            collect_trial(&spec, &format!("trial-{i:04}"), 0).unwrap()
-        })
-        .collect();
-    Dataset::from_trials(
-        &trials,
-        &FeatureSpec::new(30),
-        &LabelSpec {
-            n_slip: 13,
-            onset: OnsetSpec::default(),
-        },
-    )
-    .downsample_static(0.4, 1)
-}
 
 fn main() {
-    let ds = rows();
+    let ds = common::hand_release_rows(1, |_| 0.0);
     std::fs::create_dir_all("target/bench").unwrap();
     ds.write_csv(std::path::Path::new("target/bench/linear_rows.csv"))
         .unwrap();

@@ -5,52 +5,23 @@
 //! `python3 scripts/time_sklearn.py target/bench/svm_rows.csv` times scikit-learn's SVC on
 //! exactly the same rows and hyperparameters.
 
+mod common;
+
 use std::time::Instant;
 
 use rand::seq::SliceRandom;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
-use tmo::collect::{collect_trial, trial_seed, CollectRig, CollectSpec};
-use tmo::slip::dataset::{Dataset, LabelSpec};
-use tmo::slip::features::FeatureSpec;
-use tmo::slip::labels::OnsetSpec;
+use tmo::slip::dataset::Dataset;
 use tmo::slip::scaler::Scaler;
 use tmo::slip::svm::SvmParams;
 use tmo::slip::Class;
-use tmo_hal::sim::SimConfig;
 
 const C: f64 = 3.989;
 const GAMMA: f64 = 0.02;
 
 fn rows() -> Dataset {
-    let objects = [
-        "crisps_can",
-        "windex_bottle",
-        "bleach_bottle",
-        "mustard_bottle",
-        "banana",
-    ];
-    let trials: Vec<_> = (0..40u64)
-        .map(|i| {
-            let spec = CollectSpec {
-                rig: CollectRig::Hand,
-                object: objects[(i % 5) as usize].into(),
-                grasp_deg: if (i / 5) % 2 == 0 { 0.0 } else { 180.0 },
-                seed: trial_seed(11, i),
-                base: SimConfig::default(),
-            };
-            collect_trial(&spec, &format!("trial-{i:04}"), 0).unwrap()
-        })
-        .collect();
-    let ds = Dataset::from_trials(
-        &trials,
-        &FeatureSpec::new(30),
-        &LabelSpec {
-            n_slip: 13,
-            onset: OnsetSpec::default(),
-        },
-    )
-    .downsample_static(0.4, 1);
+    let ds = common::hand_release_rows(11, |i| if (i / 5) % 2 == 0 { 0.0 } else { 180.0 });
     let mut order: Vec<usize> = (0..ds.len()).collect();
     order.shuffle(&mut ChaCha8Rng::seed_from_u64(3));
     let mut shuffled = Dataset {

@@ -16,6 +16,8 @@
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
+use super::cholesky;
+
 /// One searched parameter: a positive value between `low` and `high`, searched in log space.
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct LogRange {
@@ -71,52 +73,6 @@ fn dist(a: &[f64], b: &[f64]) -> f64 {
         .sqrt()
 }
 
-/// In-place Cholesky of an `n x n` row-major matrix; false if not positive definite.
-fn cholesky(a: &mut [f64], n: usize) -> bool {
-    for j in 0..n {
-        let mut d = a[j * n + j];
-        for k in 0..j {
-            d -= a[j * n + k] * a[j * n + k];
-        }
-        if d <= 0.0 || !d.is_finite() {
-            return false;
-        }
-        let d = d.sqrt();
-        a[j * n + j] = d;
-        for i in j + 1..n {
-            let mut s = a[i * n + j];
-            for k in 0..j {
-                s -= a[i * n + k] * a[j * n + k];
-            }
-            a[i * n + j] = s / d;
-        }
-        for i in 0..j {
-            a[i * n + j] = 0.0;
-        }
-    }
-    true
-}
-
-fn solve_lower(l: &[f64], n: usize, b: &mut [f64]) {
-    for i in 0..n {
-        let mut s = b[i];
-        for k in 0..i {
-            s -= l[i * n + k] * b[k];
-        }
-        b[i] = s / l[i * n + i];
-    }
-}
-
-fn solve_upper_t(l: &[f64], n: usize, b: &mut [f64]) {
-    for i in (0..n).rev() {
-        let mut s = b[i];
-        for k in i + 1..n {
-            s -= l[k * n + i] * b[k];
-        }
-        b[i] = s / l[i * n + i];
-    }
-}
-
 /// A fitted Gaussian process on standardised observations.
 struct Gp {
     x: Vec<Vec<f64>>,
@@ -145,15 +101,15 @@ impl Gp {
                             matern52(dist(&x[i], &x[j]), length) + if i == j { noise } else { 0.0 };
                     }
                 }
-                if !cholesky(&mut k, n) {
+                if !cholesky::factor(&mut k, n) {
                     continue;
                 }
                 let mut alpha = ys.clone();
-                solve_lower(&k, n, &mut alpha);
+                cholesky::solve_lower(&k, n, &mut alpha);
                 let fit_term: f64 = alpha.iter().map(|a| a * a).sum();
                 let log_det: f64 = (0..n).map(|i| k[i * n + i].ln()).sum::<f64>() * 2.0;
                 let log_likelihood = -0.5 * fit_term - 0.5 * log_det;
-                solve_upper_t(&k, n, &mut alpha);
+                cholesky::solve_upper_t(&k, n, &mut alpha);
                 if best.as_ref().is_none_or(|(b, _)| log_likelihood > *b) {
                     best = Some((
                         log_likelihood,
@@ -183,7 +139,7 @@ impl Gp {
             .collect();
         let mu: f64 = kv.iter().zip(&self.alpha).map(|(a, b)| a * b).sum();
         let mut v = kv;
-        solve_lower(&self.chol, n, &mut v);
+        cholesky::solve_lower(&self.chol, n, &mut v);
         let var = (1.0 - v.iter().map(|a| a * a).sum::<f64>()).max(1e-12);
         (self.mean + self.std * mu, self.std * var.sqrt())
     }

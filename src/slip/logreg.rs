@@ -12,6 +12,7 @@
 //! training sweeps run hundreds of these fits. The scaler and the scores are small enough
 //! that owning them costs less than smartcore's dense-matrix conversions.
 
+use super::cholesky;
 use super::Class;
 
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -78,38 +79,10 @@ fn sigmoid(z: f64) -> f64 {
 
 /// Solves `a x = b` in place for a symmetric positive definite `a` (`m x m`, row-major).
 fn cholesky_solve(a: &mut [f64], b: &mut [f64], m: usize) -> Result<(), LogRegError> {
-    for j in 0..m {
-        let mut d = a[j * m + j];
-        for k in 0..j {
-            d -= a[j * m + k] * a[j * m + k];
-        }
-        if d <= 0.0 || !d.is_finite() {
-            return Err(LogRegError::Singular);
-        }
-        let d = d.sqrt();
-        a[j * m + j] = d;
-        for i in j + 1..m {
-            let mut s = a[i * m + j];
-            for k in 0..j {
-                s -= a[i * m + k] * a[j * m + k];
-            }
-            a[i * m + j] = s / d;
-        }
+    if !cholesky::factor(a, m) {
+        return Err(LogRegError::Singular);
     }
-    for i in 0..m {
-        let mut s = b[i];
-        for k in 0..i {
-            s -= a[i * m + k] * b[k];
-        }
-        b[i] = s / a[i * m + i];
-    }
-    for i in (0..m).rev() {
-        let mut s = b[i];
-        for k in i + 1..m {
-            s -= a[k * m + i] * b[k];
-        }
-        b[i] = s / a[i * m + i];
-    }
+    cholesky::solve(a, m, b);
     Ok(())
 }
 

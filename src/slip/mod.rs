@@ -2,6 +2,7 @@
 //! their scores (SPEC.md, "Slip detection method"). Usable without any hardware.
 
 pub mod bayes;
+pub mod cholesky;
 pub mod dataset;
 pub mod evaluation;
 pub mod features;

@@ -24,6 +24,7 @@
 use rayon::prelude::*;
 
 use super::smo::Solution;
+use crate::slip::cholesky;
 
 /// Rows per parallel chunk when building the Newton system.
 const CHUNK: usize = 2048;
@@ -116,48 +117,6 @@ fn add(mut a: Vec<f64>, b: Vec<f64>) -> Vec<f64> {
         *x += y;
     }
     a
-}
-
-/// Cholesky factor (lower, row-major) of a symmetric positive definite `m x m` matrix given
-/// by its upper triangle; `None` if it is not positive definite. Written here because the
-/// system is tiny (`dim + 1` unknowns) and a linear-algebra crate for one factorisation
-/// would be a heavy dependency.
-fn cholesky(upper: &[f64], m: usize) -> Option<Vec<f64>> {
-    let mut l = vec![0.0; m * m];
-    for i in 0..m {
-        for j in 0..=i {
-            let mut s = upper[j * m + i];
-            for k in 0..j {
-                s -= l[i * m + k] * l[j * m + k];
-            }
-            if i == j {
-                if !(s > 0.0 && s.is_finite()) {
-                    return None;
-                }
-                l[i * m + i] = s.sqrt();
-            } else {
-                l[i * m + j] = s / l[j * m + j];
-            }
-        }
-    }
-    Some(l)
-}
-
-fn cholesky_solve(l: &[f64], m: usize, b: &mut [f64]) {
-    for i in 0..m {
-        let mut s = b[i];
-        for k in 0..i {
-            s -= l[i * m + k] * b[k];
-        }
-        b[i] = s / l[i * m + i];
-    }
-    for i in (0..m).rev() {
-        let mut s = b[i];
-        for k in i + 1..m {
-            s -= l[k * m + i] * b[k];
-        }
-        b[i] = s / l[i * m + i];
-    }
 }
 
 /// The interior point: primal `w`, `b`, slacks `xi` and constraint surpluses `s`; dual `a`
@@ -283,7 +242,16 @@ impl<'a> Newton<'a> {
         // The bias has no quadratic term of its own; a tiny one keeps a problem whose rows
         // carry no information about it factorisable.
         gram[m * m - 1] += 1e-12;
-        let factor = cholesky(&gram, m)?;
+        // Built as an upper triangle; the factorisation reads the lower one.
+        for j in 0..m {
+            for k in j + 1..m {
+                gram[k * m + j] = gram[j * m + k];
+            }
+        }
+        if !cholesky::factor(&mut gram, m) {
+            return None;
+        }
+        let factor = gram;
         Some(Self {
             rows,
             omega,
@@ -306,7 +274,7 @@ impl<'a> Newton<'a> {
             *v -= rw;
         }
         rhs.push(r.b + yor.iter().sum::<f64>());
-        cholesky_solve(&self.factor, dim + 1, &mut rhs);
+        cholesky::solve(&self.factor, dim + 1, &mut rhs);
         let db = rhs.pop().unwrap_or(0.0);
         let dw = rhs;
         let da: Vec<f64> = (0..n)
@@ -488,13 +456,13 @@ pub fn solve(
 }
 
 #[cfg(test)]
-mod tests {
+pub(super) mod tests {
     use super::super::{smo, Kernel};
     use super::*;
 
     /// Two overlapping noisy blobs in 5 dimensions with correlated features (as pin
     /// velocities are), so that many rows end at C.
-    fn overlapping(n: usize) -> (Vec<f32>, Vec<i8>) {
+    pub(in crate::slip::svm) fn overlapping(n: usize) -> (Vec<f32>, Vec<i8>) {
         let mut state = 7u64;
         let mut rand = || {
             state = state
@@ -597,15 +565,5 @@ mod tests {
         assert!(s.hit_iteration_limit);
         assert!(s.kkt_gap >= 1e-3);
         assert_eq!(s.iterations, 3);
-    }
-
-    #[test]
-    fn cholesky_solves_a_small_system() {
-        // [[4, 2], [2, 3]] x = [2, 1] -> x = [0.5, 0]
-        let l = cholesky(&[4.0, 2.0, 0.0, 3.0], 2).unwrap();
-        let mut b = [2.0, 1.0];
-        cholesky_solve(&l, 2, &mut b);
-        assert!((b[0] - 0.5).abs() < 1e-12 && b[1].abs() < 1e-12, "{b:?}");
-        assert!(cholesky(&[1.0, 2.0, 0.0, 1.0], 2).is_none(), "indefinite");
     }
 }

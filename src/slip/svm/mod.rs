@@ -374,23 +374,11 @@ mod tests {
         // Overlapping classes with correlated features (as pin velocities are): most rows
         // end at C, where SMO's pair steps grow with C (issue 15 #23: 10 M steps and a gap
         // of 23 at C = 20 on the simulator's rows; here SMO took 2.6 M steps).
-        let mut state = 7u64;
-        let mut rand = || {
-            state = state
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            ((state >> 11) as f64 / (1u64 << 53) as f64) as f32 - 0.5
-        };
-        let (mut x, mut y) = (Vec::new(), Vec::new());
-        for i in 0..3000 {
-            let slip = i % 4 == 0;
-            let common = rand() * 2.0;
-            for k in 0..5 {
-                let centre = if slip { 0.4 } else { -0.4 };
-                x.push(centre + common + rand() * (1.0 + k as f32 * 0.2));
-            }
-            y.push(if slip { Class::Slip } else { Class::Static });
-        }
+        let (x, signs) = linear_ipm::tests::overlapping(3000);
+        let y: Vec<Class> = signs
+            .iter()
+            .map(|s| if *s > 0 { Class::Slip } else { Class::Static })
+            .collect();
         let m = SvmParams::linear(1000.0)
             .check()
             .unwrap()
