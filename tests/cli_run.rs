@@ -77,6 +77,27 @@ fn a_batch_runs_scores_and_resumes_to_the_same_trials() {
 }
 
 #[test]
+fn trials_run_in_parallel_give_the_outcomes_of_a_sequential_run() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    setup(d);
+    let run = |threads: &str, out: &str| {
+        let output = std::process::Command::new(env!("CARGO_BIN_EXE_tmo"))
+            .current_dir(d)
+            .env("RAYON_NUM_THREADS", threads)
+            .args(["run", "release.toml", "--repeat", "3", "--out", out])
+            .output()
+            .unwrap();
+        ok(&output);
+        std::fs::read_to_string(d.join(out).join("outcomes.csv")).unwrap()
+    };
+    let sequential = run("1", "one");
+    assert_eq!(sequential.lines().count(), 13);
+    assert_eq!(run("3", "three"), sequential);
+    assert_eq!(sorted_logs(&d.join("three")), sorted_logs(&d.join("one")));
+}
+
+#[test]
 fn malformed_protocols_are_refused_with_their_place() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
@@ -188,11 +209,15 @@ fn ctrl_c_keeps_finished_trials_and_the_batch_resumes() {
         .iter()
         .filter(|l| l.ends_with(".aborted.mcap"))
         .collect();
-    assert_eq!(aborted.len(), 1, "{logs:?}");
-    let trial = tmo::trial::read_trial(&out.join(aborted[0])).unwrap();
-    assert!(trial.events.iter().any(|e| e.topic == "/fault"));
+    // one trial runs per core: each that was running is kept as aborted
+    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+    assert!((1..=cores).contains(&aborted.len()), "{logs:?}");
+    for log in &aborted {
+        let trial = tmo::trial::read_trial(&out.join(log)).unwrap();
+        assert!(trial.events.iter().any(|e| e.topic == "/fault"));
+    }
 
-    let done = logs.len() - 1;
+    let done = logs.len() - aborted.len();
     let stdout = ok(&tmo(
         d,
         &[

@@ -10,9 +10,12 @@
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
 
+use rayon::prelude::*;
+
 use super::rows::ScoredRows;
 use super::{
     aborted_trial_path, catch_spec, expand, faulted_trial_path, trial_path, BatchError, Manifest,
+    PlannedTrial,
 };
 use crate::protocol::{Kind, KindParams, Plan};
 use crate::runner::real_trial::{run_real_trial, RealRig};
@@ -20,7 +23,7 @@ use crate::runner::score::{self, GMinTable};
 use crate::runner::sim_trial::run_sim_trial;
 use crate::runner::staging::Staging;
 use crate::slip::model::ModelFile;
-use crate::trial::{read_trial, sha256_hex, write_trial};
+use crate::trial::{read_trial, sha256_hex, write_trial, Trial};
 
 /// Where and how a batch runs.
 pub struct BatchRequest<'a> {
@@ -65,6 +68,13 @@ pub enum BatchEnd {
         before_trial: String,
         operator_gone: bool,
     },
+}
+
+fn in_trial(t: &PlannedTrial, e: BatchError) -> BatchError {
+    BatchError::InTrial {
+        trial_id: t.trial_id.clone(),
+        source: Box::new(e),
+    }
 }
 
 pub(crate) fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), BatchError> {
@@ -208,106 +218,138 @@ pub fn run_batch(
     let mut rows = ScoredRows::default();
     let (mut ran, mut kept) = (0, 0);
     let mut rerun = 0;
-    for t in &trials {
-        let path = trial_path(out, t);
-        if req.rerun_faulted
-            && path.exists()
-            && read_trial(&path)?.meta.parameters.contains_key("fault")
-        {
-            let aside = faulted_trial_path(out, t);
-            std::fs::rename(&path, &aside).map_err(|source| BatchError::Io {
-                path: aside.clone(),
-                source,
-            })?;
-            rerun += 1;
+    // Simulated trials are independent (each builds its own world from its own seed), so a
+    // window of them runs at once, one per core; they are written and scored in order, so
+    // the outcomes are those of a sequential run. A real rig runs one trial at a time.
+    let window = match rig {
+        BatchRig::Sim => rayon::current_num_threads().max(1),
+        BatchRig::Real { .. } => 1,
+    };
+    for chunk in trials.chunks(window) {
+        for t in chunk {
+            let path = trial_path(out, t);
+            if req.rerun_faulted
+                && path.exists()
+                && read_trial(&path)?.meta.parameters.contains_key("fault")
+            {
+                let aside = faulted_trial_path(out, t);
+                std::fs::rename(&path, &aside).map_err(|source| BatchError::Io {
+                    path: aside.clone(),
+                    source,
+                })?;
+                rerun += 1;
+            }
         }
         // Outcomes are always scored from the log as written, so a resumed batch and an
         // uninterrupted one agree to the last bit.
-        if path.exists() {
-            kept += 1;
-        } else {
-            let unix = std::time::SystemTime::now()
-                .duration_since(std::time::UNIX_EPOCH)
-                .map_or(0, |d| d.as_secs());
-            if let BatchRig::Real { staging, .. } = rig {
-                let ready = bar.suspend(|| staging.stage(plan, t, stop))?;
-                let stopped = stop.load(Ordering::Relaxed);
-                if !ready || stopped {
-                    return Ok(BatchEnd::Interrupted {
-                        finished: ran + kept,
-                        aborted_log: None,
-                        before_trial: t.trial_id.clone(),
-                        operator_gone: !ready && !stopped,
-                    });
+        let missing: Vec<&PlannedTrial> = chunk
+            .iter()
+            .filter(|t| !trial_path(out, t).exists())
+            .collect();
+        kept += chunk.len() - missing.len();
+        let unix = std::time::SystemTime::now()
+            .duration_since(std::time::UNIX_EPOCH)
+            .map_or(0, |d| d.as_secs());
+        // Each run trial, and whether Ctrl-C came before it ended (then it is incomplete).
+        let results: Vec<Result<(Trial, bool), BatchError>> = match rig {
+            BatchRig::Real { staging, rig } => {
+                let mut results = Vec::new();
+                for t in &missing {
+                    let ready = bar.suspend(|| staging.stage(plan, t, stop))?;
+                    let stopped = stop.load(Ordering::Relaxed);
+                    if !ready || stopped {
+                        return Ok(BatchEnd::Interrupted {
+                            finished: ran + kept,
+                            aborted_log: None,
+                            before_trial: t.trial_id.clone(),
+                            operator_gone: !ready && !stopped,
+                        });
+                    }
+                    let trial = run_real_trial(plan, t, &models, rig, unix, stop)
+                        .map_err(|e| in_trial(t, e))
+                        .map(|trial| (trial, stop.load(Ordering::Relaxed)));
+                    results.push(trial);
                 }
+                results
             }
-            let trial = match rig {
-                BatchRig::Real { rig, .. } => run_real_trial(plan, t, &models, rig, unix, stop),
-                BatchRig::Sim => run_sim_trial(plan, t, &models, unix, stop),
-            }
-            .map_err(|e| BatchError::InTrial {
-                trial_id: t.trial_id.clone(),
-                source: Box::new(e),
-            })?;
-            if stop.load(Ordering::Relaxed) {
+            BatchRig::Sim => missing
+                .par_iter()
+                .map(|t| {
+                    run_sim_trial(plan, t, &models, unix, stop)
+                        .map_err(|e| in_trial(t, e))
+                        .map(|trial| (trial, stop.load(Ordering::Relaxed)))
+                })
+                .collect(),
+        };
+        let mut aborted_log = None;
+        for (t, result) in missing.iter().zip(results) {
+            let (trial, interrupted) = result?;
+            if interrupted {
                 let aborted = aborted_trial_path(out, t);
                 write_trial(&aborted, &trial)?;
-                return Ok(BatchEnd::Interrupted {
-                    finished: ran + kept,
-                    aborted_log: Some(aborted),
-                    before_trial: t.trial_id.clone(),
-                    operator_gone: false,
-                });
+                aborted_log.get_or_insert((aborted, t.trial_id.clone()));
+            } else {
+                write_trial(&trial_path(out, t), &trial)?;
+                ran += 1;
             }
-            write_trial(&path, &trial)?;
-            ran += 1;
         }
-        let trial = read_trial(&path)?;
-        let m = &trial.meta;
-        let foreign = if m.trial_id != t.trial_id {
-            Some(format!("it is {}", m.trial_id))
-        } else if m.seed != t.seed {
-            Some(format!("its seed is {}, the trial's {}", m.seed, t.seed))
-        } else if m.protocol_sha256.as_deref() != Some(plan.source_sha256.as_str()) {
-            Some("another protocol made it".to_string())
-        } else {
-            None
-        };
-        if let Some(what) = foreign {
-            return Err(BatchError::ForeignLog {
-                path,
-                trial_id: t.trial_id.clone(),
-                what,
+        if let Some((aborted, before_trial)) = aborted_log {
+            return Ok(BatchEnd::Interrupted {
+                finished: ran + kept,
+                aborted_log: Some(aborted),
+                before_trial,
+                operator_gone: false,
             });
         }
-        let message = match &plan.params {
-            KindParams::FirstTimeLift(_) => {
-                let row = score::score_first_time_lift(&trial, onset_mm, g_min.as_ref());
-                let m = if row.success { "lifted" } else { "not lifted" };
-                rows.lift.push(row);
-                m.to_string()
+        for t in chunk {
+            let path = trial_path(out, t);
+            let trial = read_trial(&path)?;
+            let m = &trial.meta;
+            let foreign = if m.trial_id != t.trial_id {
+                Some(format!("it is {}", m.trial_id))
+            } else if m.seed != t.seed {
+                Some(format!("its seed is {}, the trial's {}", m.seed, t.seed))
+            } else if m.protocol_sha256.as_deref() != Some(plan.source_sha256.as_str()) {
+                Some("another protocol made it".to_string())
+            } else {
+                None
+            };
+            if let Some(what) = foreign {
+                return Err(BatchError::ForeignLog {
+                    path,
+                    trial_id: t.trial_id.clone(),
+                    what,
+                });
             }
-            KindParams::CalibrateLift(p) => {
-                let row = score::score_calibration(&trial, onset_mm, p.max_slide_mm);
-                let m = row
-                    .g_min
-                    .map_or("no g_min".into(), |g| format!("g_min {g:.3}"));
-                rows.calibration.push(row);
-                m
-            }
-            _ => {
-                let row = score::score_trial(&trial, &spec);
-                let m = match plan.mode {
-                    // a collect trial never reacts: its verdict says nothing
-                    crate::protocol::Mode::Collect => "collected".to_string(),
-                    crate::protocol::Mode::Online => row.verdict.label().to_string(),
-                };
-                rows.catch.push(row);
-                m
-            }
-        };
-        bar.set_message(format!("{}: {message}", t.trial_id));
-        bar.inc(1);
+            let message = match &plan.params {
+                KindParams::FirstTimeLift(_) => {
+                    let row = score::score_first_time_lift(&trial, onset_mm, g_min.as_ref());
+                    let m = if row.success { "lifted" } else { "not lifted" };
+                    rows.lift.push(row);
+                    m.to_string()
+                }
+                KindParams::CalibrateLift(p) => {
+                    let row = score::score_calibration(&trial, onset_mm, p.max_slide_mm);
+                    let m = row
+                        .g_min
+                        .map_or("no g_min".into(), |g| format!("g_min {g:.3}"));
+                    rows.calibration.push(row);
+                    m
+                }
+                _ => {
+                    let row = score::score_trial(&trial, &spec);
+                    let m = match plan.mode {
+                        // a collect trial never reacts: its verdict says nothing
+                        crate::protocol::Mode::Collect => "collected".to_string(),
+                        crate::protocol::Mode::Online => row.verdict.label().to_string(),
+                    };
+                    rows.catch.push(row);
+                    m
+                }
+            };
+            bar.set_message(format!("{}: {message}", t.trial_id));
+            bar.inc(1);
+        }
     }
 
     let csv_path = out.join("outcomes.csv");
