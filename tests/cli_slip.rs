@@ -95,6 +95,157 @@ fn export_train_evaluate_and_a_model_from_the_future() {
 }
 
 #[test]
+fn three_shards_merged_give_the_sweep_one_run_gives() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    collect(d, "8", "trials", "5");
+    let grid = [
+        "sweep",
+        "trials",
+        "--classifiers",
+        "logreg,threshold",
+        "--downsample",
+        "0.5,1.0",
+        "--n-slip",
+        "3:5",
+        "--C",
+        "1",
+    ];
+    ok(&tmo(d, &[&grid[..], &["--out", "one/sweep.csv"]].concat()));
+    // three processes, as three cluster jobs would be
+    let shards: Vec<_> = (1..=3)
+        .map(|k| {
+            let (shard, out) = (format!("{k}/3"), format!("parts/s{k}.csv"));
+            std::process::Command::new(env!("CARGO_BIN_EXE_tmo"))
+                .current_dir(d)
+                .args(grid)
+                .args(["--shard", &shard, "--out", &out])
+                .output()
+                .unwrap()
+        })
+        .collect();
+    for (k, out) in shards.iter().enumerate() {
+        let stdout = ok(out);
+        assert!(
+            stdout.contains("4 cells to run"),
+            "shard {}: {stdout}",
+            k + 1
+        );
+    }
+    let merge = |parts: &[&str]| {
+        let mut args = vec!["sweep", "merge"];
+        args.extend_from_slice(parts);
+        args.extend_from_slice(&["--out", "merged/sweep.csv"]);
+        tmo(d, &args)
+    };
+    let stdout = ok(&merge(&["parts/s3.csv", "parts/s1.csv", "parts/s2.csv"]));
+    assert!(stdout.contains("merged 3 shards into 12 cells"), "{stdout}");
+    // identical apart from the timing column
+    let strip_seconds = |path: &str| -> Vec<String> {
+        std::fs::read_to_string(d.join(path))
+            .unwrap()
+            .lines()
+            .map(|l| l.rsplit_once(',').unwrap().0.to_string())
+            .collect()
+    };
+    assert_eq!(
+        strip_seconds("merged/sweep.csv"),
+        strip_seconds("one/sweep.csv")
+    );
+    let provenance = |path: &str| {
+        let mut v: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(d.join(path)).unwrap()).unwrap();
+        let o = v.as_object_mut().unwrap();
+        o.remove("command");
+        o.remove("wall_seconds");
+        v
+    };
+    assert_eq!(
+        provenance("merged/sweep.json"),
+        provenance("one/sweep.json")
+    );
+    assert!(d.join("merged/sweep_fig5_f1_logreg.png").exists());
+
+    // parts missing, repeated, or of another sweep are refused
+    let err = fails(&merge(&["parts/s1.csv", "parts/s2.csv"]));
+    assert!(err.contains("shard(s) 3/3 not given"), "{err}");
+    let err = fails(&merge(&["parts/s1.csv", "parts/s1.csv", "parts/s2.csv"]));
+    assert!(err.contains("are both shard 1/3"), "{err}");
+    let err = fails(&merge(&["one/sweep.csv"]));
+    assert!(err.contains("not a shard"), "{err}");
+    let err = fails(&tmo(d, &[&grid[..], &["--shard", "4/3"]].concat()));
+    assert!(err.contains("K/N with 1 <= K <= N"), "{err}");
+}
+
+/// A stand-in for Slurm's `sbatch`: runs each job at once, array tasks one after another,
+/// with the environment Slurm gives them.
+const FAKE_SBATCH: &str = r#"#!/usr/bin/env bash
+set -euo pipefail
+array="" wrap="" script=""
+for a in "$@"; do
+  case "$a" in
+    --array=*) array="${a#--array=}";;
+    --wrap=*) wrap="${a#--wrap=}";;
+    --*) ;;
+    *) script="$a";;
+  esac
+done
+echo "$*" >> sbatch.calls
+if [[ -n "$wrap" ]]; then bash -c "$wrap" >&2; echo 2; exit; fi
+lo="${array%-*}"; hi="${array#*-}"
+for k in $(seq "$lo" "$hi"); do
+  SLURM_ARRAY_TASK_ID=$k SLURM_ARRAY_TASK_COUNT=$((hi - lo + 1)) bash "$script" >&2
+done
+echo 1
+"#;
+
+#[test]
+fn the_slurm_scripts_run_an_array_of_shards_then_the_merge() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    collect(d, "8", "trials", "5");
+    std::fs::create_dir(d.join("bin")).unwrap();
+    let sbatch = d.join("bin/sbatch");
+    std::fs::write(&sbatch, FAKE_SBATCH).unwrap();
+    std::process::Command::new("chmod")
+        .args(["+x", sbatch.to_str().unwrap()])
+        .status()
+        .unwrap();
+    let script = concat!(env!("CARGO_MANIFEST_DIR"), "/scripts/slurm/submit-sweep.sh");
+    let path = format!(
+        "{}:{}",
+        d.join("bin").display(),
+        std::env::var("PATH").unwrap_or_default()
+    );
+    let out = std::process::Command::new("bash")
+        .arg(script)
+        .current_dir(d)
+        .env("PATH", path)
+        .env("SHARDS", "2")
+        .env("TMO", env!("CARGO_BIN_EXE_tmo"))
+        .env("TRIALS", "trials")
+        .env("TEST", "trials")
+        .env("OUT", "res/sweep.csv")
+        .env(
+            "SWEEP_ARGS",
+            "--classifiers logreg,threshold --downsample 0.5,1.0 --n-slip 3:4 --C 1",
+        )
+        .output()
+        .unwrap();
+    let stdout = ok(&out);
+    assert!(
+        stdout.contains("queued shards as job 1 (array 1-2)"),
+        "{stdout}"
+    );
+    let calls = std::fs::read_to_string(d.join("sbatch.calls")).unwrap();
+    assert!(calls.contains("--dependency=afterok:1"), "{calls}");
+    assert_eq!(csv_rows(&d.join("res/sweep.csv")), 8);
+    assert!(d.join("res/shard-2-of-2.csv").exists());
+    assert!(d.join("res/sweep_fig5_f1_logreg.png").exists());
+    assert!(!d.join("res/shard-1-of-2_fig5_f1_logreg.png").exists());
+}
+
+#[test]
 fn a_sweep_fills_its_grid_and_resumes_after_an_interruption() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();

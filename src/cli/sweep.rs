@@ -10,14 +10,17 @@ use anyhow::{Context, Result};
 use tmo::slip::dataset::{split_trials, LabelSpec, Scope};
 use tmo::slip::labels::OnsetSpec;
 use tmo::slip::model::{ClassifierKind, Hyperparameters, TrialRef};
-use tmo::slip::sweep::{parse_f64_grid, parse_usize_grid, HyperChoice, SweepSpec};
-use tmo::slip::sweep_file::{run_to_file, SweepTarget};
+use tmo::slip::sweep::{parse_f64_grid, parse_usize_grid, HyperChoice, Shard, SweepRow, SweepSpec};
+use tmo::slip::sweep_file::{merge, read_rows, run_to_file, write_rows, SweepTarget};
 use tmo::trial::{expand_trial_paths, TrialMeta};
 
 use super::slip::{load_dataset, SearchMethod};
 
 #[derive(clap::Args)]
+#[command(args_conflicts_with_subcommands = true, subcommand_negates_reqs = true)]
 pub struct SweepArgs {
+    #[command(subcommand)]
+    command: Option<SweepCommand>,
     /// Trial logs (.mcap) or directories of them; split by trial into train and test
     /// unless --test is given.
     #[arg(required = true)]
@@ -66,28 +69,55 @@ pub struct SweepArgs {
     /// Finish an interrupted sweep with the same arguments, keeping its finished cells.
     #[arg(long)]
     resume: bool,
+    /// Run only part K of N of the grid (e.g. 2/8, one per cluster job); `tmo sweep merge`
+    /// joins the parts' CSVs into the one a single run writes.
+    #[arg(long, value_name = "K/N")]
+    shard: Option<Shard>,
+    /// The CSV to write; its provenance goes beside it as .json, its heatmaps as .png.
     #[arg(long, default_value = "results/sweep.csv")]
     out: PathBuf,
 }
 
-#[derive(serde::Serialize)]
-struct SweepProvenance<'a> {
+#[derive(clap::Subcommand)]
+enum SweepCommand {
+    /// Join the CSVs of a sharded sweep (`tmo sweep ... --shard K/N`) into one.
+    Merge(MergeArgs),
+}
+
+#[derive(clap::Args)]
+struct MergeArgs {
+    /// Every shard's CSV (each with its provenance .json beside it).
+    #[arg(required = true)]
+    shards: Vec<PathBuf>,
+    #[arg(long, default_value = "results/sweep.csv")]
+    out: PathBuf,
+}
+
+/// What `sweep.json` records. A shard's also names its part; `tmo sweep merge` checks
+/// that the shards agree on everything else.
+#[derive(serde::Serialize, serde::Deserialize, PartialEq)]
+struct SweepProvenance {
     command: Vec<String>,
-    classifiers: Vec<&'static str>,
-    downsample: &'a [f64],
-    n_slip: &'a [usize],
+    classifiers: Vec<ClassifierKind>,
+    downsample: Vec<f64>,
+    n_slip: Vec<usize>,
     scope: Scope,
     hyperparameters: String,
     seed: u64,
     onset_threshold_mm: f64,
-    train_trials: Vec<&'a TrialRef>,
-    test_trials: Vec<&'a TrialRef>,
+    train_trials: Vec<TrialRef>,
+    test_trials: Vec<TrialRef>,
     tmo_version: String,
     git_revision: String,
     wall_seconds: f64,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    shard: Option<String>,
 }
 
 pub fn sweep(args: SweepArgs) -> Result<()> {
+    if let Some(SweepCommand::Merge(m)) = args.command {
+        return merge_shards(m);
+    }
     let downsample = parse_f64_grid(&args.downsample).context("--downsample")?;
     let n_slip = parse_usize_grid(&args.n_slip).context("--n-slip")?;
     anyhow::ensure!(
@@ -161,7 +191,7 @@ pub fn sweep(args: SweepArgs) -> Result<()> {
             .collect();
         tmo::trial::sha256_hex(joined.as_bytes())
     };
-    let identity = format!(
+    let mut identity = format!(
         "scope {:?}\nhyperparameters {:?}\nseed {}\nonset_threshold_mm {}\ntraining trials {}\ntest trials {}\n",
         args.scope,
         hyper,
@@ -170,11 +200,15 @@ pub fn sweep(args: SweepArgs) -> Result<()> {
         trial_hashes(false),
         trial_hashes(true)
     );
+    if let Some(shard) = args.shard {
+        identity.push_str(&format!("shard {shard}\n"));
+    }
     let target = SweepTarget {
         out: &args.out,
         resume: args.resume,
         identity,
         stop: None,
+        shard: args.shard,
     };
     let result = run_to_file(
         &train,
@@ -209,9 +243,9 @@ pub fn sweep(args: SweepArgs) -> Result<()> {
     let (tmo_version, git_revision) = TrialMeta::code_version();
     let provenance = SweepProvenance {
         command: std::env::args().collect(),
-        classifiers: spec.classifiers.iter().map(|k| k.name()).collect(),
-        downsample: &downsample,
-        n_slip: &n_slip,
+        classifiers: spec.classifiers.clone(),
+        downsample: downsample.clone(),
+        n_slip: n_slip.clone(),
         scope: args.scope,
         hyperparameters: match hyper {
             HyperChoice::Fixed(h) => format!("fixed C = {}, gamma = {}", h.c, h.gamma),
@@ -225,28 +259,44 @@ pub fn sweep(args: SweepArgs) -> Result<()> {
             .iter()
             .zip(&is_test)
             .filter(|(_, t)| !**t)
-            .map(|(r, _)| r)
+            .map(|(r, _)| r.clone())
             .collect(),
         test_trials: refs
             .iter()
             .zip(&is_test)
             .filter(|(_, t)| **t)
-            .map(|(r, _)| r)
+            .map(|(r, _)| r.clone())
             .collect(),
         tmo_version,
         git_revision,
         wall_seconds: started.elapsed().as_secs_f64(),
+        shard: args.shard.map(|s| s.to_string()),
     };
-    let meta_path = args.out.with_extension("json");
-    std::fs::write(&meta_path, serde_json::to_string_pretty(&provenance)?)
+    write_outputs(
+        &args.out,
+        &provenance,
+        &rows,
+        started.elapsed().as_secs_f64(),
+    )
+}
+
+/// Writes the provenance beside the CSV, prints the best cells and draws the heatmaps.
+fn write_outputs(
+    out: &std::path::Path,
+    provenance: &SweepProvenance,
+    rows: &[SweepRow],
+    seconds: f64,
+) -> Result<()> {
+    let meta_path = out.with_extension("json");
+    std::fs::write(&meta_path, serde_json::to_string_pretty(provenance)?)
         .with_context(|| format!("cannot write {}", meta_path.display()))?;
 
     println!(
         "{} cells in {:.1} s; best test macro F1 per classifier:",
         rows.len(),
-        started.elapsed().as_secs_f64()
+        seconds
     );
-    for kind in &spec.classifiers {
+    for kind in &provenance.classifiers {
         let best = rows
             .iter()
             .filter(|r| r.classifier == kind.name())
@@ -274,20 +324,122 @@ pub fn sweep(args: SweepArgs) -> Result<()> {
             );
         }
     }
-    println!("wrote {} and {}", args.out.display(), meta_path.display());
+    println!("wrote {} and {}", out.display(), meta_path.display());
+    if provenance.shard.is_some() {
+        // a shard's heatmaps would show holes: `tmo sweep merge` draws the whole grid
+        return Ok(());
+    }
     // The paper's Fig. 5, through the same code as `tmo report --plots`.
-    let plot_dir = args
-        .out
+    let plot_dir = out
         .parent()
         .filter(|p| !p.as_os_str().is_empty())
         .unwrap_or(std::path::Path::new("."));
     // Named after the CSV, so two sweeps in one directory keep their own figures.
-    let prefix = args
-        .out
+    let prefix = out
         .file_stem()
         .map_or(String::new(), |s| format!("{}_", s.to_string_lossy()));
-    let figures = tmo::plots::offline::sweep_heatmaps(&rows, plot_dir, &prefix)?;
+    let figures = tmo::plots::offline::sweep_heatmaps(rows, plot_dir, &prefix)?;
     let names: Vec<String> = figures.iter().map(|p| p.display().to_string()).collect();
     println!("wrote {}", names.join(", "));
     Ok(())
+}
+
+/// `tmo sweep merge`: the shards' rows as one sweep, after checking that the shards are the
+/// parts of one grid (same settings and trials, each part once, none missing).
+fn merge_shards(args: MergeArgs) -> Result<()> {
+    let started = std::time::Instant::now();
+    let mut first: Option<(PathBuf, SweepProvenance)> = None;
+    let mut parts = Vec::new();
+    let mut seen: Vec<(Shard, PathBuf)> = Vec::new();
+    let mut wall = 0.0f64;
+    for csv in &args.shards {
+        let meta_path = csv.with_extension("json");
+        let text = std::fs::read_to_string(&meta_path).with_context(|| {
+            format!(
+                "cannot read {}, the provenance `tmo sweep --shard` writes beside {}",
+                meta_path.display(),
+                csv.display()
+            )
+        })?;
+        let mut p: SweepProvenance = serde_json::from_str(&text)
+            .with_context(|| format!("{}: not a sweep's provenance", meta_path.display()))?;
+        let shard: Shard = p
+            .shard
+            .as_deref()
+            .with_context(|| {
+                format!(
+                    "{}: not a shard (its sweep ran without --shard)",
+                    meta_path.display()
+                )
+            })?
+            .parse()
+            .with_context(|| format!("{}: shard", meta_path.display()))?;
+        if let Some((_, other)) = seen.iter().find(|(s, _)| s.index == shard.index) {
+            anyhow::bail!(
+                "{} and {} are both shard {shard}",
+                csv.display(),
+                other.display()
+            );
+        }
+        seen.push((shard, csv.clone()));
+        wall = wall.max(p.wall_seconds);
+        // what may differ between the parts of one sweep
+        p.command.clear();
+        p.wall_seconds = 0.0;
+        p.shard = None;
+        match &first {
+            None => first = Some((csv.clone(), p)),
+            Some((path, f)) => {
+                anyhow::ensure!(
+                    *f == p,
+                    "{} is a shard of another sweep than {} (settings, trials or code version differ)",
+                    csv.display(),
+                    path.display()
+                );
+            }
+        }
+        parts.push((csv.clone(), read_rows(csv)?));
+    }
+    let (_, mut provenance) = first.context("no shards given")?;
+    let count = seen[0].0.count;
+    if let Some((s, path)) = seen.iter().find(|(s, _)| s.count != count) {
+        anyhow::bail!(
+            "{} is shard {s}, another shard is of {count}",
+            path.display()
+        );
+    }
+    let missing: Vec<String> = (1..=count)
+        .filter(|k| !seen.iter().any(|(s, _)| s.index == *k))
+        .map(|k| format!("{k}/{count}"))
+        .collect();
+    anyhow::ensure!(
+        missing.is_empty(),
+        "shard(s) {} not given",
+        missing.join(", ")
+    );
+    let spec = SweepSpec {
+        classifiers: provenance.classifiers.clone(),
+        downsample: provenance.downsample.clone(),
+        n_slip: provenance.n_slip.clone(),
+        scope: provenance.scope,
+        hyper: HyperChoice::Fixed(Hyperparameters::default()),
+        seed: provenance.seed,
+    };
+    let rows = merge(&spec, parts)?;
+    if let Some(dir) = args.out.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
+    }
+    // one writer at a time, as for a sweep
+    let _lock = tmo::lock::OutputLock::acquire(&args.out)?;
+    write_rows(&args.out, &rows)?;
+    provenance.command = std::env::args().collect();
+    // the shards ran side by side: the sweep took as long as the slowest
+    provenance.wall_seconds = wall;
+    println!("merged {count} shards into {} cells", rows.len());
+    write_outputs(
+        &args.out,
+        &provenance,
+        &rows,
+        started.elapsed().as_secs_f64(),
+    )
 }

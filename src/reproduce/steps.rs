@@ -479,6 +479,7 @@ fn rail_sweep(ctx: &Context, c: &Counts, dir: &Path) -> Result<bool, ReproduceEr
         // the step's directory is fresh whenever its inputs changed
         identity: format!("reproduce {} {:?}\n", ctx.preset.name(), spec.hyper),
         stop: Some(ctx.stop),
+        shard: None,
     };
     let result = run_to_file(
         &train,

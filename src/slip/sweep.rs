@@ -171,6 +171,68 @@ impl SweepSpec {
     }
 }
 
+/// A deterministic part of a grid, for running one grid over several processes or cluster
+/// jobs: shard `index` of `count` (1-based) takes the cells at positions `index - 1`,
+/// `index - 1 + count`, ... of [`SweepSpec::cells`]. That order is costliest first, so
+/// every shard gets a like share of the work.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Shard {
+    pub index: usize,
+    pub count: usize,
+}
+
+impl std::str::FromStr for Shard {
+    type Err = RangeError;
+
+    fn from_str(text: &str) -> Result<Self, RangeError> {
+        let err = || RangeError {
+            text: text.to_string(),
+            expected: "K/N with 1 <= K <= N, e.g. 2/8",
+        };
+        let (k, n) = text.split_once('/').ok_or_else(err)?;
+        let (index, count) = (
+            k.trim().parse::<usize>().map_err(|_| err())?,
+            n.trim().parse::<usize>().map_err(|_| err())?,
+        );
+        if index == 0 || index > count {
+            return Err(err());
+        }
+        Ok(Shard { index, count })
+    }
+}
+
+impl std::fmt::Display for Shard {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{}/{}", self.index, self.count)
+    }
+}
+
+impl Shard {
+    /// This shard's cells of `cells` (in [`SweepSpec::cells`] order).
+    pub fn select(&self, cells: Vec<Cell>) -> Vec<Cell> {
+        cells
+            .into_iter()
+            .enumerate()
+            .filter(|(i, _)| i % self.count == self.index - 1)
+            .map(|(_, c)| c)
+            .collect()
+    }
+}
+
+/// Sorts rows into the order a sweep's CSV has: classifiers as `classifiers` lists them,
+/// then n_slip, then d.
+pub fn sort_rows(rows: &mut [SweepRow], classifiers: &[String]) {
+    let rank = |r: &SweepRow| {
+        classifiers
+            .iter()
+            .position(|k| *k == r.classifier)
+            .unwrap_or(usize::MAX)
+    };
+    rows.sort_by(|a, b| {
+        (rank(a), a.n_slip, &a.downsample).cmp(&(rank(b), b.n_slip, &b.downsample))
+    });
+}
+
 /// Trains and scores one cell.
 pub fn run_cell(
     train: &Dataset,
@@ -360,6 +422,40 @@ mod tests {
             assert!(parse_f64_grid(bad).is_err(), "{bad}");
         }
         assert!(parse_usize_grid("1.5:3").is_err());
+    }
+
+    #[test]
+    fn shards_split_the_grid_into_disjoint_parts_of_like_cost() {
+        let spec = SweepSpec {
+            classifiers: vec![ClassifierKind::SvmRbf, ClassifierKind::Threshold],
+            downsample: vec![0.2, 0.5, 1.0],
+            n_slip: vec![1, 2, 3, 4],
+            scope: Scope::Global,
+            hyper: HyperChoice::Fixed(Hyperparameters::default()),
+            seed: 0,
+        };
+        let all = spec.cells();
+        let mut joined = Vec::new();
+        for index in 1..=3 {
+            let shard: Shard = format!("{index}/3").parse().unwrap();
+            let part = shard.select(all.clone());
+            assert_eq!(part.len(), 8);
+            // each shard gets its share of the costly RBF cells
+            let rbf = part
+                .iter()
+                .filter(|c| c.classifier == ClassifierKind::SvmRbf)
+                .count();
+            assert_eq!(rbf, 4);
+            joined.extend(part.iter().map(Cell::key));
+        }
+        joined.sort();
+        let mut keys: Vec<_> = all.iter().map(Cell::key).collect();
+        keys.sort();
+        assert_eq!(joined, keys, "every cell once");
+        for bad in ["0/3", "4/3", "3", "a/b", "1/0"] {
+            assert!(bad.parse::<Shard>().is_err(), "{bad}");
+        }
+        assert_eq!("2/8".parse::<Shard>().unwrap().to_string(), "2/8");
     }
 
     #[test]

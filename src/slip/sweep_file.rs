@@ -11,7 +11,7 @@ use std::sync::atomic::AtomicBool;
 use std::sync::Mutex;
 
 use super::dataset::Dataset;
-use super::sweep::{run_sweep_until, SweepError, SweepRow, SweepSpec};
+use super::sweep::{run_sweep_until, sort_rows, Shard, SweepError, SweepRow, SweepSpec};
 
 #[derive(Debug, thiserror::Error)]
 pub enum SweepFileError {
@@ -32,6 +32,20 @@ pub enum SweepFileError {
         was: String,
         now: String,
     },
+    #[error("{path}: cell {cell} is also in {other}: the shards overlap")]
+    ShardOverlap {
+        path: PathBuf,
+        other: PathBuf,
+        cell: String,
+    },
+    #[error("the shards hold {got} of the grid's {expected} cells; missing: {missing}")]
+    ShardsIncomplete {
+        got: usize,
+        expected: usize,
+        missing: String,
+    },
+    #[error("{path}: cell {cell} is not in the grid the shards were run with")]
+    ShardForeignCell { path: PathBuf, cell: String },
     #[error("sweep stopped; finished cells are in {partial} (run again with --resume): {source}")]
     Sweep {
         partial: PathBuf,
@@ -140,6 +154,8 @@ pub struct SweepTarget<'a> {
     pub identity: String,
     /// Start no more cells once set.
     pub stop: Option<&'a AtomicBool>,
+    /// Run only this part of the grid ([`merge`] joins the parts).
+    pub shard: Option<Shard>,
 }
 
 fn identity_path(out: &Path) -> PathBuf {
@@ -202,8 +218,11 @@ pub fn run_to_file(
         Vec::new()
     };
     let finished: HashSet<_> = done.iter().map(SweepRow::key).collect();
-    let cells: Vec<_> = spec
-        .cells()
+    let grid = match target.shard {
+        Some(shard) => shard.select(spec.cells()),
+        None => spec.cells(),
+    };
+    let cells: Vec<_> = grid
         .into_iter()
         .filter(|c| !finished.contains(&c.key()))
         .collect();
@@ -251,15 +270,8 @@ pub fn run_to_file(
     let ran = new_rows.len();
     let mut rows = done;
     rows.extend(new_rows);
-    let rank = |r: &SweepRow| {
-        spec.classifiers
-            .iter()
-            .position(|k| k.name() == r.classifier)
-            .unwrap_or(usize::MAX)
-    };
-    rows.sort_by(|a, b| {
-        (rank(a), a.n_slip, &a.downsample).cmp(&(rank(b), b.n_slip, &b.downsample))
-    });
+    let order: Vec<String> = spec.classifiers.iter().map(|k| k.name().into()).collect();
+    sort_rows(&mut rows, &order);
     rows.dedup_by(|a, b| a.key() == b.key());
     write_rows(out, &rows)?;
     let _ = std::fs::remove_file(&partial);
@@ -269,4 +281,58 @@ pub fn run_to_file(
         ran,
         rows,
     })
+}
+
+/// Joins the rows of a sweep's shards (`parts`: each shard's CSV and rows) into the rows a
+/// single run of `spec` writes: every cell of the grid exactly once, in the CSV's order.
+pub fn merge(
+    spec: &SweepSpec,
+    parts: Vec<(PathBuf, Vec<SweepRow>)>,
+) -> Result<Vec<SweepRow>, SweepFileError> {
+    let grid: HashSet<_> = spec.cells().iter().map(|c| c.key()).collect();
+    let mut seen: std::collections::HashMap<_, PathBuf> = std::collections::HashMap::new();
+    let mut rows = Vec::new();
+    let name = |k: &(String, usize, String)| format!("{} n_slip {} d {}", k.0, k.1, k.2);
+    for (path, part) in parts {
+        for row in part {
+            let key = row.key();
+            if !grid.contains(&key) {
+                return Err(SweepFileError::ShardForeignCell {
+                    path,
+                    cell: name(&key),
+                });
+            }
+            if let Some(other) = seen.get(&key) {
+                return Err(SweepFileError::ShardOverlap {
+                    path,
+                    other: other.clone(),
+                    cell: name(&key),
+                });
+            }
+            seen.insert(key, path.clone());
+            rows.push(row);
+        }
+    }
+    if rows.len() < grid.len() {
+        let mut missing: Vec<_> = spec
+            .cells()
+            .iter()
+            .map(|c| c.key())
+            .filter(|k| !seen.contains_key(k))
+            .collect();
+        missing.sort();
+        let shown: Vec<String> = missing.iter().take(3).map(name).collect();
+        return Err(SweepFileError::ShardsIncomplete {
+            got: rows.len(),
+            expected: grid.len(),
+            missing: format!(
+                "{}{}",
+                shown.join(", "),
+                if missing.len() > 3 { ", ..." } else { "" }
+            ),
+        });
+    }
+    let order: Vec<String> = spec.classifiers.iter().map(|k| k.name().into()).collect();
+    sort_rows(&mut rows, &order);
+    Ok(rows)
 }
