@@ -143,7 +143,7 @@ pub fn run(args: RunArgs) -> Result<u8> {
         BatchEnd::Finished(s) => s,
         BatchEnd::Interrupted {
             finished,
-            aborted_log,
+            aborted_logs,
             before_trial,
             operator_gone,
         } => {
@@ -152,16 +152,21 @@ pub fn run(args: RunArgs) -> Result<u8> {
                 "the operator's terminal closed before {before_trial}: {finished} finished trial(s) are in {}; run again with --resume to finish",
                 out.display()
             );
-            match aborted_log {
-                Some(a) => eprintln!(
-                    "interrupted: {finished} finished trial(s) are in {}; {} kept as aborted; run again with --resume to finish",
-                    out.display(),
-                    a.display()
-                ),
-                None => eprintln!(
+            if aborted_logs.is_empty() {
+                eprintln!(
                     "interrupted before {before_trial}: {finished} finished trial(s) are in {}; run again with --resume to finish",
                     out.display()
-                ),
+                );
+            } else {
+                let names: Vec<String> = aborted_logs
+                    .iter()
+                    .map(|a| a.display().to_string())
+                    .collect();
+                eprintln!(
+                    "interrupted: {finished} finished trial(s) are in {}; {} kept as aborted; run again with --resume to finish",
+                    out.display(),
+                    names.join(", ")
+                );
             }
             std::process::exit(EXIT_INTERRUPTED);
         }
