@@ -14,6 +14,7 @@ pub mod report;
 pub mod reproduce;
 pub mod runner;
 pub mod scenario;
+pub mod shard;
 pub mod sim_presets;
 pub mod slip;
 pub mod trace;

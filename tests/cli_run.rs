@@ -98,6 +98,64 @@ fn trials_run_in_parallel_give_the_outcomes_of_a_sequential_run() {
 }
 
 #[test]
+fn a_batch_run_in_shards_reports_as_the_whole_batch() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    setup(d);
+    ok(&tmo(d, &["run", "release.toml", "--out", "whole"]));
+    for k in 1..=3 {
+        let stdout = ok(&tmo(
+            d,
+            &[
+                "run",
+                "release.toml",
+                "--shard",
+                &format!("{k}/3"),
+                "--out",
+                &format!("s{k}"),
+            ],
+        ));
+        assert!(
+            stdout.contains(if k < 3 { "3 trials" } else { "2 trials" }),
+            "{stdout}"
+        );
+    }
+    let mut parts: Vec<String> = (1..=3)
+        .flat_map(|k| sorted_logs(&d.join(format!("s{k}"))))
+        .collect();
+    parts.sort();
+    assert_eq!(
+        parts,
+        sorted_logs(&d.join("whole")),
+        "every trial once, same names"
+    );
+    let report = |dirs: &[&str]| {
+        let mut args = vec!["report"];
+        args.extend_from_slice(dirs);
+        args.extend_from_slice(&["--format", "json"]);
+        ok(&tmo(d, &args))
+    };
+    let whole = report(&["whole"]);
+    let joined = report(&["s2", "s1", "s3"]).replace("\"s2\"", "\"whole\"");
+    assert_eq!(joined, whole);
+    let err = fails(&tmo(d, &["report", "s1", "s2"]));
+    assert!(err.contains("shard(s) 3/3 not given"), "{err}");
+    let err = fails(&tmo(
+        d,
+        &[
+            "run",
+            "release.toml",
+            "--shard",
+            "1/3",
+            "--out",
+            "s2",
+            "--resume",
+        ],
+    ));
+    assert!(err.contains("it holds 2/3, this run 1/3"), "{err}");
+}
+
+#[test]
 fn malformed_protocols_are_refused_with_their_place() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();

@@ -42,6 +42,10 @@ pub struct RunArgs {
     /// fault is an outcome (a refused motion, a device error), and the report counts it.
     #[arg(long, requires = "resume")]
     rerun_faulted: bool,
+    /// Run only part K of N of the batch's trials (every N-th), e.g. one cluster job each;
+    /// `tmo report` over the N directories joins them. Simulator only.
+    #[arg(long, value_name = "K/N")]
+    shard: Option<tmo::shard::Shard>,
     /// With `--backend real`: the hardware file.
     #[arg(long)]
     hardware: Option<PathBuf>,
@@ -56,6 +60,10 @@ pub struct RunArgs {
 
 /// Runs the batch; the exit code (0, or 3 when a replay skipped damaged logs).
 pub fn run(args: RunArgs) -> Result<u8> {
+    anyhow::ensure!(
+        args.shard.is_none() || args.backend == Backend::Sim,
+        "--shard splits simulated batches (--backend sim); a real rig runs its trials in one batch"
+    );
     anyhow::ensure!(
         args.backend != Backend::Real || args.hardware.is_some(),
         "--backend real needs --hardware FILE (see hardware/tmo.toml; `tmo sim serve` writes one for the simulator)"
@@ -135,12 +143,13 @@ pub fn run(args: RunArgs) -> Result<u8> {
         out: &out,
         resume: args.resume,
         rerun_faulted: args.rerun_faulted,
+        shard: args.shard,
     };
     let end = run_batch(&request, &mut rig, &stop, &bar)
         .with_context(|| args.protocol.display().to_string())?;
     bar.finish_and_clear();
     let summary = match end {
-        BatchEnd::Finished(s) => s,
+        BatchEnd::Finished(s) => *s,
         BatchEnd::Interrupted {
             finished,
             aborted_logs,

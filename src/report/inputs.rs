@@ -215,5 +215,99 @@ pub fn load(paths: &[PathBuf]) -> Result<Inputs, InputError> {
             return Err(InputError::Unknown(p.clone()));
         }
     }
+    inputs.batches = join_shards(std::mem::take(&mut inputs.batches))?;
     Ok(inputs)
+}
+
+/// Joins the parts of batches split with `tmo run --shard K/N` into one batch each (rows in
+/// trial order, as one run writes them), in the place of the first part given. Every part
+/// must be there once, and the parts must be of one batch: same protocol, kind, mode, seed,
+/// repetitions and backend.
+fn join_shards(batches: Vec<Batch>) -> Result<Vec<Batch>, InputError> {
+    let mut out: Vec<Batch> = Vec::new();
+    // for each batch in `out` that joins parts: their count and the parts (index, dir) seen
+    type Parts = (usize, Vec<(usize, PathBuf)>);
+    let mut parts: Vec<Option<Parts>> = Vec::new();
+    for b in batches {
+        let Some(text) = b.manifest.shard.clone() else {
+            out.push(b);
+            parts.push(None);
+            continue;
+        };
+        let shard: crate::shard::Shard = text.parse().map_err(|e| InputError::Format {
+            path: b.dir.join("batch.json"),
+            message: format!("shard: {e}"),
+        })?;
+        let same = |a: &Manifest, c: &Manifest| {
+            (
+                &a.protocol_sha256,
+                a.kind,
+                a.mode,
+                a.seed,
+                a.repetitions,
+                &a.backend,
+            ) == (
+                &c.protocol_sha256,
+                c.kind,
+                c.mode,
+                c.seed,
+                c.repetitions,
+                &c.backend,
+            )
+        };
+        let found = out.iter().zip(&parts).position(|(o, p)| {
+            p.as_ref().is_some_and(|(n, _)| *n == shard.count) && same(&o.manifest, &b.manifest)
+        });
+        let Some(i) = found else {
+            parts.push(Some((shard.count, vec![(shard.index, b.dir.clone())])));
+            let mut first = b;
+            first.manifest.shard = None;
+            out.push(first);
+            continue;
+        };
+        let (_, seen) = parts[i].as_mut().expect("a joined batch");
+        if let Some((_, other)) = seen.iter().find(|(k, _)| *k == shard.index) {
+            return Err(InputError::Format {
+                path: b.dir.clone(),
+                message: format!("shard {shard} again (also {})", other.display()),
+            });
+        }
+        seen.push((shard.index, b.dir.clone()));
+        let joined = &mut out[i];
+        joined.manifest.trials.extend(b.manifest.trials);
+        joined.manifest.trials.sort();
+        match (&mut joined.rows, b.rows) {
+            (BatchRows::Catch(a), BatchRows::Catch(r)) => {
+                a.extend(r);
+                a.sort_by(|x, y| x.trial_id.cmp(&y.trial_id));
+            }
+            (BatchRows::Lift(a), BatchRows::Lift(r)) => {
+                a.extend(r);
+                a.sort_by(|x, y| x.trial_id.cmp(&y.trial_id));
+            }
+            (BatchRows::Calibration(a), BatchRows::Calibration(r)) => {
+                a.extend(r);
+                a.sort_by(|x, y| x.trial_id.cmp(&y.trial_id));
+            }
+            _ => unreachable!("parts of one kind hold rows of one kind"),
+        }
+    }
+    for (b, p) in out.iter().zip(&parts) {
+        if let Some((count, seen)) = p {
+            let missing: Vec<String> = (1..=*count)
+                .filter(|k| !seen.iter().any(|(s, _)| s == k))
+                .map(|k| format!("{k}/{count}"))
+                .collect();
+            if !missing.is_empty() {
+                return Err(InputError::Format {
+                    path: b.dir.clone(),
+                    message: format!(
+                        "a part of a batch split with --shard; shard(s) {} not given",
+                        missing.join(", ")
+                    ),
+                });
+            }
+        }
+    }
+    Ok(out)
 }

@@ -414,6 +414,7 @@ fn run_batch_step(
         out: dir,
         resume: true,
         rerun_faulted: false,
+        shard: None,
     };
     let end = run_batch(&request, &mut rig, ctx.stop, ctx.bar).map_err(batch)?;
     Ok(matches!(end, BatchEnd::Finished(_)))

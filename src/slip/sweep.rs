@@ -171,53 +171,7 @@ impl SweepSpec {
     }
 }
 
-/// A deterministic part of a grid, for running one grid over several processes or cluster
-/// jobs: shard `index` of `count` (1-based) takes the cells at positions `index - 1`,
-/// `index - 1 + count`, ... of [`SweepSpec::cells`]. That order is costliest first, so
-/// every shard gets a like share of the work.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct Shard {
-    pub index: usize,
-    pub count: usize,
-}
-
-impl std::str::FromStr for Shard {
-    type Err = RangeError;
-
-    fn from_str(text: &str) -> Result<Self, RangeError> {
-        let err = || RangeError {
-            text: text.to_string(),
-            expected: "K/N with 1 <= K <= N, e.g. 2/8",
-        };
-        let (k, n) = text.split_once('/').ok_or_else(err)?;
-        let (index, count) = (
-            k.trim().parse::<usize>().map_err(|_| err())?,
-            n.trim().parse::<usize>().map_err(|_| err())?,
-        );
-        if index == 0 || index > count {
-            return Err(err());
-        }
-        Ok(Shard { index, count })
-    }
-}
-
-impl std::fmt::Display for Shard {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        write!(f, "{}/{}", self.index, self.count)
-    }
-}
-
-impl Shard {
-    /// This shard's cells of `cells` (in [`SweepSpec::cells`] order).
-    pub fn select(&self, cells: Vec<Cell>) -> Vec<Cell> {
-        cells
-            .into_iter()
-            .enumerate()
-            .filter(|(i, _)| i % self.count == self.index - 1)
-            .map(|(_, c)| c)
-            .collect()
-    }
-}
+pub use crate::shard::Shard;
 
 /// Sorts rows into the order a sweep's CSV has: classifiers as `classifiers` lists them,
 /// then n_slip, then d.

@@ -30,6 +30,10 @@ pub struct Manifest {
     pub repetitions: u32,
     pub backend: String,
     pub trials: Vec<String>,
+    /// The part of the batch this directory holds (`K/N`), when it was split with
+    /// `tmo run --shard`; `tmo report` joins the parts.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub shard: Option<String>,
 }
 
 impl Manifest {
@@ -57,6 +61,14 @@ impl Manifest {
             return Some(format!(
                 "{} repetitions there, {} now",
                 kept.repetitions, self.repetitions
+            ));
+        }
+        if self.shard != kept.shard {
+            let name = |s: &Option<String>| s.clone().unwrap_or_else(|| "the whole batch".into());
+            return Some(format!(
+                "it holds {}, this run {}",
+                name(&kept.shard),
+                name(&self.shard)
             ));
         }
         if self.trials != kept.trials {

@@ -37,6 +37,8 @@ pub struct BatchRequest<'a> {
     /// error or a safety abort), moving each such log aside as `<id>.faulted.mcap`. Without
     /// it a faulted trial is an outcome like any other and is kept.
     pub rerun_faulted: bool,
+    /// Run only this part of the batch's trials (simulated batches spread over processes).
+    pub shard: Option<crate::shard::Shard>,
 }
 
 /// The rig a batch drives: the simulator (one world per trial) or an open real rig.
@@ -61,7 +63,7 @@ pub struct BatchSummary {
 }
 
 pub enum BatchEnd {
-    Finished(BatchSummary),
+    Finished(Box<BatchSummary>),
     /// Stopped by the `stop` flag, or by an operator's terminal that closed.
     Interrupted {
         finished: usize,
@@ -168,7 +170,10 @@ pub fn run_batch(
     check_models_fit_rig(plan, &models, sensors, pins)?;
     // One writer per batch directory, for as long as the batch runs.
     let _lock = crate::lock::OutputLock::acquire(out)?;
-    let trials = expand(plan);
+    let trials = match req.shard {
+        Some(shard) => shard.select(expand(plan)),
+        None => expand(plan),
+    };
     let existing = trials
         .iter()
         .filter(|t| trial_path(out, t).exists())
@@ -195,6 +200,7 @@ pub fn run_batch(
             BatchRig::Sim => "sim".into(),
         },
         trials: trials.iter().map(|t| t.trial_id.clone()).collect(),
+        shard: req.shard.map(|s| s.to_string()),
     };
     // A resume finishes the batch the directory holds, never another one.
     let kept_manifest = std::fs::read_to_string(out.join("batch.json"))
@@ -372,7 +378,7 @@ pub fn run_batch(
         outputs.push(path);
     }
     outputs.push(out.join("batch.json"));
-    Ok(BatchEnd::Finished(BatchSummary {
+    Ok(BatchEnd::Finished(Box::new(BatchSummary {
         manifest,
         rows,
         ran,
@@ -381,7 +387,7 @@ pub fn run_batch(
         wall_s: started.elapsed().as_secs_f64(),
         outputs,
         without_calibration: plan.kind == Kind::FirstTimeLift && g_min.is_none(),
-    }))
+    })))
 }
 
 /// A trial's outcome, of the kind its protocol scores.
