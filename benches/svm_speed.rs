@@ -3,7 +3,8 @@
 //!
 //! The rows are written to `target/bench/svm_rows.csv` first (shuffled, seeded), so
 //! `python3 scripts/time_sklearn.py target/bench/svm_rows.csv` times scikit-learn's SVC on
-//! exactly the same rows and hyperparameters.
+//! exactly the same rows and hyperparameters (libsvm runs on one thread; each fit here runs
+//! on one thread and then on every core).
 
 mod common;
 
@@ -56,18 +57,28 @@ fn main() {
         ds.count(Class::Slip)
     );
     let params = SvmParams::rbf(C, GAMMA).check().unwrap();
+    let threads = rayon::current_num_threads();
+    let one_thread = rayon::ThreadPoolBuilder::new()
+        .num_threads(1)
+        .build()
+        .unwrap();
     let mut last = None;
     for n in [2_000usize, 5_000, 10_000, 20_000] {
         assert!(ds.len() >= n, "only {} rows", ds.len());
         let x = &ds.x[..n * ds.dim];
         let y = &ds.y[..n];
-        let t0 = Instant::now();
-        let scaler = Scaler::fit(ds.dim, x);
-        let xs = scaler.transform(x);
-        let model = params.fit(ds.dim, &xs, y).unwrap();
-        let secs = t0.elapsed().as_secs_f64();
+        // One thread (as libsvm runs) and every core, on the same rows.
+        let fit = || {
+            let t0 = Instant::now();
+            let scaler = Scaler::fit(ds.dim, x);
+            let xs = scaler.transform(x);
+            let model = params.fit(ds.dim, &xs, y).unwrap();
+            (t0.elapsed().as_secs_f64(), scaler, model)
+        };
+        let (single, _, _) = one_thread.install(fit);
+        let (secs, scaler, model) = fit();
         println!(
-            "  fit {n:>6} rows: {secs:>7.3} s  ({} support vectors, {} iterations)",
+            "  fit {n:>6} rows: {single:>7.3} s on 1 thread, {secs:>7.3} s on {threads}  ({} support vectors, {} iterations)",
             model.support_vector_count(),
             model.iterations
         );

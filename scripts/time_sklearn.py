@@ -2,7 +2,10 @@
 """Times scikit-learn's SVC on the rows `cargo bench --bench svm_speed` wrote, with the same
 hyperparameters, sizes and scaling, for comparison with tmo's solver.
 
-    python3 scripts/time_sklearn.py target/bench/svm_rows.csv
+    python3 scripts/time_sklearn.py target/bench/svm_rows.csv [CACHE_MB]
+
+CACHE_MB is libsvm's kernel cache (default 4000: at scikit-learn's own default of 200 MB the
+cache thrashes from about 20,000 rows, which would flatter tmo). libsvm runs on one thread.
 """
 import sys
 import time
@@ -15,17 +18,17 @@ from sklearn.svm import SVC
 C, GAMMA = 3.989, 0.02
 
 
-def main(path):
+def main(path, cache_mb=4000):
     df = pd.read_csv(path)
     features = [c for c in df.columns if c.startswith("dr_") or c.startswith("dtheta_")]
     x = df[features].to_numpy(dtype=np.float64)
     y = (df.label == "slip").to_numpy().astype(int)
-    print(f"scikit-learn SVC rbf, C = {C}, gamma = {GAMMA}, tol 1e-3, cache 200 MB, {len(df)} rows")
+    print(f"scikit-learn SVC rbf, C = {C}, gamma = {GAMMA}, tol 1e-3, cache {cache_mb} MB, {len(df)} rows")
     model = scaler = None
     for n in [2000, 5000, 10000, 20000]:
         t0 = time.perf_counter()
         scaler = StandardScaler().fit(x[:n])
-        model = SVC(kernel="rbf", C=C, gamma=GAMMA, tol=1e-3, cache_size=200).fit(scaler.transform(x[:n]), y[:n])
+        model = SVC(kernel="rbf", C=C, gamma=GAMMA, tol=1e-3, cache_size=cache_mb).fit(scaler.transform(x[:n]), y[:n])
         print(f"  fit {n:>6} rows: {time.perf_counter() - t0:>7.3f} s  ({model.n_support_.sum()} support vectors)")
     rows = x[-5000:]
     times = []
@@ -39,4 +42,4 @@ def main(path):
 
 
 if __name__ == "__main__":
-    main(sys.argv[1])
+    main(sys.argv[1], *map(int, sys.argv[2:3]))
