@@ -131,14 +131,8 @@ struct Point {
     mu: Vec<f64>,
 }
 
-struct Direction {
-    w: Vec<f64>,
-    b: f64,
-    xi: Vec<f64>,
-    s: Vec<f64>,
-    a: Vec<f64>,
-    mu: Vec<f64>,
-}
+/// A Newton step, in the point's own shape.
+type Direction = Point;
 
 /// Residuals of the KKT conditions other than complementarity.
 struct Residuals {
@@ -172,6 +166,18 @@ impl Point {
                 .collect(),
             s,
         }
+    }
+
+    /// Mean complementarity product after a step `t` along `d` (the predictor's
+    /// `mu_aff`), without making the point.
+    fn complementarity_after(&self, d: &Direction, t: f64) -> f64 {
+        let pair = |x: &[f64], dx: &[f64], z: &[f64], dz: &[f64]| -> f64 {
+            (0..x.len())
+                .map(|i| (x[i] + t * dx[i]) * (z[i] + t * dz[i]))
+                .sum()
+        };
+        (pair(&self.s, &d.s, &self.a, &d.a) + pair(&self.xi, &d.xi, &self.mu, &d.mu))
+            / (2.0 * self.a.len() as f64)
     }
 
     /// Mean complementarity product.
@@ -430,9 +436,9 @@ pub fn solve(
         let xm: Vec<f64> = p.xi.iter().zip(&p.mu).map(|(x, m)| x * m).collect();
         let affine = newton.direction(&p, &r, &sa, &xm);
         let t_aff = p.max_step(&affine);
-        let mut trial = p.clone();
-        trial.step(&affine, t_aff);
-        let sigma = (trial.complementarity() / tau).powi(3).min(1.0);
+        let sigma = (p.complementarity_after(&affine, t_aff) / tau)
+            .powi(3)
+            .min(1.0);
         // Corrector: Mehrotra's second-order term and a centring target.
         let target = sigma * tau;
         let sa: Vec<f64> = (0..n)
