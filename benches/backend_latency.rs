@@ -4,13 +4,14 @@
 //!
 //! The host side is the production code: `JevoisSensor` (reader thread, line parser),
 //! `FrameMonitor` (classification and a 1Fr1Sen detector) polled on the runners' 1 kHz
-//! tick, and `ModelOHand` (dynamixel2 sync write). The devices are played by this program:
-//! a camera streaming still frames at 60 fps with one slipping frame at a random moment, and
-//! a servo bus answering the hand's start-up and timing the sync write.
+//! tick or as a frame arrives, and `ModelOHand` (dynamixel2 sync write). The devices are
+//! played by this program: a camera streaming still frames at 60 fps with one slipping frame
+//! at a random moment, and a servo bus answering the hand's start-up and timing the sync
+//! write.
 //!
-//! Run: `cargo bench --bench backend_latency` (prints median and p99 over the trials).
-//! `TICK_US=100 cargo bench --bench backend_latency` shortens the control tick, to see how
-//! much of the latency is the runners' 1 kHz tick and how much the I/O path.
+//! Run: `cargo bench --bench backend_latency` (prints median and p99 over the trials, for the
+//! runner's wait, which wakes on a frame's arrival, and for the previous runner's, which
+//! slept the whole 1 kHz tick, in the same run). `TICK_US=100` shortens the control tick.
 
 use std::fs::File;
 use std::io::{Read, Write};
@@ -76,7 +77,17 @@ fn servo_bus(mut master: File, written: mpsc::Sender<Instant>, stop: Arc<AtomicB
     }
 }
 
-fn main() {
+/// How the host waits between control ticks.
+#[derive(Clone, Copy, PartialEq)]
+enum Wait {
+    /// The previous runner: sleep the whole tick, then poll.
+    Tick,
+    /// The runner now: wake at the tick or as soon as a frame arrives.
+    TickOrInput,
+}
+
+/// Latencies of `TRIALS` slips, us, sorted.
+fn measure(wait: Wait, tick_s: f64) -> Vec<f64> {
     let (mut camera, _camera_slave, camera_path) = open_pty().expect("camera pty");
     let (bus_master, _bus_slave, bus_path) = open_pty().expect("bus pty");
     let stop = Arc::new(AtomicBool::new(false));
@@ -100,7 +111,7 @@ fn main() {
         0,
         PINS,
         1.0,
-        clock,
+        clock.clone(),
     )
     .expect("camera");
     // the start-up traffic's timestamps are not latencies
@@ -113,10 +124,6 @@ fn main() {
         strategy: "1x1".parse::<Strategy>().unwrap(),
     };
     let mut mclock = clock;
-    let tick_s = std::env::var("TICK_US")
-        .ok()
-        .and_then(|v| v.parse::<f64>().ok())
-        .map_or(tmo::runner::TICK_S, |us| us * 1e-6);
 
     // The camera runs on its own clock, so slips arrive at any phase of the host's tick.
     let (slip_tx, slips) = mpsc::channel();
@@ -148,7 +155,13 @@ fn main() {
     let mut reactions = 0;
     while reactions < TRIALS {
         // the runners' control tick
-        mclock.sleep(tick_s);
+        match wait {
+            Wait::Tick => mclock.sleep(tick_s),
+            Wait::TickOrInput => {
+                let next = mclock.now_s() + tick_s;
+                mclock.wait_for_input_until(next);
+            }
+        }
         let mut batch = Vec::new();
         while let Some(f) = sensor.next_frame().expect("frame") {
             batch.push(f);
@@ -176,17 +189,38 @@ fn main() {
     let _ = bus.join();
     let _ = camera_thread.join();
     latencies_us.sort_by(f64::total_cmp);
-    let at = |q: f64| {
-        latencies_us
-            [((q * latencies_us.len() as f64).ceil() as usize).clamp(1, latencies_us.len()) - 1]
-    };
+    latencies_us
+}
+
+fn main() {
+    let tick_s = std::env::var("TICK_US")
+        .ok()
+        .and_then(|v| v.parse::<f64>().ok())
+        .map_or(tmo::runner::TICK_S, |us| us * 1e-6);
+    let mut medians = Vec::new();
+    for (wait, name) in [
+        (Wait::Tick, "tick only (previous runner)"),
+        (Wait::TickOrInput, "tick or input (runner now)"),
+    ] {
+        let latencies_us = measure(wait, tick_s);
+        let at = |q: f64| {
+            latencies_us
+                [((q * latencies_us.len() as f64).ceil() as usize).clamp(1, latencies_us.len()) - 1]
+        };
+        println!(
+            "backend latency, slip frame in -> hand command out, {name} (tick {:.0} us; {} slips): median {:.0} us, p90 {:.0} us, p99 {:.0} us, max {:.0} us",
+            tick_s * 1e6,
+            latencies_us.len(),
+            at(0.5),
+            at(0.9),
+            at(0.99),
+            latencies_us.last().copied().unwrap_or(f64::NAN)
+        );
+        medians.push((at(0.5), at(0.99)));
+    }
     println!(
-        "backend latency, slip frame in -> hand command out (tick {:.0} us; {} slips): median {:.0} us, p90 {:.0} us, p99 {:.0} us, max {:.0} us",
-        tick_s * 1e6,
-        latencies_us.len(),
-        at(0.5),
-        at(0.9),
-        at(0.99),
-        latencies_us.last().copied().unwrap_or(f64::NAN)
+        "now / previous: median {:.2}, p99 {:.2}",
+        medians[1].0 / medians[0].0,
+        medians[1].1 / medians[0].1
     );
 }

@@ -50,6 +50,12 @@ pub trait Clock {
         let target = self.now_s() + duration_s;
         self.sleep_until(target);
     }
+    /// Returns once the clock reads at least `time_s`, or earlier as soon as a device has new
+    /// input (a frame) to read. A clock that cannot tell, such as a virtual one whose devices
+    /// produce input only as it advances, sleeps until `time_s`.
+    fn wait_for_input_until(&mut self, time_s: f64) {
+        self.sleep_until(time_s);
+    }
 }
 
 impl<T: TactileSensor + ?Sized> TactileSensor for &mut T {
@@ -97,5 +103,8 @@ impl<T: Clock + ?Sized> Clock for &mut T {
     }
     fn sleep_until(&mut self, time_s: f64) {
         T::sleep_until(self, time_s)
+    }
+    fn wait_for_input_until(&mut self, time_s: f64) {
+        T::wait_for_input_until(self, time_s)
     }
 }

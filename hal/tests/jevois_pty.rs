@@ -48,7 +48,7 @@ fn frames_cross_the_serial_line_at_the_camera_rate() {
         "U42",
         "U7",
         0.25,
-        clock,
+        clock.clone(),
     )
     .unwrap();
     let mut samples = Vec::new();
@@ -56,7 +56,15 @@ fn frames_cross_the_serial_line_at_the_camera_rate() {
         .iter()
         .enumerate()
         .map(|(k, p)| {
-            JevoisSensor::open(p.to_str().unwrap(), 115200, k as u8, 30, 0.25, clock).unwrap()
+            JevoisSensor::open(
+                p.to_str().unwrap(),
+                115200,
+                k as u8,
+                30,
+                0.25,
+                clock.clone(),
+            )
+            .unwrap()
         })
         .collect();
     let mut counts = [0usize; 3];

@@ -84,7 +84,7 @@ where
     /// One control tick: waits, then collects what arrived. Returns the index in
     /// `rec.frames` of the first new frame, and the time.
     fn tick(&mut self, rec: &mut Recording) -> Result<(usize, f64), ScenarioError> {
-        self.clock.sleep(TICK_S);
+        control_wait(&mut self.clock);
         let first_new = rec.frames.len();
         self.poll(rec)?;
         Ok((first_new, self.clock.now_s()))
@@ -97,6 +97,15 @@ where
         events.push(event(now, "/command/hand", json!({ "targets": held })));
         Ok(())
     }
+}
+
+/// The wait between control ticks: until the next tick, or until a device has new input,
+/// whichever is first. On the real rig a slipping frame is acted on as it arrives (the
+/// reaction leaves within the I/O time, not up to a tick later); on virtual clocks (the
+/// simulator, replay) input comes only as the clock advances, so the runner ticks as before.
+pub fn control_wait(clock: &mut impl Clock) {
+    let next = clock.now_s() + TICK_S;
+    clock.wait_for_input_until(next);
 }
 
 /// A runner message for the trial log.

@@ -94,7 +94,7 @@ pub fn open_real(hw: HardwareFile, limits: SafetyLimits) -> Result<RealRig, Batc
         .map(|(k, c)| {
             // The runner's watchdog ends the trial at `silent_limit_s`; only a camera silent
             // far longer is gone (a batch error).
-            JevoisSensor::open(&c.port, c.baud, k as u8, cams.pins, gone_s, clock)
+            JevoisSensor::open(&c.port, c.baud, k as u8, cams.pins, gone_s, clock.clone())
                 .map_err(device("fingertip camera"))
         })
         .collect::<Result<_, _>>()?;
@@ -105,7 +105,7 @@ pub fn open_real(hw: HardwareFile, limits: SafetyLimits) -> Result<RealRig, Batc
         &m.object_marker,
         &m.hand_marker,
         gone_s,
-        clock,
+        clock.clone(),
     )
     .map_err(device("marker camera"))?;
     let hand = ModelOHand::open(ModelOConfig {

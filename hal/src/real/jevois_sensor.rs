@@ -69,6 +69,7 @@ impl JevoisSensor {
         let (tx, rx) = mpsc::channel();
         let stats = Arc::new(Mutex::new(CameraStats::default()));
         let shared = stats.clone();
+        let reader_clock = clock.clone();
         std::thread::Builder::new()
             .name(format!("jevois {port}"))
             .spawn(move || {
@@ -85,7 +86,7 @@ impl JevoisSensor {
                             return;
                         }
                     };
-                    let arrived = clock.at(Instant::now());
+                    let arrived = reader_clock.at(Instant::now());
                     let messages = reader.push(&buf[..n]);
                     let mut s = shared.lock().expect("stats lock");
                     s.reader = reader.stats().clone();
@@ -102,6 +103,7 @@ impl JevoisSensor {
                                 if tx.send(Ok(f)).is_err() {
                                     return; // the sensor was dropped
                                 }
+                                reader_clock.input_arrived();
                             }
                             Message::Fine2 { .. } => s.wrong_pin_count += 1,
                             _ => s.other_messages += 1,

@@ -91,6 +91,7 @@ impl MarkerCamera {
         let serial = open_camera_port(port, baud)?;
         let (tx, rx) = mpsc::channel();
         let mut pairing = MarkerPairing::new(object_marker, hand_marker);
+        let reader_clock = clock.clone();
         std::thread::Builder::new()
             .name(format!("markers {port}"))
             .spawn(move || {
@@ -105,7 +106,7 @@ impl MarkerCamera {
                             return;
                         }
                     };
-                    let t = clock.at(Instant::now());
+                    let t = reader_clock.at(Instant::now());
                     for m in reader.push(&buf[..n]) {
                         if let Some(s) = pairing.push(&m.message, t) {
                             if tx.send(Ok(s)).is_err() {

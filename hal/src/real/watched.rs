@@ -38,8 +38,8 @@ impl<T> Watched<T> {
         Self {
             port: port.to_string(),
             items,
-            clock,
             last_s: clock.now_s(),
+            clock,
             silent_limit_s,
         }
     }
