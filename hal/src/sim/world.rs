@@ -12,7 +12,7 @@ use super::actuators::{ArmState, Servos};
 use super::config::{ObjectStart, PhysicsParams, RigSetup, SimConfig};
 use super::grasp::{pinch_normal_forces, share_stuck_load, Contact, ContactLaw, MAX_CONTACTS};
 use super::objects::{ObjectLibrary, ObjectSpec};
-use super::skin::{SkinContact, SlidingFriction, SlidingPatch, SurfaceTexture};
+use super::skin::{ElementStickSlip, SkinContact, SlidingFriction, SlidingPatch, SurfaceTexture};
 use super::tactip::{
     add_local_shear, dome_layout, local_shear_factors, pin_positions, CreepingDisplacement,
     SensorOptics, SkinState, SkinTimes,
@@ -94,6 +94,9 @@ struct SensorUnit {
     /// speed) they were worked out for.
     local_factors: Vec<f64>,
     local_key: Option<[f64; 3]>,
+    /// Stick-slip of the skin's elements under the pins, and their displacements this frame.
+    elements: ElementStickSlip,
+    element_shift_mm: Vec<f64>,
 }
 
 struct MarkerUnit {
@@ -282,6 +285,8 @@ impl World {
                     scratch: Vec::with_capacity(t.pins),
                     local_factors: Vec::with_capacity(t.pins),
                     local_key: None,
+                    elements: ElementStickSlip::default(),
+                    element_shift_mm: Vec::with_capacity(t.pins),
                 }
             })
             .collect::<Vec<SensorUnit>>();
@@ -693,6 +698,7 @@ impl World {
             fast_s: t.skin_time_s,
             creep_s: t.creep_time_s,
             creep_fraction: t.creep_fraction,
+            instant_fraction: t.instant_fraction,
         }
     }
 
@@ -763,13 +769,45 @@ impl World {
                                         slid_mm + xi_px / px_per_mm,
                                         a_mm,
                                         sliding_mm_s,
-                                        t.skin_time_s,
+                                        &times,
                                     )
                                 },
                                 &mut s.local_factors,
                             );
                         }
                         add_local_shear(&s.optics, &s.local_factors, skin.shear_px, &mut s.scratch);
+                        if self.stuck {
+                            s.elements.hold();
+                        } else {
+                            let friction = &self.friction;
+                            let k = s.skin.tangential_stiffness(n);
+                            let excess = friction.mu_static - friction.mu(sliding_mm_s);
+                            let cycle_mm = if k > 0.0 && excess > 0.0 {
+                                3.0 * excess * n / k
+                            } else {
+                                0.0
+                            };
+                            s.elements.advance(
+                                slid_mm,
+                                s.optics.contact_elements(skin.contact_radius_px, px_per_mm),
+                                |x| cycle_mm * (1.0 + texture.at(x)).max(0.0),
+                                &mut s.element_shift_mm,
+                            );
+                            // The sawtooth passes at `v / cycle`; the skin shows what its
+                            // viscoelastic response lets through.
+                            let shown = if cycle_mm > 0.0 {
+                                times.follows_at(sliding_mm_s / cycle_mm)
+                            } else {
+                                0.0
+                            };
+                            let direction = self.patches[i].shear_mm.signum();
+                            add_local_shear(
+                                &s.optics,
+                                &s.element_shift_mm,
+                                direction * shown * px_per_mm,
+                                &mut s.scratch,
+                            );
+                        }
                         let mut pins = Vec::with_capacity(s.scratch.len());
                         // At most one pin per frame is mis-detected: with the rates seen on
                         // real trackers (well under 1 %) two in one frame are negligible, and one
