@@ -71,6 +71,12 @@ pub struct TrainArgs {
     /// Cross-validation folds (split by trial) of the search.
     #[arg(long, default_value_t = 3)]
     folds: usize,
+    /// Range of C the search explores (log-uniform), LOW:HIGH.
+    #[arg(long, value_name = "LOW:HIGH", default_value = "0.01:1000", value_parser = tuning::parse_range)]
+    c_range: [f64; 2],
+    /// Range of gamma the search explores for the RBF SVM (log-uniform), LOW:HIGH.
+    #[arg(long, value_name = "LOW:HIGH", default_value = "0.0001:10", value_parser = tuning::parse_range)]
+    gamma_range: [f64; 2],
     /// Cap on the SVM solver's iterations: SMO pair steps for svm-rbf (default libsvm's,
     /// max(100 x rows, 10,000,000)), Newton steps for svm-linear (default 200).
     #[arg(long)]
@@ -186,6 +192,10 @@ pub fn train(args: TrainArgs) -> Result<()> {
                 seed: args.labels.seed,
                 iterations: args.iters,
                 folds: args.folds,
+                ranges: tuning::SearchRanges {
+                    c: args.c_range,
+                    gamma: args.gamma_range,
+                },
             };
             let (hyper, record) = tuning::search(&ds, &spec)?;
             let best = record
@@ -194,6 +204,9 @@ pub fn train(args: TrainArgs) -> Result<()> {
                 .map(|e| e.score)
                 .fold(f64::NEG_INFINITY, f64::max);
             println!("search: {} evaluations, best cross-validated macro F1 {best:.3} at C = {:.4}, gamma = {:.5}", record.evaluations.len(), hyper.c, hyper.gamma);
+            for (name, value, end) in record.best_on_range_ends() {
+                eprintln!("warning: the search's best {name} ({value:.4}) lies at the {end} end of its range; the optimum may lie beyond it (widen --{}-range)", name.to_lowercase());
+            }
             (hyper, Some(record))
         }
     };

@@ -56,10 +56,18 @@ pub struct SweepArgs {
     /// Search C (and gamma) by Bayesian optimisation in every cell, on training trials only.
     #[arg(long, value_enum, default_value = "none")]
     search: SearchMethod,
+    /// Evaluations of each cell's search.
     #[arg(long, default_value_t = 12)]
     iters: usize,
+    /// Cross-validation folds (split by trial) of each cell's search.
     #[arg(long, default_value_t = 3)]
     folds: usize,
+    /// Range of C each search explores (log-uniform), LOW:HIGH.
+    #[arg(long, value_name = "LOW:HIGH", default_value = "0.01:1000", value_parser = tmo::slip::tuning::parse_range)]
+    c_range: [f64; 2],
+    /// Range of gamma each RBF search explores (log-uniform), LOW:HIGH.
+    #[arg(long, value_name = "LOW:HIGH", default_value = "0.0001:10", value_parser = tmo::slip::tuning::parse_range)]
+    gamma_range: [f64; 2],
     /// Fall below the held height that marks slip onset, mm.
     #[arg(long, default_value_t = 1.0)]
     onset_threshold_mm: f64,
@@ -138,6 +146,10 @@ pub fn sweep(args: SweepArgs) -> Result<()> {
         SearchMethod::Bayes => HyperChoice::Search {
             iterations: args.iters,
             folds: args.folds,
+            ranges: tmo::slip::tuning::SearchRanges {
+                c: args.c_range,
+                gamma: args.gamma_range,
+            },
         },
     };
     let spec = SweepSpec {
@@ -249,8 +261,13 @@ pub fn sweep(args: SweepArgs) -> Result<()> {
         scope: args.scope,
         hyperparameters: match hyper {
             HyperChoice::Fixed(h) => format!("fixed C = {}, gamma = {}", h.c, h.gamma),
-            HyperChoice::Search { iterations, folds } => format!(
-                "Bayesian search per cell: {iterations} evaluations, {folds}-fold CV by trial"
+            HyperChoice::Search {
+                iterations,
+                folds,
+                ranges,
+            } => format!(
+                "Bayesian search per cell: {iterations} evaluations, {folds}-fold CV by trial, C in [{}, {}], gamma in [{}, {}] (log-uniform)",
+                ranges.c[0], ranges.c[1], ranges.gamma[0], ranges.gamma[1]
             ),
         },
         seed: args.seed,

@@ -463,7 +463,11 @@ fn rail_sweep(ctx: &Context, c: &Counts, dir: &Path) -> Result<bool, ReproduceEr
         n_slip: c.sweep_n_slip.clone(),
         scope: Scope::Global,
         hyper: match c.sweep_search {
-            Some((iterations, folds)) => HyperChoice::Search { iterations, folds },
+            Some((iterations, folds)) => HyperChoice::Search {
+                iterations,
+                folds,
+                ranges: Default::default(),
+            },
             None => HyperChoice::Fixed(Hyperparameters {
                 c: SWEEP_C,
                 gamma: SWEEP_GAMMA,
@@ -531,6 +535,7 @@ fn rail_model(ctx: &Context, c: &Counts, dir: &Path) -> Result<(), ReproduceErro
                 seed: 0,
                 iterations: c.search_iterations,
                 folds: c.search_folds,
+                ranges: Default::default(),
             };
             let (h, record) =
                 tuning::search(&ds, &spec).map_err(|e| ReproduceError::step(step, e))?;

@@ -289,7 +289,39 @@ pub struct SearchRecord {
     pub method: String,
     pub folds: usize,
     pub parameters: Vec<String>,
+    /// The range searched for each parameter, `[low, high]` (absent in files written before
+    /// ranges were options: the defaults, [`super::tuning::SearchRanges`]).
+    #[serde(default)]
+    pub ranges: Vec<[f64; 2]>,
     pub evaluations: Vec<super::bayes::Evaluation>,
+}
+
+impl SearchRecord {
+    /// The parameters whose best value lies at an end of its range (within 2 % of the
+    /// range's width in log scale): the optimum may lie beyond it. Each as
+    /// `(name, value, "lower" | "upper")`.
+    pub fn best_on_range_ends(&self) -> Vec<(String, f64, &'static str)> {
+        let Some(best) = super::bayes::best(&self.evaluations) else {
+            return Vec::new();
+        };
+        self.parameters
+            .iter()
+            .zip(&self.ranges)
+            .zip(&best.params)
+            .filter_map(|((name, &[low, high]), &value)| {
+                let width = (high / low).ln();
+                let at = |end: f64| (value / end).ln().abs() <= 0.02 * width;
+                let end = if at(low) {
+                    "lower"
+                } else if at(high) {
+                    "upper"
+                } else {
+                    return None;
+                };
+                Some((name.clone(), value, end))
+            })
+            .collect()
+    }
 }
 
 #[derive(Debug, thiserror::Error)]

@@ -21,6 +21,7 @@ pub enum HyperChoice {
     Search {
         iterations: usize,
         folds: usize,
+        ranges: tuning::SearchRanges,
     },
 }
 
@@ -207,7 +208,14 @@ pub fn run_cell(
         (HyperChoice::Search { .. }, ClassifierKind::Threshold) => {
             (Hyperparameters::default(), None)
         }
-        (HyperChoice::Search { iterations, folds }, kind) => {
+        (
+            HyperChoice::Search {
+                iterations,
+                folds,
+                ranges,
+            },
+            kind,
+        ) => {
             let tune = TuneSpec {
                 kind,
                 scope: spec.scope,
@@ -215,6 +223,7 @@ pub fn run_cell(
                 seed: spec.seed,
                 iterations,
                 folds,
+                ranges,
             };
             let (h, record) = tuning::search(&train, &tune)
                 .map_err(|source| SweepError::Tune { cell, source })?;

@@ -12,7 +12,8 @@ use super::model::{
     score_models, train_models, ClassifierKind, Hyperparameters, SearchRecord, TrainError,
 };
 
-/// Search ranges, as scikit-optimize searches would commonly set them for the paper's models.
+/// Default search ranges, as scikit-optimize searches would commonly set them for the
+/// paper's models.
 pub const C_RANGE: LogRange = LogRange {
     name: "C",
     low: 1e-2,
@@ -24,6 +25,56 @@ pub const GAMMA_RANGE: LogRange = LogRange {
     high: 10.0,
 };
 
+/// The ranges a search explores (log-uniform), `[low, high]` each.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct SearchRanges {
+    pub c: [f64; 2],
+    pub gamma: [f64; 2],
+}
+
+impl Default for SearchRanges {
+    fn default() -> Self {
+        Self {
+            c: [C_RANGE.low, C_RANGE.high],
+            gamma: [GAMMA_RANGE.low, GAMMA_RANGE.high],
+        }
+    }
+}
+
+impl SearchRanges {
+    /// The ranges searched for `kind`, in the order of the search's parameters.
+    fn for_kind(&self, kind: ClassifierKind) -> Vec<LogRange> {
+        let c = LogRange {
+            low: self.c[0],
+            high: self.c[1],
+            ..C_RANGE
+        };
+        let gamma = LogRange {
+            low: self.gamma[0],
+            high: self.gamma[1],
+            ..GAMMA_RANGE
+        };
+        match kind {
+            ClassifierKind::SvmRbf => vec![c, gamma],
+            ClassifierKind::SvmLinear | ClassifierKind::Logreg => vec![c],
+            ClassifierKind::Threshold => vec![],
+        }
+    }
+}
+
+/// Parses a search range `LOW:HIGH` (both positive, finite, `LOW < HIGH`).
+pub fn parse_range(text: &str) -> Result<[f64; 2], String> {
+    let expected =
+        || format!("expected LOW:HIGH with 0 < LOW < HIGH (e.g. 0.01:1000), got {text:?}");
+    let (low, high) = text.split_once(':').ok_or_else(expected)?;
+    let parse = |v: &str| v.trim().parse::<f64>().map_err(|_| expected());
+    let (low, high) = (parse(low)?, parse(high)?);
+    if !(low > 0.0 && high > low && high.is_finite()) {
+        return Err(expected());
+    }
+    Ok([low, high])
+}
+
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct TuneSpec {
     pub kind: ClassifierKind,
@@ -32,6 +83,7 @@ pub struct TuneSpec {
     pub seed: u64,
     pub iterations: usize,
     pub folds: usize,
+    pub ranges: SearchRanges,
 }
 
 #[derive(Debug, thiserror::Error)]
@@ -107,11 +159,10 @@ pub fn search(
     data: &Dataset,
     spec: &TuneSpec,
 ) -> Result<(Hyperparameters, SearchRecord), TuneError> {
-    let ranges = match spec.kind {
-        ClassifierKind::SvmRbf => vec![C_RANGE, GAMMA_RANGE],
-        ClassifierKind::SvmLinear | ClassifierKind::Logreg => vec![C_RANGE],
-        ClassifierKind::Threshold => return Err(TuneError::NothingToSearch("threshold")),
-    };
+    if spec.kind == ClassifierKind::Threshold {
+        return Err(TuneError::NothingToSearch("threshold"));
+    }
+    let ranges = spec.ranges.for_kind(spec.kind);
     // Checked before the search, whose failed evaluations would only score 0.
     if spec.folds < 2 {
         return Err(TuneError::Folds(spec.folds));
@@ -146,6 +197,7 @@ pub fn search(
         method: "bayes (GP Matern 5/2, expected improvement)".into(),
         folds: spec.folds,
         parameters: ranges.iter().map(|r| r.name.to_string()).collect(),
+        ranges: ranges.iter().map(|r| [r.low, r.high]).collect(),
         evaluations: history.clone(),
     };
     Ok((to_hyper(&b.params), record))
@@ -208,7 +260,68 @@ mod tests {
             seed: 3,
             iterations,
             folds,
+            ranges: SearchRanges::default(),
         }
+    }
+
+    #[test]
+    fn ranges_parse_and_bad_ones_say_what_was_expected() {
+        assert_eq!(parse_range("0.01:1000"), Ok([0.01, 1000.0]));
+        assert_eq!(parse_range(" 1e-3 : 2 "), Ok([1e-3, 2.0]));
+        for bad in ["1:1", "2:1", "0:1", "-1:1", "1", "a:b", "1:inf", "nan:1"] {
+            let e = parse_range(bad).unwrap_err();
+            assert!(e.contains("LOW:HIGH") && e.contains(bad), "{bad}: {e}");
+        }
+    }
+
+    #[test]
+    fn a_search_keeps_to_given_ranges_and_says_when_its_best_lies_on_an_end() {
+        let data = blobs();
+        let s = TuneSpec {
+            ranges: SearchRanges {
+                c: [2.0, 2.0001],
+                gamma: [0.5, 0.5001],
+            },
+            ..spec(ClassifierKind::SvmRbf, 4, 3)
+        };
+        let (hyper, record) = search(&data, &s).unwrap();
+        assert!((2.0..=2.0001).contains(&hyper.c), "{hyper:?}");
+        assert!(record
+            .evaluations
+            .iter()
+            .all(|e| (2.0..=2.0001).contains(&e.params[0])));
+        assert!((0.5..=0.5001).contains(&hyper.gamma), "{hyper:?}");
+        assert_eq!(record.ranges, vec![[2.0, 2.0001], [0.5, 0.5001]]);
+        // the best point decides whether the record warns: inside, at the lower end (within
+        // 2 % of the range's log width), at the upper end
+        let (_, wide) = search(&data, &spec(ClassifierKind::Logreg, 4, 3)).unwrap();
+        let at_bottom = SearchRecord {
+            evaluations: vec![Evaluation {
+                params: vec![0.0105],
+                score: 1.0,
+            }],
+            ..wide.clone()
+        };
+        assert_eq!(
+            at_bottom.best_on_range_ends(),
+            vec![("C".to_string(), 0.0105, "lower")]
+        );
+        let inside = SearchRecord {
+            evaluations: vec![Evaluation {
+                params: vec![1.0],
+                score: 1.0,
+            }],
+            ..wide
+        };
+        assert!(inside.best_on_range_ends().is_empty());
+        let at_top = SearchRecord {
+            evaluations: vec![Evaluation {
+                params: vec![999.0],
+                score: 1.0,
+            }],
+            ..inside
+        };
+        assert_eq!(at_top.best_on_range_ends()[0].2, "upper");
     }
 
     #[test]
