@@ -40,6 +40,26 @@ fn a_search_with_fewer_than_two_folds_is_refused() {
 }
 
 #[test]
+fn a_search_range_that_is_not_one_is_refused_naming_the_option() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    for (option, range) in [("--c-range", "5:1"), ("--gamma-range", "0:1")] {
+        for command in ["train", "sweep"] {
+            let err = fails(&tmo(
+                d,
+                &[
+                    command, "t", "--search", "bayes", option, range, "--out", "m.json",
+                ],
+            ));
+            assert!(
+                err.contains(option) && err.contains("expected LOW:HIGH with 0 < LOW < HIGH"),
+                "{command} {option} {range}: {err}"
+            );
+        }
+    }
+}
+
+#[test]
 fn serving_for_a_time_that_is_not_one_is_refused_at_once() {
     let dir = tempfile::tempdir().unwrap();
     let hw = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("hardware/tmo.toml");
