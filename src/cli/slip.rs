@@ -77,6 +77,11 @@ pub struct TrainArgs {
     /// Range of gamma the search explores for the RBF SVM (log-uniform), LOW:HIGH.
     #[arg(long, value_name = "LOW:HIGH", default_value = "0.0001:10", value_parser = tuning::parse_range)]
     gamma_range: [f64; 2],
+    /// Fit each of the search's models on at most this many rows (a fold's training rows
+    /// sampled, each class alike; held-out folds are still scored on every row, and the
+    /// final model uses all rows). Default: every row.
+    #[arg(long, value_name = "ROWS", value_parser = tmo::slip::tuning::parse_search_rows)]
+    search_rows: Option<usize>,
     /// Cap on the SVM solver's iterations: SMO pair steps for svm-rbf (default libsvm's,
     /// max(100 x rows, 10,000,000)), Newton steps for svm-linear (default 200).
     #[arg(long)]
@@ -196,6 +201,7 @@ pub fn train(args: TrainArgs) -> Result<()> {
                     c: args.c_range,
                     gamma: args.gamma_range,
                 },
+                max_fit_rows: args.search_rows,
             };
             let (hyper, record) = tuning::search(&ds, &spec)?;
             let best = record

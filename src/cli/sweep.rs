@@ -68,6 +68,11 @@ pub struct SweepArgs {
     /// Range of gamma each RBF search explores (log-uniform), LOW:HIGH.
     #[arg(long, value_name = "LOW:HIGH", default_value = "0.0001:10", value_parser = tmo::slip::tuning::parse_range)]
     gamma_range: [f64; 2],
+    /// Fit each of a search's models on at most this many rows (a fold's training rows
+    /// sampled, each class alike; held-out folds are still scored on every row, and each
+    /// cell's model uses all its rows). Default: every row.
+    #[arg(long, value_name = "ROWS", value_parser = tmo::slip::tuning::parse_search_rows)]
+    search_rows: Option<usize>,
     /// Fall below the held height that marks slip onset, mm.
     #[arg(long, default_value_t = 1.0)]
     onset_threshold_mm: f64,
@@ -150,6 +155,7 @@ pub fn sweep(args: SweepArgs) -> Result<()> {
                 c: args.c_range,
                 gamma: args.gamma_range,
             },
+            max_fit_rows: args.search_rows,
         },
     };
     let spec = SweepSpec {
@@ -265,9 +271,11 @@ pub fn sweep(args: SweepArgs) -> Result<()> {
                 iterations,
                 folds,
                 ranges,
+                max_fit_rows,
             } => format!(
-                "Bayesian search per cell: {iterations} evaluations, {folds}-fold CV by trial, C in [{}, {}], gamma in [{}, {}] (log-uniform)",
-                ranges.c[0], ranges.c[1], ranges.gamma[0], ranges.gamma[1]
+                "Bayesian search per cell: {iterations} evaluations, {folds}-fold CV by trial, C in [{}, {}], gamma in [{}, {}] (log-uniform){}",
+                ranges.c[0], ranges.c[1], ranges.gamma[0], ranges.gamma[1],
+                max_fit_rows.map_or(String::new(), |n| format!(", fits on at most {n} rows"))
             ),
         },
         seed: args.seed,

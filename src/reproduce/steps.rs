@@ -467,6 +467,7 @@ fn rail_sweep(ctx: &Context, c: &Counts, dir: &Path) -> Result<bool, ReproduceEr
                 iterations,
                 folds,
                 ranges: Default::default(),
+                max_fit_rows: None,
             },
             None => HyperChoice::Fixed(Hyperparameters {
                 c: SWEEP_C,
@@ -536,6 +537,7 @@ fn rail_model(ctx: &Context, c: &Counts, dir: &Path) -> Result<(), ReproduceErro
                 iterations: c.search_iterations,
                 folds: c.search_folds,
                 ranges: Default::default(),
+                max_fit_rows: None,
             };
             let (h, record) =
                 tuning::search(&ds, &spec).map_err(|e| ReproduceError::step(step, e))?;

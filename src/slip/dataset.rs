@@ -224,6 +224,22 @@ impl Dataset {
     }
 
     /// Keeps every slip row and a random `round(d * N0)` of the `N0` static rows.
+    /// A random `fraction` of each class's rows (seeded), so the classes keep their
+    /// proportions.
+    pub fn subsample_each_class(&self, fraction: f64, seed: u64) -> Dataset {
+        let mut rng = ChaCha8Rng::seed_from_u64(seed);
+        let mut chosen = vec![false; self.len()];
+        for class in [Class::Static, Class::Slip] {
+            let rows: Vec<usize> = (0..self.len()).filter(|&i| self.y[i] == class).collect();
+            let keep_n =
+                ((fraction.clamp(0.0, 1.0) * rows.len() as f64).round() as usize).min(rows.len());
+            for &i in rows.choose_multiple(&mut rng, keep_n) {
+                chosen[i] = true;
+            }
+        }
+        self.filter(|i| chosen[i])
+    }
+
     pub fn downsample_static(&self, d: f64, seed: u64) -> Dataset {
         let statics: Vec<usize> = (0..self.len())
             .filter(|&i| self.y[i] == Class::Static)

@@ -22,6 +22,7 @@ pub enum HyperChoice {
         iterations: usize,
         folds: usize,
         ranges: tuning::SearchRanges,
+        max_fit_rows: Option<usize>,
     },
 }
 
@@ -213,6 +214,7 @@ pub fn run_cell(
                 iterations,
                 folds,
                 ranges,
+                max_fit_rows,
             },
             kind,
         ) => {
@@ -224,6 +226,7 @@ pub fn run_cell(
                 iterations,
                 folds,
                 ranges,
+                max_fit_rows,
             };
             let (h, record) = tuning::search(&train, &tune)
                 .map_err(|source| SweepError::Tune { cell, source })?;

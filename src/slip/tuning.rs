@@ -11,6 +11,7 @@ use super::dataset::{Dataset, Scope};
 use super::model::{
     score_models, train_models, ClassifierKind, Hyperparameters, SearchRecord, TrainError,
 };
+use super::Class;
 
 /// Default search ranges, as scikit-optimize searches would commonly set them for the
 /// paper's models.
@@ -62,6 +63,16 @@ impl SearchRanges {
     }
 }
 
+/// Parses `--search-rows`: a fit of fewer than 50 rows says nothing about C or gamma.
+pub fn parse_search_rows(text: &str) -> Result<usize, String> {
+    match text.trim().parse::<usize>() {
+        Ok(n) if n >= 50 => Ok(n),
+        _ => Err(format!(
+            "expected a number of rows, at least 50, got {text:?}"
+        )),
+    }
+}
+
 /// Parses a search range `LOW:HIGH` (both positive, finite, `LOW < HIGH`).
 pub fn parse_range(text: &str) -> Result<[f64; 2], String> {
     let expected =
@@ -84,6 +95,11 @@ pub struct TuneSpec {
     pub iterations: usize,
     pub folds: usize,
     pub ranges: SearchRanges,
+    /// At most this many rows (after down-sampling) in each of the search's fits: a fold's
+    /// training rows are sampled, each class alike, down to it. The held-out fold is still
+    /// scored on every row, and the cell's final model is fitted on all its rows. `None`:
+    /// every row.
+    pub max_fit_rows: Option<usize>,
 }
 
 #[derive(Debug, thiserror::Error)]
@@ -134,6 +150,18 @@ pub fn cross_validated_f1(
         .into_par_iter()
         .map(|fold| {
             let train = data.filter(|i| fold_of(data.trial[i]) != fold);
+            let train = match spec.max_fit_rows {
+                Some(cap) => {
+                    let (slip, stat) = (train.count(Class::Slip), train.count(Class::Static));
+                    let fitted = slip as f64 + spec.downsample.clamp(0.0, 1.0) * stat as f64;
+                    if fitted > cap as f64 {
+                        train.subsample_each_class(cap as f64 / fitted, spec.seed ^ 0xf17)
+                    } else {
+                        train
+                    }
+                }
+                None => train,
+            };
             let test = data.filter(|i| fold_of(data.trial[i]) == fold);
             let models = train_models(
                 &train,
@@ -194,7 +222,12 @@ pub fn search(
     }
     let b = best(&history).expect("at least one evaluation");
     let record = SearchRecord {
-        method: "bayes (GP Matern 5/2, expected improvement)".into(),
+        method: match spec.max_fit_rows {
+            None => "bayes (GP Matern 5/2, expected improvement)".into(),
+            Some(cap) => {
+                format!("bayes (GP Matern 5/2, expected improvement), fits on at most {cap} rows")
+            }
+        },
         folds: spec.folds,
         parameters: ranges.iter().map(|r| r.name.to_string()).collect(),
         ranges: ranges.iter().map(|r| [r.low, r.high]).collect(),
@@ -261,6 +294,7 @@ mod tests {
             iterations,
             folds,
             ranges: SearchRanges::default(),
+            max_fit_rows: None,
         }
     }
 
@@ -322,6 +356,43 @@ mod tests {
             ..inside
         };
         assert_eq!(at_top.best_on_range_ends()[0].2, "upper");
+    }
+
+    #[test]
+    fn a_search_may_fit_on_fewer_rows_each_class_alike() {
+        let data = blobs();
+        let sub = data.subsample_each_class(0.25, 1);
+        assert_eq!(sub.count(Class::Slip), 23); // 90 * 0.25, rounded
+        assert_eq!(sub.count(Class::Static), 68); // 270 * 0.25, rounded
+        assert_eq!(data.subsample_each_class(1.0, 1), data);
+        let hyper = Hyperparameters {
+            c: 1.0,
+            gamma: 0.0,
+            max_iterations: None,
+        };
+        let full = cross_validated_f1(&data, &spec(ClassifierKind::Logreg, 1, 3), hyper).unwrap();
+        let capped = TuneSpec {
+            max_fit_rows: Some(60),
+            ..spec(ClassifierKind::Logreg, 1, 3)
+        };
+        let few = cross_validated_f1(&data, &capped, hyper).unwrap();
+        // the blobs separate from a few rows as from all; the fits really were smaller
+        assert!(few > 0.8 && (few - full).abs() < 0.1, "{few} vs {full}");
+        let (_, record) = search(
+            &data,
+            &TuneSpec {
+                iterations: 2,
+                ..capped
+            },
+        )
+        .unwrap();
+        assert!(
+            record.method.contains("at most 60 rows"),
+            "{}",
+            record.method
+        );
+        assert_eq!(parse_search_rows("4000"), Ok(4000));
+        assert!(parse_search_rows("10").unwrap_err().contains("at least 50"));
     }
 
     #[test]
