@@ -257,6 +257,36 @@ pub fn sweep(args: SweepArgs) -> Result<()> {
         );
     }
     let rows = result.rows;
+    if let HyperChoice::Search { ranges, .. } = hyper {
+        let at_ends: Vec<String> = rows
+            .iter()
+            .filter_map(|r| {
+                let kind = args.classifiers.iter().find(|k| k.name() == r.classifier)?;
+                let ends = ranges.ends_reached(*kind, r.c, r.gamma);
+                (!ends.is_empty()).then(|| {
+                    let what: Vec<String> = ends
+                        .iter()
+                        .map(|(name, value, end)| format!("{name} {value:.4} at the {end} end"))
+                        .collect();
+                    format!(
+                        "{} n_slip {} d {}: {}",
+                        r.classifier,
+                        r.n_slip,
+                        r.downsample,
+                        what.join(", ")
+                    )
+                })
+            })
+            .collect();
+        if !at_ends.is_empty() {
+            eprintln!(
+                "warning: in {} of {} cells the search's best lies at an end of its range (the optimum may lie beyond; widen --c-range or --gamma-range): {}",
+                at_ends.len(),
+                rows.len(),
+                at_ends.join("; ")
+            );
+        }
+    }
 
     let (tmo_version, git_revision) = TrialMeta::code_version();
     let provenance = SweepProvenance {

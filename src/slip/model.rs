@@ -308,17 +308,8 @@ impl SearchRecord {
             .iter()
             .zip(&self.ranges)
             .zip(&best.params)
-            .filter_map(|((name, &[low, high]), &value)| {
-                let width = (high / low).ln();
-                let at = |end: f64| (value / end).ln().abs() <= 0.02 * width;
-                let end = if at(low) {
-                    "lower"
-                } else if at(high) {
-                    "upper"
-                } else {
-                    return None;
-                };
-                Some((name.clone(), value, end))
+            .filter_map(|((name, &range), &value)| {
+                super::tuning::at_range_end(value, range).map(|end| (name.clone(), value, end))
             })
             .collect()
     }

@@ -63,6 +63,45 @@ impl SearchRanges {
     }
 }
 
+/// Whether a searched `value` lies at an end of its log-uniform range `[low, high]` (within
+/// 2 % of the range's log width): `Some("lower" | "upper")`. The optimum may lie beyond.
+pub fn at_range_end(value: f64, [low, high]: [f64; 2]) -> Option<&'static str> {
+    let width = (high / low).ln();
+    let near = |end: f64| (value / end).ln().abs() <= 0.02 * width;
+    if near(low) {
+        Some("lower")
+    } else if near(high) {
+        Some("upper")
+    } else {
+        None
+    }
+}
+
+impl SearchRanges {
+    /// The searched parameters of a sweep cell's classifier that lie at an end of their
+    /// ranges, as `(name, value, end)`.
+    pub fn ends_reached(
+        &self,
+        kind: ClassifierKind,
+        c: f64,
+        gamma: f64,
+    ) -> Vec<(&'static str, f64, &'static str)> {
+        let mut out = Vec::new();
+        if kind == ClassifierKind::Threshold {
+            return out;
+        }
+        if let Some(end) = at_range_end(c, self.c) {
+            out.push(("C", c, end));
+        }
+        if kind == ClassifierKind::SvmRbf {
+            if let Some(end) = at_range_end(gamma, self.gamma) {
+                out.push(("gamma", gamma, end));
+            }
+        }
+        out
+    }
+}
+
 /// Parses `--search-rows`: a fit of fewer than 50 rows says nothing about C or gamma.
 pub fn parse_search_rows(text: &str) -> Result<usize, String> {
     match text.trim().parse::<usize>() {
@@ -393,6 +432,23 @@ mod tests {
         );
         assert_eq!(parse_search_rows("4000"), Ok(4000));
         assert!(parse_search_rows("10").unwrap_err().contains("at least 50"));
+    }
+
+    #[test]
+    fn a_sweep_cell_whose_best_lies_on_a_range_end_is_found() {
+        let r = SearchRanges::default();
+        assert_eq!(at_range_end(0.0105, r.c), Some("lower"));
+        assert_eq!(at_range_end(990.0, r.c), Some("upper"));
+        assert_eq!(at_range_end(3.0, r.c), None);
+        assert_eq!(
+            r.ends_reached(ClassifierKind::SvmRbf, 3.0, 9.9),
+            vec![("gamma", 9.9, "upper")]
+        );
+        // logreg has no gamma to search; the threshold nothing
+        assert!(r.ends_reached(ClassifierKind::Logreg, 3.0, 9.9).is_empty());
+        assert!(r
+            .ends_reached(ClassifierKind::Threshold, 0.01, 0.0)
+            .is_empty());
     }
 
     #[test]
