@@ -95,12 +95,11 @@ impl SensorOptics {
             offsets,
         }
     }
-}
 
-impl SensorOptics {
     /// The skin element under each pin: its weight in a contact of radius
     /// `contact_radius_px` (`exp(-r^2 / 2 a^2)`, 0 well outside it) and its offset from the
-    /// contact centre along the slip direction, mm.
+    /// contact centre along the slip direction, in px divided by `px_per_mm` (so mm with the
+    /// image's scale, px with 1).
     pub fn contact_elements(
         &self,
         contact_radius_px: f64,
@@ -169,17 +168,12 @@ pub fn local_shear_factors(
     out: &mut Vec<f64>,
 ) {
     out.clear();
-    let [ux, uy] = optics.slip_direction;
-    let inv_two_a2 = 1.0 / (2.0 * contact_radius_px * contact_radius_px).max(1e-12);
-    out.extend(optics.offsets.iter().map(|&[dx, dy, r]| {
-        let w = (-r * r * inv_two_a2).exp();
-        // pins far outside the contact do not move (and cost no texture evaluation)
-        if w < 1e-3 || contact_radius_px <= 0.0 {
-            0.0
-        } else {
-            w * local(dx * ux + dy * uy)
-        }
-    }));
+    // pins far outside the contact do not move (and cost no texture evaluation)
+    out.extend(
+        optics
+            .contact_elements(contact_radius_px, 1.0)
+            .map(|(w, xi_px)| if w == 0.0 { 0.0 } else { w * local(xi_px) }),
+    );
 }
 
 /// Moves pins `out` (as [`pin_positions`] left them) by `shear_px` times their
