@@ -11,6 +11,7 @@ pub mod logreg;
 pub mod metrics;
 pub mod model;
 pub mod scaler;
+pub mod search_range;
 pub mod svm;
 pub mod sweep;
 pub mod sweep_file;
