@@ -40,6 +40,41 @@ fn a_search_with_fewer_than_two_folds_is_refused() {
 }
 
 #[test]
+fn train_checks_where_the_model_goes_before_training() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    ok(&tmo(d, &["sim", "collect", "--trials", "3", "--out", "t"]));
+    std::fs::create_dir(d.join("models")).unwrap();
+    // a folder as --out is refused at once (before the fit, not after it)
+    let err = fails(&tmo(
+        d,
+        &["train", "t", "--classifier", "logreg", "--out", "models"],
+    ));
+    assert!(
+        err.contains("is a folder; expected the model file's path"),
+        "{err}"
+    );
+    assert!(!d.join("models.json.partial").exists());
+    // a missing parent folder is made; the output says what the scores are on
+    let out = ok(&tmo(
+        d,
+        &[
+            "train",
+            "t",
+            "--classifier",
+            "logreg",
+            "--out",
+            "new/dir/m.json",
+        ],
+    ));
+    assert!(d.join("new/dir/m.json").is_file());
+    assert!(
+        out.contains("fitted") && out.contains("scores on the fitted rows (training data"),
+        "{out}"
+    );
+}
+
+#[test]
 fn a_search_range_that_is_not_one_is_refused_naming_the_option() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();

@@ -172,7 +172,29 @@ fn print_scores(label: &str, s: &Scores) {
     );
 }
 
+/// Checks where a model will be written before any training: a fit takes minutes, and its
+/// result should not be lost to a path that cannot take it. Creates missing parent folders.
+fn check_model_out(out: &std::path::Path) -> Result<()> {
+    anyhow::ensure!(
+        !out.is_dir(),
+        "--out {}: is a folder; expected the model file's path (e.g. {}/model.json)",
+        out.display(),
+        out.display()
+    );
+    if let Some(parent) = out.parent().filter(|p| !p.as_os_str().is_empty()) {
+        std::fs::create_dir_all(parent).with_context(|| {
+            format!(
+                "--out {}: cannot create {}",
+                out.display(),
+                parent.display()
+            )
+        })?;
+    }
+    Ok(())
+}
+
 pub fn train(args: TrainArgs) -> Result<()> {
+    check_model_out(&args.out)?;
     let labels = label_spec(&args.labels)?;
     let (ds, refs, features) = load_dataset(&args.trials, &labels)?;
     let started = std::time::Instant::now();
@@ -249,14 +271,18 @@ pub fn train(args: TrainArgs) -> Result<()> {
     for u in &unconverged {
         eprintln!("warning: {u}");
     }
+    let fitted: usize = file.models.iter().map(|m| m.training_rows).sum();
     println!(
-        "trained {} ({:?} scope) on {} trials, {} rows, in {:.2} s",
+        "trained {} ({:?} scope) on {} trials: {} rows, {} of them fitted (static rows down-sampled to {}), in {:.2} s",
         args.classifier.name(),
         args.scope,
         file.training_trials.len(),
         ds.len(),
+        fitted,
+        args.labels.downsample,
         started.elapsed().as_secs_f64()
     );
+    println!("scores on the fitted rows (training data; `tmo evaluate` scores held-out trials):");
     for m in &file.models {
         let label = m
             .sensor
