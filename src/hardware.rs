@@ -342,13 +342,7 @@ fn is_host(host: &str) -> bool {
 
 /// Reads, parses and checks a hardware file.
 pub fn load(path: &Path) -> Result<HardwareFile, HardwareError> {
-    let text = std::fs::read_to_string(path).map_err(|e| ProtocolError {
-        path: path.to_path_buf(),
-        line: 1,
-        column: 1,
-        field: "(file)".into(),
-        message: format!("cannot read: {e}"),
-    })?;
+    let text = std::fs::read_to_string(path).map_err(|e| ProtocolError::unreadable(path, &e))?;
     parse(path, &text)
 }
 

@@ -14,7 +14,8 @@ use cli::sweep::SweepArgs;
 #[derive(Parser)]
 #[command(
     name = "tmo",
-    version,
+    // The git revision too: trial logs and models record it, and a bug report needs it.
+    version = concat!(env!("CARGO_PKG_VERSION"), " (", env!("TMO_GIT_REVISION"), ")"),
     about = "Tactile slip-detection experiments on the Tactile Model O hand"
 )]
 struct Cli {

@@ -7,7 +7,10 @@ use anyhow::Result;
 #[derive(clap::Subcommand)]
 pub enum HardwareCommand {
     /// Checks a hardware file and prints what it sets up.
-    Check { file: PathBuf },
+    Check {
+        /// The hardware file (TOML; `hardware/tmo.toml` is a commented example).
+        file: PathBuf,
+    },
 }
 
 pub fn run(command: HardwareCommand) -> Result<()> {

@@ -22,7 +22,10 @@ pub enum Backend {
 
 #[derive(clap::Args)]
 pub struct RunArgs {
+    /// The protocol file (TOML; examples in protocols/).
     protocol: PathBuf,
+    /// Where the trials run: the simulator, recorded trials (with --from) or the real rig
+    /// (with --hardware).
     #[arg(long, value_enum, default_value = "sim")]
     backend: Backend,
     /// Batch directory (default results/<protocol name>).

@@ -102,6 +102,7 @@ pub enum SearchMethod {
 
 #[derive(clap::Args)]
 pub struct EvaluateArgs {
+    /// The model file (from `tmo train`).
     model: PathBuf,
     /// Trial logs (.mcap) or directories of them.
     #[arg(required = true)]

@@ -104,9 +104,10 @@ fn default_grasps() -> Vec<f64> {
     vec![0.0]
 }
 
-/// Where something is wrong in a protocol file.
+/// Where something is wrong in a protocol file. Line 0 means the file as a whole (it could
+/// not be read), and the message names no line or field.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
-#[error("{path}:{line}:{column}: {field}: {message}")]
+#[error("{}", self.located())]
 pub struct ProtocolError {
     pub path: PathBuf,
     pub line: usize,
@@ -114,6 +115,34 @@ pub struct ProtocolError {
     /// Dotted path of the field, e.g. `hand_release.regrasp`.
     pub field: String,
     pub message: String,
+}
+
+impl ProtocolError {
+    /// The file as a whole could not be read.
+    pub fn unreadable(path: &Path, e: &std::io::Error) -> Self {
+        Self {
+            path: path.to_path_buf(),
+            line: 0,
+            column: 0,
+            field: String::new(),
+            message: format!("cannot read: {e}"),
+        }
+    }
+
+    fn located(&self) -> String {
+        if self.line == 0 {
+            format!("{}: {}", self.path.display(), self.message)
+        } else {
+            format!(
+                "{}:{}:{}: {}: {}",
+                self.path.display(),
+                self.line,
+                self.column,
+                self.field,
+                self.message
+            )
+        }
+    }
 }
 
 /// Kind-specific parameters, validated.
@@ -307,13 +336,7 @@ impl ProtocolFile {
 
 /// Reads, parses and validates a protocol file.
 pub fn load(path: &Path, rig_sensors: u32) -> Result<Plan, ProtocolError> {
-    let text = std::fs::read_to_string(path).map_err(|e| ProtocolError {
-        path: path.to_path_buf(),
-        line: 1,
-        column: 1,
-        field: "(file)".into(),
-        message: format!("cannot read: {e}"),
-    })?;
+    let text = std::fs::read_to_string(path).map_err(|e| ProtocolError::unreadable(path, &e))?;
     let file = ProtocolFile::parse(path, &text)?;
     validate(path, &text, file, rig_sensors)
 }

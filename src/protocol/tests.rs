@@ -198,3 +198,15 @@ fn a_kind_that_is_not_a_string_lists_the_kinds_and_a_nul_byte_is_named() {
     .unwrap_err();
     assert!(e.to_string().contains("U+0000"), "{e}");
 }
+
+#[test]
+fn a_file_that_cannot_be_read_is_named_without_a_made_up_line() {
+    let e = load(Path::new("/nonexistent/p.toml"), 3).unwrap_err();
+    assert_eq!(e.line, 0);
+    let text = e.to_string();
+    assert!(
+        text.starts_with("/nonexistent/p.toml: cannot read: "),
+        "{text}"
+    );
+    assert!(!text.contains(":1:1") && !text.contains("(file)"), "{text}");
+}
