@@ -28,6 +28,8 @@ pub struct ClassScores {
 pub struct Scores {
     pub confusion: Confusion,
     pub slip: ClassScores,
+    /// `static` in files (files written before this name was fixed say `static_`).
+    #[serde(rename = "static", alias = "static_")]
     pub static_: ClassScores,
     pub macro_f1: f64,
 }
@@ -118,6 +120,18 @@ mod tests {
         assert!((s.static_.f1 - 0.8).abs() < 1e-12);
         assert!((s.macro_f1 - (2.0 / 3.0 + 0.8) / 2.0).abs() < 1e-12);
         assert_eq!(s.slip.support, 3);
+    }
+
+    #[test]
+    fn scores_are_written_with_a_static_key_and_read_with_either() {
+        let s = Scores::default();
+        let text = serde_json::to_string(&s).unwrap();
+        assert!(
+            text.contains("\"static\":") && !text.contains("static_"),
+            "{text}"
+        );
+        let old = text.replace("\"static\":", "\"static_\":");
+        assert_eq!(serde_json::from_str::<Scores>(&old).unwrap(), s);
     }
 
     #[test]
