@@ -191,6 +191,11 @@ fn check_model_out(out: &std::path::Path) -> Result<()> {
             )
         })?;
     }
+    // The model is written beside its final name first; that file must be creatable.
+    let partial = out.with_extension("json.partial");
+    std::fs::write(&partial, b"")
+        .with_context(|| format!("--out {}: cannot write there", out.display()))?;
+    let _ = std::fs::remove_file(&partial);
     Ok(())
 }
 
