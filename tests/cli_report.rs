@@ -49,9 +49,16 @@ fn out_writes_one_file_per_table() {
         ],
     );
     ok(&o);
+    // each file is plain CSV (the file names the table), its first line the header, as
+    // `pandas.read_csv` expects; the same rows as the table's block on standard output
+    let all = String::from_utf8_lossy(&o.stdout).to_string();
     for name in ["rail_catch", "hand_online", "hand_objects"] {
         let text = std::fs::read_to_string(out.join(format!("{name}.csv"))).unwrap();
-        assert!(text.starts_with(&format!("# {name}\n")), "{text}");
+        assert!(!text.starts_with('#'), "{text}");
+        assert!(all.contains(&format!("# {name}\n{text}")), "{name}");
+        let mut r = csv::Reader::from_reader(text.as_bytes());
+        let width = r.headers().unwrap().len();
+        assert!(r.records().all(|rec| rec.unwrap().len() == width));
     }
     assert!(String::from_utf8_lossy(&o.stderr).contains("hand_online.csv"));
 }

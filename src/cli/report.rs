@@ -50,7 +50,11 @@ pub fn report(args: ReportArgs) -> Result<()> {
         std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
         for t in &tables {
             let path = dir.join(format!("{}.{}", t.name, extension(args.format)));
-            let text = report::render(std::slice::from_ref(t), args.format)?;
+            // The file names the table, so a CSV file is the table alone: header first.
+            let text = match args.format {
+                Format::Csv => t.csv()?,
+                _ => report::render(std::slice::from_ref(t), args.format)?,
+            };
             std::fs::write(&path, text)
                 .with_context(|| format!("cannot write {}", path.display()))?;
             written.push(path);

@@ -210,8 +210,9 @@ pub enum Format {
     Html,
 }
 
-/// All tables in one document: Markdown sections, CSV blocks (each after a `# name`
-/// line; `--out` writes one file per table), or one JSON object keyed by table name.
+/// All tables in one document: Markdown sections, CSV blocks (each after a `# name` line;
+/// `--out` writes one file per table, a CSV file holding the table alone), or one JSON
+/// object keyed by table name.
 pub fn render(tables: &[Table], format: Format) -> Result<String, ReportError> {
     Ok(match format {
         Format::Md => tables
