@@ -30,6 +30,42 @@ pub struct CollectSpec {
     pub base: SimConfig,
 }
 
+impl CollectSpec {
+    /// The `kind` its trial logs record.
+    pub fn kind(&self) -> &'static str {
+        match self.rig {
+            CollectRig::Hand => "hand_release_collect",
+            CollectRig::Rail => "rail_catch_collect",
+        }
+    }
+
+    /// Why a trial log already in the output directory is not the trial this collection
+    /// would make under its name (another rig, object, grasp or seed), if it is not: a
+    /// collection never mixes with another one.
+    pub fn differs_from(&self, kept: &TrialMeta) -> Option<String> {
+        if kept.kind != self.kind() {
+            return Some(format!(
+                "it is a {} trial, this collection makes {}",
+                kept.kind,
+                self.kind()
+            ));
+        }
+        if kept.object != self.object || kept.grasp_deg != self.grasp_deg {
+            return Some(format!(
+                "it holds {} at {} deg, this collection puts {} at {} deg under that name",
+                kept.object, kept.grasp_deg, self.object, self.grasp_deg
+            ));
+        }
+        if kept.seed != self.seed {
+            return Some(format!(
+                "it ran with seed {}, this collection's trial has seed {} (another --seed?)",
+                kept.seed, self.seed
+            ));
+        }
+        None
+    }
+}
+
 #[derive(Debug, thiserror::Error)]
 pub enum CollectError {
     #[error(transparent)]
@@ -159,10 +195,7 @@ pub fn collect_trial(
     let meta = TrialMeta {
         format_version: TRIAL_FORMAT_VERSION,
         trial_id: trial_id.to_string(),
-        kind: match spec.rig {
-            CollectRig::Hand => "hand_release_collect".into(),
-            CollectRig::Rail => "rail_catch_collect".into(),
-        },
+        kind: spec.kind().into(),
         backend: "sim".into(),
         seed: spec.seed,
         object: spec.object.clone(),

@@ -75,6 +75,49 @@ fn train_checks_where_the_model_goes_before_training() {
 }
 
 #[test]
+fn a_collection_never_adds_to_another_collections_directory() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    ok(&tmo(
+        d,
+        &[
+            "sim", "collect", "--rig", "rail", "--trials", "2", "--out", "t",
+        ],
+    ));
+    let before: Vec<_> = std::fs::read_dir(d.join("t")).unwrap().collect();
+    for (args, why) in [
+        (vec!["--trials", "3"], "it is a rail_catch_collect trial"),
+        (
+            vec!["--rig", "rail", "--trials", "3", "--seed", "9"],
+            "another --seed?",
+        ),
+    ] {
+        let mut all = vec!["sim", "collect", "--out", "t"];
+        all.extend(args);
+        let err = fails(&tmo(d, &all));
+        assert!(
+            err.contains("already holds another collection's trial") && err.contains(why),
+            "{err}"
+        );
+    }
+    assert_eq!(
+        std::fs::read_dir(d.join("t")).unwrap().count(),
+        before.len()
+    );
+    // the same collection, asked for more, finishes what is missing
+    let out = ok(&tmo(
+        d,
+        &[
+            "sim", "collect", "--rig", "rail", "--trials", "3", "--out", "t",
+        ],
+    ));
+    assert!(
+        out.contains("collected 1 trials (2 already there)"),
+        "{out}"
+    );
+}
+
+#[test]
 fn a_search_range_that_is_not_one_is_refused_naming_the_option() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();

@@ -44,7 +44,8 @@ pub struct CollectArgs {
     /// Simulator parameters (TOML); the rig is set by --rig.
     #[arg(long)]
     config: Option<PathBuf>,
-    /// Output directory; trials already there are kept and not run again.
+    /// Output directory; trials already there are kept and not run again (they must be this
+    /// collection's own: another rig, object, grasp or seed is refused).
     #[arg(long, default_value = "trials/collect")]
     out: PathBuf,
 }
@@ -254,23 +255,43 @@ fn sim_collect(args: CollectArgs) -> Result<()> {
         .progress_chars("=> "),
     );
     bar.set_prefix("collect");
-    let (mut ran, mut kept) = (0, 0);
-    for i in 0..args.trials {
-        let trial_id = format!("trial-{i:04}");
-        let path = args.out.join(format!("{trial_id}.mcap"));
-        if path.exists() {
-            kept += 1;
-            bar.inc(1);
-            continue;
-        }
+    let spec_of = |i: u64| {
         let n = objects.len() as u64;
-        let spec = CollectSpec {
+        CollectSpec {
             rig: args.rig,
             object: objects[(i % n) as usize].clone(),
             grasp_deg: args.grasps[((i / n) % args.grasps.len() as u64) as usize],
             seed: collect::trial_seed(args.seed, i),
             base: base.clone(),
-        };
+        }
+    };
+    // Trials already there must be this collection's own (an earlier, interrupted run of
+    // it): checked before any trial runs, so nothing is added to another collection.
+    let mut already = vec![false; args.trials as usize];
+    for i in 0..args.trials {
+        let path = args.out.join(format!("trial-{i:04}.mcap"));
+        if path.exists() {
+            let kept = tmo::trial::read_trial(&path)?;
+            if let Some(why) = spec_of(i).differs_from(&kept.meta) {
+                anyhow::bail!(
+                    "{} already holds another collection's trial: {}: {why}; nothing was added (use another --out)",
+                    args.out.display(),
+                    path.display()
+                );
+            }
+            already[i as usize] = true;
+        }
+    }
+    let (mut ran, mut kept) = (0, 0);
+    for i in 0..args.trials {
+        let trial_id = format!("trial-{i:04}");
+        let path = args.out.join(format!("{trial_id}.mcap"));
+        if already[i as usize] {
+            kept += 1;
+            bar.inc(1);
+            continue;
+        }
+        let spec = spec_of(i);
         let trial = collect::collect_trial(&spec, &trial_id, unix_now())
             .with_context(|| format!("trial {trial_id}"))?;
         tmo::trial::write_trial(&path, &trial)?;
