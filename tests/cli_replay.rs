@@ -46,6 +46,8 @@ fn replaying_with_the_model_and_strategy_that_ran_reproduces_the_detector_exactl
         ],
     ));
     assert!(out.contains("48 replays of 16 trial(s)"), "{out}");
+    // every trial is in one of the table's columns: no slip has its own
+    assert!(out.contains("missed | no slip | undetermined"), "{out}");
     let rows = csv_rows(&d.join("r/replay.csv"));
     let compared: Vec<_> = rows
         .iter()

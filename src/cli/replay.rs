@@ -53,6 +53,7 @@ fn table(rows: &[ReplayOutcome]) -> Table {
             "detected",
             "FP",
             "missed",
+            "no slip",
             "undetermined",
             "latency median (ms)",
             "latency p90 (ms)",
@@ -99,6 +100,8 @@ fn table(rows: &[ReplayOutcome]) -> Table {
             rate(ReplayVerdict::Detected),
             rate(ReplayVerdict::FalsePositive),
             rate(ReplayVerdict::Missed),
+            // neither slipped nor reacted: with the three before, every determined trial
+            rate(ReplayVerdict::NoSlip),
             Cell::Count(undetermined),
             Cell::number(percentile(&ms, 0.5), 0),
             Cell::number(percentile(&ms, 0.9), 0),
