@@ -4,6 +4,7 @@
 
 pub mod collect;
 pub mod hardware;
+pub mod import;
 pub mod lock;
 pub mod online;
 pub mod outcome;

@@ -31,6 +31,9 @@ enum Command {
     /// The real rig's hardware file.
     #[command(subcommand)]
     Hardware(cli::hardware::HardwareCommand),
+    /// Other sensors' recordings (any number of elements, any rate) into trial logs.
+    #[command(subcommand)]
+    Import(cli::import::ImportCommand),
     /// Labelled feature data from recorded trials.
     #[command(subcommand)]
     Dataset(DatasetCommand),
@@ -103,6 +106,7 @@ fn run(cli: Cli) -> Result<u8> {
     match cli.command {
         Command::Sim(command) => cli::sim::run(command),
         Command::Hardware(command) => cli::hardware::run(command),
+        Command::Import(command) => cli::import::run(command),
         Command::Dataset(DatasetCommand::Export(args)) => cli::slip::dataset_export(args),
         Command::Train(args) => cli::slip::train(args),
         Command::Evaluate(args) => cli::slip::evaluate(args),

@@ -78,8 +78,13 @@ impl Trial {
     pub fn unusable(&self) -> Option<&'static str> {
         if self.frames.is_empty() {
             Some("it has no tactile frames (nothing to classify)")
-        } else if self.markers.is_empty() {
-            Some("it has no marker track (no slip onset to label or score against)")
+        } else if self.markers.is_empty()
+            && !self
+                .events
+                .iter()
+                .any(|e| e.topic == crate::import::LABEL_TOPIC)
+        {
+            Some("it has neither a marker track nor slip labels (no slip onset to label or score against)")
         } else {
             None
         }

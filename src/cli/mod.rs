@@ -1,6 +1,7 @@
 //! Subcommands: argument types and the glue from them to the library.
 
 pub mod hardware;
+pub mod import;
 pub mod replay;
 pub mod report;
 pub mod reproduce;

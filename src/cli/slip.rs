@@ -140,7 +140,7 @@ pub fn load_dataset(
     let (ds, refs, features) = tmo::slip::dataset::load_labelled(paths, labels)?;
     if !ds.trials_without_onset.is_empty() {
         eprintln!(
-            "note: no slip onset in the marker track of {} trial(s): {}",
+            "note: no slip onset (in the marker track or slip labels) in {} trial(s): {}",
             ds.trials_without_onset.len(),
             ds.trials_without_onset.join(", ")
         );

@@ -486,7 +486,13 @@ pub fn trial_figures(
     let Some(first) = trials.first() else {
         return Ok(Vec::new());
     };
-    let features = FeatureSpec::new(first.meta.pins);
+    // an imported sensor's own step limit (a bad one falls back to the pin guard: a figure,
+    // not a model, is made here)
+    let features = FeatureSpec {
+        max_pin_step_px: crate::slip::dataset::max_step(first)
+            .unwrap_or(FeatureSpec::new(0).max_pin_step_px),
+        ..FeatureSpec::new(first.meta.pins)
+    };
     let trials: Vec<Trial> = trials
         .into_iter()
         .filter(|t| t.meta.pins == features.pins)

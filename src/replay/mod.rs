@@ -17,7 +17,7 @@ use crate::runner::monitor::WatchLimits;
 use crate::runner::replay::{run_replay, ArmedWindow, ReplayParams};
 use crate::runner::{Fault, Online, RunRecord, TICK_S};
 use crate::scenario::ScenarioError;
-use crate::slip::labels::slip_onset;
+use crate::slip::labels::trial_onset;
 use crate::slip::model::ModelFile;
 use crate::trial::{is_reaction, Trial};
 
@@ -103,7 +103,7 @@ pub fn judge(
     fault: Option<Fault>,
     spec: &CatchSpec,
 ) -> (ReplayVerdict, Option<f64>, Option<i64>) {
-    let onset = slip_onset(&trial.markers, &spec.onset);
+    let onset = trial_onset(trial, &spec.onset);
     let logged = logged_reaction(trial).map(|l| l.0);
     let latency = reaction.zip(onset).map(|(r, o)| r.time_s - o);
     let frames = reaction.zip(onset).map(|(r, o)| {
@@ -175,7 +175,7 @@ pub fn evaluate(
         model: model.name.to_string(),
         strategy: strategy.to_string(),
         window: source.to_string(),
-        onset_s: slip_onset(&trial.markers, &spec.onset),
+        onset_s: trial_onset(trial, &spec.onset),
         reaction_s: r.map(|r| r.time_s),
         reaction_sensor: r.map(|r| r.sensor),
         reaction_seq: r.map(|r| r.seq),
@@ -236,7 +236,7 @@ mod tests {
     fn reactions_are_judged_against_the_onset_and_the_logged_reaction() {
         let spec = CatchSpec::default();
         let t = trial_with_fall(1.0);
-        let onset = slip_onset(&t.markers, &spec.onset).unwrap();
+        let onset = trial_onset(&t, &spec.onset).unwrap();
         assert_eq!(
             judge(&t, at(onset + 0.05), None, &spec).0,
             ReplayVerdict::Detected

@@ -7,7 +7,7 @@ use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 
 use super::features::{frame_features, FeatureSpec};
-use super::labels::{label_frames, slip_window, OnsetSpec};
+use super::labels::{label_frames, trial_slip_window, OnsetSpec};
 use super::Class;
 use crate::trial::Trial;
 
@@ -29,6 +29,29 @@ pub enum LoadError {
         first: std::path::PathBuf,
         expected: usize,
     },
+    #[error("{path}: {message}")]
+    Features {
+        path: std::path::PathBuf,
+        message: String,
+    },
+}
+
+/// The per-frame step beyond which an element counts as lost, as a trial records it:
+/// imported trials carry their sensor's own (`max_element_step`, in its units, or `off`);
+/// tmo's own logs use the 20 px guard for tracked pins.
+pub fn max_step(t: &Trial) -> Result<f32, String> {
+    let name = crate::import::MAX_STEP_PARAMETER;
+    match t.meta.parameters.get(name).map(String::as_str) {
+        None => Ok(FeatureSpec::new(0).max_pin_step_px),
+        Some("off") => Ok(f32::MAX),
+        Some(v) => v
+            .parse::<f32>()
+            .ok()
+            .filter(|m| m.is_finite() && *m > 0.0)
+            .ok_or_else(|| {
+                format!("parameter {name} = `{v}`: expected a positive number or `off`")
+            }),
+    }
 }
 
 /// Loads trial logs (files or directories of them) and labels their frames; every trial
@@ -49,7 +72,22 @@ pub fn load_labelled(
         ));
     };
     let pins = first.2.meta.pins;
+    let step = max_step(&first.2).map_err(|message| LoadError::Features {
+        path: first.0.clone(),
+        message,
+    })?;
     for (path, _, t) in &loaded {
+        let features = |message| LoadError::Features {
+            path: path.clone(),
+            message,
+        };
+        if max_step(t).map_err(features)? != step {
+            return Err(features(format!(
+                "its element step limit differs from {}'s ({}); trials of one dataset come from one kind of sensor",
+                first.0.display(),
+                first.2.meta.parameters.get(crate::import::MAX_STEP_PARAMETER).map_or("20 px", String::as_str)
+            )));
+        }
         if let Some(why) = t.unusable() {
             return Err(LoadError::Unusable {
                 path: path.clone(),
@@ -65,7 +103,10 @@ pub fn load_labelled(
             });
         }
     }
-    let features = FeatureSpec::new(pins);
+    let features = FeatureSpec {
+        max_pin_step_px: step,
+        ..FeatureSpec::new(pins)
+    };
     let refs = loaded
         .iter()
         .map(|(p, h, t)| super::model::TrialRef {
@@ -149,7 +190,7 @@ impl Dataset {
         let mut row = Vec::with_capacity(features.len());
         for (ti, trial) in trials.iter().enumerate() {
             ds.trial_ids.push(trial.meta.trial_id.clone());
-            let (onset, slip_end) = slip_window(&trial.markers, &trial.meta.object, &labels.onset);
+            let (onset, slip_end) = trial_slip_window(trial, &labels.onset);
             if onset.is_none() {
                 ds.trials_without_onset.push(trial.meta.trial_id.clone());
             }

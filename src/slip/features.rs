@@ -147,6 +147,28 @@ mod tests {
     use super::*;
     use std::f32::consts::PI;
 
+    #[test]
+    fn any_number_of_elements_in_any_units_gives_two_features_each() {
+        // a 16-taxel skin in raw counts: a step of 300 counts is a measurement there
+        let spec = FeatureSpec {
+            pins: 16,
+            max_pin_step_px: f32::MAX,
+        };
+        let prev = frame(1, (0..16).map(|i| [i as f32 * 1000.0, 16000.0]).collect());
+        let cur = frame(2, prev.pins.iter().map(|p| [p[0] + 300.0, p[1]]).collect());
+        let mut out = Vec::new();
+        frame_features(&spec, &prev, &cur, &mut out).unwrap();
+        assert_eq!(out.len(), 32);
+        assert!(
+            out[..16].iter().all(|&r| (r - 300.0).abs() < 1e-3),
+            "{out:?}"
+        );
+        assert!(out[16..].iter().all(|&a| a.abs() < 1e-6), "{out:?}");
+        // tmo's 20 px pin guard would take every such step for a lost element
+        frame_features(&FeatureSpec::new(16), &prev, &cur, &mut out).unwrap();
+        assert!(out.iter().all(|&v| v == 0.0));
+    }
+
     fn frame(seq: u64, pins: Vec<[f32; 2]>) -> PinFrame {
         PinFrame {
             sensor: 0,

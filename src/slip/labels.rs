@@ -21,6 +21,7 @@
 use tmo_hal::MarkerSample;
 
 use super::Class;
+use crate::trial::Trial;
 
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct OnsetSpec {
@@ -197,6 +198,39 @@ pub fn slip_window(
         ),
         None => (None, None),
     }
+}
+
+/// A trial's imported slip labels (`/label` track: time, slip), in time order; empty for
+/// trials labelled by their marker track.
+pub fn label_track(trial: &Trial) -> Vec<(f64, bool)> {
+    trial
+        .events
+        .iter()
+        .filter(|e| e.topic == crate::import::LABEL_TOPIC)
+        .filter_map(|e| Some((e.time_s, e.data.get("slip")?.as_bool()?)))
+        .collect()
+}
+
+/// The onset and end of slip in a trial: from its imported label track when it has one (the
+/// first slip label, and the first static label after it), otherwise from its marker track
+/// ([`slip_window`]).
+pub fn trial_slip_window(trial: &Trial, spec: &OnsetSpec) -> (Option<f64>, Option<f64>) {
+    let labels = label_track(trial);
+    if labels.is_empty() {
+        return slip_window(&trial.markers, &trial.meta.object, spec);
+    }
+    let onset = labels.iter().find(|l| l.1).map(|l| l.0);
+    let end = onset.and_then(|o| labels.iter().find(|l| l.0 > o && !l.1).map(|l| l.0));
+    (onset, end)
+}
+
+/// A trial's slip onset: from its label track when it has one, else its marker track.
+pub fn trial_onset(trial: &Trial, spec: &OnsetSpec) -> Option<f64> {
+    let labels = label_track(trial);
+    if labels.is_empty() {
+        return slip_onset(&trial.markers, spec);
+    }
+    labels.iter().find(|l| l.1).map(|l| l.0)
 }
 
 /// Labels for frames arriving at `frame_times_s` (one sensor, in order): `Some(class)` for

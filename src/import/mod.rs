@@ -1,0 +1,304 @@
+//! Recordings of other tactile sensors, in the interchange CSV (`docs/formats.md`,
+//! "Interchange CSV"), turned into tmo trial logs so that the whole pipeline (datasets,
+//! training, sweeps, evaluation, replay) runs on them.
+//!
+//! One row per element per frame: `trial, sensor, frame, t_s, element, x, y`, plus exactly
+//! one label source: a `slip` column (0/1 per frame), an `onset_s` column (per trial, empty
+//! for a trial without slip), or `object_mm` and `hand_mm` (marker heights per frame, then
+//! tmo's own marker labelling applies). A trial's elements are its "pins": `x`, `y` are
+//! whatever 2-D displacement the sensor reports, in its own units.
+//!
+//! Labels from a `slip` or `onset_s` column are kept as the trial's `/label` track (one
+//! event per frame time, `{"slip": true|false}`); [`crate::slip::labels::trial_slip_window`]
+//! reads them in place of the marker track.
+
+mod parse;
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+use tmo_hal::{MarkerSample, PinFrame};
+
+use crate::trial::{Trial, TrialEvent, TrialMeta, TRIAL_FORMAT_VERSION};
+
+pub use parse::read_interchange;
+
+/// The topic of an imported trial's label track.
+pub const LABEL_TOPIC: &str = "/label";
+/// Trial metadata `kind` of an imported trial.
+pub const IMPORTED_KIND: &str = "imported";
+/// Parameter naming the largest per-frame step of an element that is still a measurement
+/// (in the sensor's units), or `off`; features treat larger steps as a lost element.
+pub const MAX_STEP_PARAMETER: &str = "max_element_step";
+
+/// The units the `x` and `y` columns are in (recorded with each trial and its models).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum Units {
+    /// Image pixels (tracked pins or markers).
+    Px,
+    /// A sensor's raw counts (magnetic or capacitive taxels).
+    Counts,
+    /// Millimetres.
+    Mm,
+}
+
+impl Units {
+    pub fn name(self) -> &'static str {
+        match self {
+            Units::Px => "px",
+            Units::Counts => "counts",
+            Units::Mm => "mm",
+        }
+    }
+}
+
+/// How a file is read.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ImportOptions {
+    /// What the sensor is (e.g. `xela-uskin-4x4`), recorded with each trial.
+    pub sensor_name: String,
+    pub units: Units,
+    /// A column naming each trial's split (e.g. `train`, `test`); trials go into a
+    /// sub-directory of that name.
+    pub split_column: Option<String>,
+    /// Largest per-frame step of an element that is a measurement, in `units`; `None`: no
+    /// limit (tmo's own 20 px guard is for tracked pins only).
+    pub max_step: Option<f64>,
+}
+
+/// Where a trial's slip labels come from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum LabelSource {
+    SlipColumn,
+    OnsetColumn,
+    MarkerHeights,
+}
+
+impl LabelSource {
+    pub fn name(self) -> &'static str {
+        match self {
+            LabelSource::SlipColumn => "slip column",
+            LabelSource::OnsetColumn => "onset_s column",
+            LabelSource::MarkerHeights => "object_mm and hand_mm (marker labelling)",
+        }
+    }
+}
+
+/// Bad input, named by file and line (1-based, the header is line 1) or by trial.
+#[derive(Debug, thiserror::Error)]
+pub enum ImportError {
+    #[error("{path}: {source}")]
+    Io {
+        path: PathBuf,
+        source: std::io::Error,
+    },
+    #[error("{path}:{line}: {message}")]
+    Row {
+        path: PathBuf,
+        line: u64,
+        message: String,
+    },
+    #[error("{path}: {message}")]
+    File { path: PathBuf, message: String },
+}
+
+/// One trial read from a file, ready to be written as a log.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ImportedTrial {
+    /// The trial's name in the file (also its log's file name, made safe).
+    pub name: String,
+    pub split: Option<String>,
+    pub trial: Trial,
+}
+
+/// What a file held, beside its trials.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct ImportSummary {
+    pub trials: Vec<ImportedTrial>,
+    /// Columns the interchange format does not use (read past, not stored).
+    pub ignored_columns: Vec<String>,
+    pub rows: u64,
+}
+
+/// One trial's frames, labels and heights as read, before it becomes a [`Trial`].
+#[derive(Debug, Default)]
+pub(crate) struct TrialRows {
+    /// Per sensor name (in first-seen order), per frame number: time and elements.
+    pub sensors: Vec<(String, BTreeMap<u64, FrameRows>)>,
+    /// Per frame time (as bits, exact): slip label.
+    pub labels: BTreeMap<u64, (f64, bool)>,
+    /// Per trial: the onset (f64 bits, compared exactly), `Some(None)` for no slip.
+    pub onset_s: Option<Option<u64>>,
+    pub markers: BTreeMap<u64, MarkerSample>,
+    pub split: Option<String>,
+    pub object: Option<String>,
+}
+
+#[derive(Debug, Default)]
+pub(crate) struct FrameRows {
+    pub time_s: f64,
+    /// First line of the frame (for messages).
+    pub line: u64,
+    pub elements: Vec<Option<[f32; 2]>>,
+}
+
+/// Builds the trial log of one trial. `elements` is the file's element count, `sensors`
+/// its sensor names in id order.
+pub(crate) fn build_trial(
+    name: &str,
+    rows: TrialRows,
+    sensors: &[String],
+    elements: usize,
+    source: LabelSource,
+    file: (&Path, &str),
+    opts: &ImportOptions,
+) -> Result<ImportedTrial, String> {
+    let mut frames = Vec::new();
+    let mut intervals = Vec::new();
+    for (sensor_name, by_frame) in &rows.sensors {
+        let sensor = sensors
+            .iter()
+            .position(|s| s == sensor_name)
+            .expect("sensor names come from the file") as u8;
+        let mut previous: Option<(u64, f64)> = None;
+        for (&seq, f) in by_frame {
+            if let Some(missing) =
+                (0..elements).find(|&e| f.elements.get(e).is_none_or(Option::is_none))
+            {
+                return Err(format!(
+                    "trial `{name}`, sensor `{sensor_name}`, frame {seq} (from line {}): element {missing} is missing; every frame needs elements 0..{}",
+                    f.line,
+                    elements - 1
+                ));
+            }
+            if let Some((prev_seq, prev_t)) = previous {
+                if f.time_s <= prev_t {
+                    return Err(format!(
+                        "trial `{name}`, sensor `{sensor_name}`: frame {seq} (line {}) has t_s {} but frame {prev_seq} had {prev_t}; times must rise with frame numbers",
+                        f.line, f.time_s
+                    ));
+                }
+                intervals.push((f.time_s - prev_t) / (seq - prev_seq) as f64);
+            }
+            previous = Some((seq, f.time_s));
+            frames.push(PinFrame {
+                sensor,
+                seq,
+                time_s: f.time_s,
+                pins: f
+                    .elements
+                    .iter()
+                    .map(|e| e.expect("checked above"))
+                    .collect(),
+            });
+        }
+    }
+    for s in sensors {
+        if !rows.sensors.iter().any(|(n, _)| n == s) {
+            return Err(format!(
+                "trial `{name}` has no frames of sensor `{s}` (other trials have them)"
+            ));
+        }
+    }
+    // Arrival order across sensors, as a rig's host would have seen them.
+    frames.sort_by(|a, b| a.time_s.total_cmp(&b.time_s).then(a.sensor.cmp(&b.sensor)));
+    let t_first = frames.first().map_or(0.0, |f| f.time_s);
+    let mut events = Vec::new();
+    match source {
+        LabelSource::SlipColumn => {
+            events.extend(rows.labels.values().map(|&(t, slip)| label_event(t, slip)));
+        }
+        LabelSource::OnsetColumn => {
+            events.push(label_event(t_first, false));
+            if let Some(Some(onset)) = rows.onset_s {
+                events.push(label_event(f64::from_bits(onset), true));
+            }
+        }
+        LabelSource::MarkerHeights => {}
+    }
+    intervals.sort_by(f64::total_cmp);
+    let rate_hz = intervals
+        .get(intervals.len() / 2)
+        .map_or(String::new(), |dt| format!("{:.3}", 1.0 / dt));
+    let (tmo_version, git_revision) = TrialMeta::code_version();
+    let mut parameters = BTreeMap::from([
+        ("source_file".to_string(), file.0.display().to_string()),
+        ("source_sha256".to_string(), file.1.to_string()),
+        ("sensor_name".to_string(), opts.sensor_name.clone()),
+        ("sensor_names".to_string(), sensors.join(",")),
+        ("units".to_string(), opts.units.name().to_string()),
+        ("rate_hz".to_string(), rate_hz),
+        ("label_source".to_string(), source.name().to_string()),
+        (
+            MAX_STEP_PARAMETER.to_string(),
+            opts.max_step.map_or("off".to_string(), |m| m.to_string()),
+        ),
+    ]);
+    if let Some(split) = &rows.split {
+        parameters.insert("split".to_string(), split.clone());
+    }
+    let arrivals_s = frames.iter().map(|f| f.time_s).collect();
+    let trial = Trial {
+        meta: TrialMeta {
+            format_version: TRIAL_FORMAT_VERSION,
+            trial_id: name.to_string(),
+            kind: IMPORTED_KIND.to_string(),
+            backend: "import".to_string(),
+            seed: 0,
+            object: rows.object.clone().unwrap_or_else(|| "unknown".to_string()),
+            grasp_deg: 0.0,
+            sensors: sensors.len() as u8,
+            pins: elements,
+            tmo_version,
+            git_revision,
+            protocol: None,
+            protocol_sha256: None,
+            model_sha256: None,
+            // unknown for a recording made elsewhere
+            started_unix_s: 0,
+            parameters,
+        },
+        frames,
+        arrivals_s,
+        markers: rows.markers.into_values().collect(),
+        events,
+    };
+    Ok(ImportedTrial {
+        name: name.to_string(),
+        split: rows.split,
+        trial,
+    })
+}
+
+fn label_event(time_s: f64, slip: bool) -> TrialEvent {
+    TrialEvent {
+        time_s,
+        topic: LABEL_TOPIC.to_string(),
+        data: serde_json::json!({ "slip": slip }),
+    }
+}
+
+/// The file name of a trial's log: its name with anything but letters, digits, `-`, `_`
+/// and `.` replaced by `_`.
+pub fn log_file_name(name: &str) -> String {
+    let safe: String = name
+        .chars()
+        .map(|c| {
+            if c.is_ascii_alphanumeric() || matches!(c, '-' | '_' | '.') {
+                c
+            } else {
+                '_'
+            }
+        })
+        .collect();
+    format!("{}.mcap", safe.trim_start_matches('.'))
+}
+
+/// Where each trial's log goes under `out` (a split's sub-directory when it has one).
+pub fn log_path(out: &Path, t: &ImportedTrial) -> PathBuf {
+    match &t.split {
+        Some(split) => out.join(log_file_name(split).trim_end_matches(".mcap")),
+        None => out.to_path_buf(),
+    }
+    .join(log_file_name(&t.name))
+}
