@@ -155,19 +155,28 @@ fn a_model_of_sixteen_taxels_refuses_thirty_pin_trials() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     import(d);
-    ok(&tmo(
+    // the slip window in seconds: 0.5 s at the first trial's 58.8 Hz
+    let trained = tmo(
         d,
         &[
             "train",
             "xela/train",
             "--classifier",
             "logreg",
-            "--n-slip",
-            "30",
+            "--n-slip-s",
+            "0.5",
             "--out",
             "xela.json",
         ],
-    ));
+    );
+    ok(&trained);
+    let said = String::from_utf8_lossy(&trained.stderr);
+    assert!(said.contains("n_slip 29 frames at 58.8 Hz"), "{said}");
+    let model = std::fs::read_to_string(d.join("xela.json")).unwrap();
+    assert!(
+        model.contains("\"units\": \"counts\""),
+        "the model records its units"
+    );
     ok(&tmo(
         d,
         &[
@@ -175,7 +184,22 @@ fn a_model_of_sixteen_taxels_refuses_thirty_pin_trials() {
         ],
     ));
     let e = fails(&tmo(d, &["evaluate", "xela.json", "rail"]));
-    assert!(e.contains("16") && e.contains("30"), "{e}");
+    assert!(
+        e.contains("elements (pins) per sensor is 30, the model's 16"),
+        "{e}"
+    );
+    let e = fails(&tmo(
+        d,
+        &[
+            "replay",
+            "rail",
+            "--model",
+            "xela.json",
+            "--strategy",
+            "1x1",
+        ],
+    ));
+    assert!(e.contains("30 pins each"), "{e}");
 }
 
 #[test]

@@ -616,7 +616,11 @@ fn a_log_with_no_frames_or_no_marker_track_is_refused_not_counted() {
             }) as fn(&mut tmo::trial::Trial),
             "no tactile frames",
         ),
-        ("no_markers", |t| t.markers.clear(), "neither a marker track nor slip labels"),
+        (
+            "no_markers",
+            |t| t.markers.clear(),
+            "neither a marker track nor slip labels",
+        ),
         (
             "pin_far_away",
             |t| t.frames[3].pins[0] = [f32::MAX, -f32::MAX],

@@ -177,6 +177,13 @@ pub fn replay_with(
             if let Err(e) = m.fits(usize::from(t.meta.sensors), t.meta.pins) {
                 anyhow::bail!("{mpath} cannot replay {tpath}: {e}");
             }
+            let own = tmo::slip::dataset::trial_features(t)
+                .map_err(|e| anyhow::anyhow!("{tpath}: {e}"))?;
+            if let Some((what, theirs, ours)) = m.features.mismatch(&own) {
+                anyhow::bail!(
+                    "{mpath} cannot replay {tpath}: its {what} is {theirs}, the model's {ours}"
+                );
+            }
         }
     }
     let mut jobs = Vec::new();

@@ -23,6 +23,10 @@ pub struct LabelArgs {
     /// Frames labelled slip after the marker onset.
     #[arg(long, default_value_t = 13)]
     n_slip: usize,
+    /// The slip window in seconds instead of frames (for sensors at other rates): n_slip is
+    /// this times the first trial's frame rate, rounded.
+    #[arg(long, conflicts_with = "n_slip")]
+    n_slip_s: Option<f64>,
     /// Proportion of static frames kept (slip frames are never dropped).
     #[arg(long, default_value_t = 0.4)]
     downsample: f64,
@@ -112,8 +116,32 @@ pub struct EvaluateArgs {
     out: Option<PathBuf>,
 }
 
-pub fn label_spec(args: &LabelArgs) -> Result<LabelSpec> {
-    anyhow::ensure!(args.n_slip >= 1, "--n-slip must be at least 1");
+/// How frames are labelled; `trials` give the frame rate when the window is in seconds.
+pub fn label_spec(args: &LabelArgs, trials: &[PathBuf]) -> Result<LabelSpec> {
+    let n_slip = match args.n_slip_s {
+        None => args.n_slip,
+        Some(seconds) => {
+            anyhow::ensure!(
+                seconds.is_finite() && seconds > 0.0,
+                "--n-slip-s must be a positive number of seconds, got {seconds}"
+            );
+            let paths = tmo::trial::expand_trial_paths(trials)?;
+            let first = paths
+                .first()
+                .ok_or_else(|| anyhow::anyhow!("no trial logs to take a frame rate from"))?;
+            let trial = tmo::trial::read_trial(first)?;
+            let rate = tmo::slip::dataset::trial_features(&trial)
+                .map_err(|e| anyhow::anyhow!("{}: {e}", first.display()))?
+                .frame_rate_hz
+                .ok_or_else(|| {
+                    anyhow::anyhow!("{}: too few frames for a frame rate", first.display())
+                })?;
+            let n = tmo::slip::labels::frames_in(seconds, f64::from(rate));
+            eprintln!("--n-slip-s {seconds}: n_slip {n} frames at {rate:.1} Hz");
+            n
+        }
+    };
+    anyhow::ensure!(n_slip >= 1, "--n-slip must be at least 1");
     anyhow::ensure!(
         args.downsample > 0.0 && args.downsample <= 1.0,
         "--downsample must be in (0, 1], got {}",
@@ -124,7 +152,7 @@ pub fn label_spec(args: &LabelArgs) -> Result<LabelSpec> {
         "--onset-threshold-mm must be positive"
     );
     Ok(LabelSpec {
-        n_slip: args.n_slip,
+        n_slip,
         onset: OnsetSpec {
             drop_threshold_mm: args.onset_threshold_mm,
             ..Default::default()
@@ -149,7 +177,7 @@ pub fn load_dataset(
 }
 
 pub fn dataset_export(args: ExportArgs) -> Result<()> {
-    let labels = label_spec(&args.labels)?;
+    let labels = label_spec(&args.labels, &args.trials)?;
     let (ds, _, _) = load_dataset(&args.trials, &labels)?;
     let ds = ds.downsample_static(args.labels.downsample, args.labels.seed);
     ds.write_csv(&args.out)
@@ -201,7 +229,7 @@ fn check_model_out(out: &std::path::Path) -> Result<()> {
 
 pub fn train(args: TrainArgs) -> Result<()> {
     check_model_out(&args.out)?;
-    let labels = label_spec(&args.labels)?;
+    let labels = label_spec(&args.labels, &args.trials)?;
     let (ds, refs, features) = load_dataset(&args.trials, &labels)?;
     let started = std::time::Instant::now();
     let (hyper, search) = match args.search {
@@ -302,13 +330,12 @@ pub fn train(args: TrainArgs) -> Result<()> {
 pub fn evaluate(args: EvaluateArgs) -> Result<()> {
     let model = ModelFile::load(&args.model)?;
     let (ds, refs, features) = load_dataset(&args.trials, &model.labels)?;
-    anyhow::ensure!(
-        features == model.features,
-        "{}: the trials have {} pins, the model expects {}",
-        args.model.display(),
-        features.pins,
-        model.features.pins
-    );
+    if let Some((what, theirs, ours)) = model.features.mismatch(&features) {
+        anyhow::bail!(
+            "{}: cannot read these trials: their {what} is {theirs}, the model's {ours}",
+            args.model.display()
+        );
+    }
     let (overall, per_sensor) = model.evaluate(&ds)?;
     println!(
         "{} ({:?} scope) on {} rows",

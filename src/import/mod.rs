@@ -13,6 +13,7 @@
 //! reads them in place of the marker track.
 
 mod parse;
+mod write;
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -22,6 +23,7 @@ use tmo_hal::{MarkerSample, PinFrame};
 use crate::trial::{Trial, TrialEvent, TrialMeta, TRIAL_FORMAT_VERSION};
 
 pub use parse::read_interchange;
+pub use write::write_interchange;
 
 /// The topic of an imported trial's label track.
 pub const LABEL_TOPIC: &str = "/label";
@@ -31,26 +33,7 @@ pub const IMPORTED_KIND: &str = "imported";
 /// (in the sensor's units), or `off`; features treat larger steps as a lost element.
 pub const MAX_STEP_PARAMETER: &str = "max_element_step";
 
-/// The units the `x` and `y` columns are in (recorded with each trial and its models).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
-pub enum Units {
-    /// Image pixels (tracked pins or markers).
-    Px,
-    /// A sensor's raw counts (magnetic or capacitive taxels).
-    Counts,
-    /// Millimetres.
-    Mm,
-}
-
-impl Units {
-    pub fn name(self) -> &'static str {
-        match self {
-            Units::Px => "px",
-            Units::Counts => "counts",
-            Units::Mm => "mm",
-        }
-    }
-}
+pub use crate::slip::features::Units;
 
 /// How a file is read.
 #[derive(Debug, Clone, PartialEq)]
@@ -209,9 +192,14 @@ pub(crate) fn build_trial(
             events.extend(rows.labels.values().map(|&(t, slip)| label_event(t, slip)));
         }
         LabelSource::OnsetColumn => {
-            events.push(label_event(t_first, false));
-            if let Some(Some(onset)) = rows.onset_s {
-                events.push(label_event(f64::from_bits(onset), true));
+            let onset = rows.onset_s.flatten().map(f64::from_bits);
+            // static from the first frame until the onset (a slip from before the first
+            // frame has no static part: a static label after it would end the slip)
+            if onset.is_none_or(|o| o > t_first) {
+                events.push(label_event(t_first, false));
+            }
+            if let Some(onset) = onset {
+                events.push(label_event(onset, true));
             }
         }
         LabelSource::MarkerHeights => {}

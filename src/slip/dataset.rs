@@ -6,7 +6,7 @@ use rand::seq::SliceRandom;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 
-use super::features::{frame_features, FeatureSpec};
+use super::features::{frame_features, FeatureSpec, Units};
 use super::labels::{label_frames, trial_slip_window, OnsetSpec};
 use super::Class;
 use crate::trial::Trial;
@@ -34,6 +34,40 @@ pub enum LoadError {
         path: std::path::PathBuf,
         message: String,
     },
+}
+
+/// How a trial's frames are read: its element count, units, step limit and frame rate.
+pub fn trial_features(t: &Trial) -> Result<FeatureSpec, String> {
+    let units = match t.meta.parameters.get("units") {
+        None => Units::Px,
+        Some(u) => Units::parse(u)
+            .ok_or_else(|| format!("parameter units = `{u}`: expected px, counts or mm"))?,
+    };
+    Ok(FeatureSpec {
+        pins: t.meta.pins,
+        max_pin_step_px: max_step(t)?,
+        units,
+        frame_rate_hz: frame_rate_hz(t),
+    })
+}
+
+/// The rate of a trial's first sensor: one over its median frame interval (per frame
+/// number, so lost frames do not count), Hz; `None` with fewer than two frames.
+fn frame_rate_hz(t: &Trial) -> Option<f32> {
+    let sensor = t.frames.first()?.sensor;
+    let mut previous: Option<(u64, f64)> = None;
+    let mut intervals = Vec::new();
+    for f in t.frames.iter().filter(|f| f.sensor == sensor) {
+        if let Some((seq, time)) = previous {
+            if f.seq > seq && f.time_s > time {
+                intervals.push((f.time_s - time) / (f.seq - seq) as f64);
+            }
+        }
+        previous = Some((f.seq, f.time_s));
+    }
+    intervals.sort_by(f64::total_cmp);
+    let median = *intervals.get(intervals.len() / 2)?;
+    Some((1.0 / median) as f32)
 }
 
 /// The per-frame step beyond which an element counts as lost, as a trial records it:
@@ -71,42 +105,37 @@ pub fn load_labelled(
                 .join(", "),
         ));
     };
-    let pins = first.2.meta.pins;
-    let step = max_step(&first.2).map_err(|message| LoadError::Features {
+    let features = trial_features(&first.2).map_err(|message| LoadError::Features {
         path: first.0.clone(),
         message,
     })?;
     for (path, _, t) in &loaded {
-        let features = |message| LoadError::Features {
-            path: path.clone(),
-            message,
-        };
-        if max_step(t).map_err(features)? != step {
-            return Err(features(format!(
-                "its element step limit differs from {}'s ({}); trials of one dataset come from one kind of sensor",
-                first.0.display(),
-                first.2.meta.parameters.get(crate::import::MAX_STEP_PARAMETER).map_or("20 px", String::as_str)
-            )));
-        }
         if let Some(why) = t.unusable() {
             return Err(LoadError::Unusable {
                 path: path.clone(),
                 why,
             });
         }
-        if t.meta.pins != pins {
+        let features_err = |message| LoadError::Features {
+            path: path.clone(),
+            message,
+        };
+        let own = trial_features(t).map_err(features_err)?;
+        if own.pins != features.pins {
             return Err(LoadError::Pins {
                 path: path.clone(),
-                found: t.meta.pins,
+                found: own.pins,
                 first: first.0.clone(),
-                expected: pins,
+                expected: features.pins,
             });
         }
+        if let Some((what, theirs, ours)) = features.mismatch(&own) {
+            return Err(features_err(format!(
+                "its {what} is {theirs}, {}'s {ours}; the trials of one dataset come from one kind of sensor",
+                first.0.display()
+            )));
+        }
     }
-    let features = FeatureSpec {
-        max_pin_step_px: step,
-        ..FeatureSpec::new(pins)
-    };
     let refs = loaded
         .iter()
         .map(|(p, h, t)| super::model::TrialRef {

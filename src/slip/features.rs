@@ -20,19 +20,112 @@
 
 use tmo_hal::PinFrame;
 
-/// How features are computed; part of every model file.
+/// The units of a sensor's element positions (tmo's own pins: image pixels).
+#[derive(
+    Debug,
+    Clone,
+    Copy,
+    PartialEq,
+    Eq,
+    Default,
+    serde::Serialize,
+    serde::Deserialize,
+    clap::ValueEnum,
+)]
+#[serde(rename_all = "lowercase")]
+pub enum Units {
+    /// Image pixels (tracked pins or markers).
+    #[default]
+    Px,
+    /// A sensor's raw counts (magnetic or capacitive taxels).
+    Counts,
+    /// Millimetres.
+    Mm,
+}
+
+impl Units {
+    pub fn name(self) -> &'static str {
+        match self {
+            Units::Px => "px",
+            Units::Counts => "counts",
+            Units::Mm => "mm",
+        }
+    }
+
+    pub fn parse(text: &str) -> Option<Self> {
+        [Units::Px, Units::Counts, Units::Mm]
+            .into_iter()
+            .find(|u| u.name() == text)
+    }
+}
+
+/// How features are computed; part of every model file. `pins` is the sensor's element
+/// count (30 for the T-MO's TacTips), `max_pin_step_px` the per-frame step beyond which an
+/// element counts as lost, in `units`.
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct FeatureSpec {
     pub pins: usize,
     pub max_pin_step_px: f32,
+    /// Model files before imports existed were all tracked pins in px.
+    #[serde(default)]
+    pub units: Units,
+    /// The frames' rate (median interval), Hz, when known: velocities are per frame, so a
+    /// model trained at one rate does not read frames at a very different one.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub frame_rate_hz: Option<f32>,
 }
+
+/// Frame rates closer than this (relative) are the same rate for a model.
+const RATE_TOLERANCE: f32 = 0.15;
 
 impl FeatureSpec {
     pub fn new(pins: usize) -> Self {
         Self {
             pins,
             max_pin_step_px: 20.0,
+            units: Units::Px,
+            frame_rate_hz: None,
         }
+    }
+
+    /// What in `data` (the features of some trials) differs from `self` so that a model made
+    /// with `self` cannot read it, if anything: `(what, data's value, self's value)`. The
+    /// element count, units and step limit must agree; frame rates within 15 % do.
+    pub fn mismatch(&self, data: &FeatureSpec) -> Option<(&'static str, String, String)> {
+        if self.pins != data.pins {
+            return Some((
+                "elements (pins) per sensor",
+                data.pins.to_string(),
+                self.pins.to_string(),
+            ));
+        }
+        if self.units != data.units {
+            return Some((
+                "units",
+                data.units.name().to_string(),
+                self.units.name().to_string(),
+            ));
+        }
+        if self.max_pin_step_px != data.max_pin_step_px {
+            let limit = |s: &FeatureSpec| {
+                if s.max_pin_step_px == f32::MAX {
+                    "none".to_string()
+                } else {
+                    format!("{} {}", s.max_pin_step_px, s.units.name())
+                }
+            };
+            return Some(("element step limit", limit(data), limit(self)));
+        }
+        if let (Some(m), Some(d)) = (self.frame_rate_hz, data.frame_rate_hz) {
+            if (m - d).abs() > RATE_TOLERANCE * m {
+                return Some((
+                    "frame rate (velocities are per frame)",
+                    format!("{d:.1} Hz"),
+                    format!("{m:.1} Hz"),
+                ));
+            }
+        }
+        None
     }
 
     pub fn len(&self) -> usize {
@@ -153,6 +246,8 @@ mod tests {
         let spec = FeatureSpec {
             pins: 16,
             max_pin_step_px: f32::MAX,
+            units: Units::Counts,
+            frame_rate_hz: Some(60.0),
         };
         let prev = frame(1, (0..16).map(|i| [i as f32 * 1000.0, 16000.0]).collect());
         let cur = frame(2, prev.pins.iter().map(|p| [p[0] + 300.0, p[1]]).collect());

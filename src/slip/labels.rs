@@ -200,6 +200,12 @@ pub fn slip_window(
     }
 }
 
+/// The number of frames in `seconds` at `rate_hz` (at least one): a slip window given in
+/// time, for sensors at other rates than the TacTips' 60 Hz.
+pub fn frames_in(seconds: f64, rate_hz: f64) -> usize {
+    ((seconds * rate_hz).round() as usize).max(1)
+}
+
 /// A trial's imported slip labels (`/label` track: time, slip), in time order; empty for
 /// trials labelled by their marker track.
 pub fn label_track(trial: &Trial) -> Vec<(f64, bool)> {
@@ -280,6 +286,14 @@ mod tests {
                 }
             })
             .collect()
+    }
+
+    #[test]
+    fn a_window_in_seconds_is_the_frames_of_the_sensors_rate() {
+        assert_eq!(frames_in(13.0 / 60.0, 60.0), 13);
+        assert_eq!(frames_in(0.5, 59.8), 30);
+        assert_eq!(frames_in(0.5, 100.0), 50);
+        assert_eq!(frames_in(0.001, 30.0), 1);
     }
 
     #[test]
