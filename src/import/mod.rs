@@ -208,7 +208,6 @@ pub(crate) fn build_trial(
     let rate_hz = intervals
         .get(intervals.len() / 2)
         .map_or(String::new(), |dt| format!("{:.3}", 1.0 / dt));
-    let (tmo_version, git_revision) = TrialMeta::code_version();
     let mut parameters = BTreeMap::from([
         ("source_file".to_string(), file.0.display().to_string()),
         ("source_sha256".to_string(), file.1.to_string()),
@@ -227,25 +226,13 @@ pub(crate) fn build_trial(
     }
     let arrivals_s = frames.iter().map(|f| f.time_s).collect();
     let trial = Trial {
-        meta: TrialMeta {
-            format_version: TRIAL_FORMAT_VERSION,
-            trial_id: name.to_string(),
-            kind: IMPORTED_KIND.to_string(),
-            backend: "import".to_string(),
-            seed: 0,
-            object: rows.object.clone().unwrap_or_else(|| "unknown".to_string()),
-            grasp_deg: 0.0,
-            sensors: sensors.len() as u8,
-            pins: elements,
-            tmo_version,
-            git_revision,
-            protocol: None,
-            protocol_sha256: None,
-            model_sha256: None,
-            // unknown for a recording made elsewhere
-            started_unix_s: 0,
+        meta: imported_meta(
+            name,
+            rows.object.clone().unwrap_or_else(|| "unknown".to_string()),
+            sensors.len() as u8,
+            elements,
             parameters,
-        },
+        ),
         frames,
         arrivals_s,
         markers: rows.markers.into_values().collect(),
@@ -256,6 +243,36 @@ pub(crate) fn build_trial(
         split: rows.split,
         trial,
     })
+}
+
+/// The metadata of an imported trial: no seed, protocol or model ran it, and when it was
+/// recorded is unknown (`started_unix_s` 0).
+pub fn imported_meta(
+    name: &str,
+    object: String,
+    sensors: u8,
+    elements: usize,
+    parameters: BTreeMap<String, String>,
+) -> TrialMeta {
+    let (tmo_version, git_revision) = TrialMeta::code_version();
+    TrialMeta {
+        format_version: TRIAL_FORMAT_VERSION,
+        trial_id: name.to_string(),
+        kind: IMPORTED_KIND.to_string(),
+        backend: "import".to_string(),
+        seed: 0,
+        object,
+        grasp_deg: 0.0,
+        sensors,
+        pins: elements,
+        tmo_version,
+        git_revision,
+        protocol: None,
+        protocol_sha256: None,
+        model_sha256: None,
+        started_unix_s: 0,
+        parameters,
+    }
 }
 
 fn label_event(time_s: f64, slip: bool) -> TrialEvent {

@@ -54,10 +54,9 @@ mod tests {
     use tmo_hal::PinFrame;
 
     use super::*;
-    use crate::import::{read_interchange, ImportOptions, Units};
+    use crate::import::{imported_meta, read_interchange, ImportOptions, Units};
     use crate::slip::dataset::trial_features;
     use crate::slip::features::{frame_features, FeatureSpec};
-    use crate::trial::{TrialMeta, TRIAL_FORMAT_VERSION};
 
     /// A trial of `sensors` sensors of `elements` elements at `rate_hz`, frames numbered with
     /// gaps (lost frames), positions from `values`.
@@ -79,26 +78,8 @@ mod tests {
             }
         }
         frames.sort_by(|a, b| a.time_s.total_cmp(&b.time_s).then(a.sensor.cmp(&b.sensor)));
-        let (tmo_version, git_revision) = TrialMeta::code_version();
         Trial {
-            meta: TrialMeta {
-                format_version: TRIAL_FORMAT_VERSION,
-                trial_id: "t".into(),
-                kind: "imported".into(),
-                backend: "import".into(),
-                seed: 0,
-                object: "unknown".into(),
-                grasp_deg: 0.0,
-                sensors,
-                pins: elements,
-                tmo_version,
-                git_revision,
-                protocol: None,
-                protocol_sha256: None,
-                model_sha256: None,
-                started_unix_s: 0,
-                parameters: BTreeMap::new(),
-            },
+            meta: imported_meta("t", "unknown".into(), sensors, elements, BTreeMap::new()),
             arrivals_s: frames.iter().map(|f| f.time_s).collect(),
             frames,
             markers: Vec::new(),
