@@ -51,6 +51,11 @@ enum Command {
     Reproduce(cli::reproduce::ReproduceArgs),
     /// Trains and scores every cell of a classifier x n_slip x down-sampling grid (paper Fig. 5).
     Sweep(SweepArgs),
+    /// Prints a shell completion script, e.g. `tmo completions bash > ~/.local/share/bash-completion/completions/tmo`.
+    Completions {
+        /// The shell to complete in.
+        shell: clap_complete::Shell,
+    },
 }
 
 fn main() -> ExitCode {
@@ -103,6 +108,11 @@ fn run(cli: Cli) -> Result<u8> {
     if let Command::Reproduce(args) = cli.command {
         return cli::reproduce::run(args);
     }
+    if let Command::Completions { shell } = cli.command {
+        use clap::CommandFactory;
+        clap_complete::generate(shell, &mut Cli::command(), "tmo", &mut std::io::stdout());
+        return Ok(0);
+    }
     match cli.command {
         Command::Sim(command) => cli::sim::run(command),
         Command::Hardware(command) => cli::hardware::run(command),
@@ -113,7 +123,9 @@ fn run(cli: Cli) -> Result<u8> {
         Command::Sweep(args) => cli::sweep::sweep(args),
         Command::Run(_) => unreachable!("handled above"),
         Command::Report(args) => cli::report::report(args),
-        Command::Replay(_) | Command::Reproduce(_) => unreachable!("handled above"),
+        Command::Replay(_) | Command::Reproduce(_) | Command::Completions { .. } => {
+            unreachable!("handled above")
+        }
     }?;
     Ok(0)
 }
