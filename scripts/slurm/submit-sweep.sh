@@ -4,7 +4,7 @@
 # as a single run would.
 #
 #   SHARDS=8 TRIALS=trials/train TEST=trials/test OUT=results/sweep.csv \
-#   SWEEP_ARGS="--search bayes --iters 12 --gamma 0.02" scripts/slurm/submit-sweep.sh
+#   SWEEP_ARGS="--search bayes --iters 12" scripts/slurm/submit-sweep.sh
 set -euo pipefail
 here="$(cd "$(dirname "$0")" && pwd)"
 : "${SHARDS:=8}" "${TMO:=target/release/tmo}" "${OUT:=results/sweep.csv}"

@@ -63,9 +63,10 @@ pub struct TrainArgs {
     /// Regularisation C (SVM, logistic regression).
     #[arg(long = "C", default_value_t = 3.989)]
     c: f64,
-    /// RBF kernel width gamma.
-    #[arg(long, default_value_t = 1.104)]
-    gamma: f64,
+    /// RBF kernel width gamma (default: 1 / the number of features, scikit-learn's "scale"
+    /// for standardised features: 1/60 for 30 pins).
+    #[arg(long)]
+    gamma: Option<f64>,
     /// Find C (and gamma) by Bayesian optimisation of cross-validated macro F1 instead.
     #[arg(long, value_enum, default_value = "none")]
     search: SearchMethod,
@@ -114,6 +115,19 @@ pub struct EvaluateArgs {
     /// Also write the scores as JSON (for `tmo report`).
     #[arg(long)]
     out: Option<PathBuf>,
+}
+
+/// The RBF kernel's gamma: `given`, or one over the feature count of the first of `trials`.
+pub fn gamma_or_scale(given: Option<f64>, trials: &[PathBuf]) -> Result<f64> {
+    if let Some(g) = given {
+        return Ok(g);
+    }
+    let paths = tmo::trial::expand_trial_paths(trials)?;
+    let first = paths
+        .first()
+        .ok_or_else(|| anyhow::anyhow!("no trial logs found"))?;
+    let pins = tmo::trial::read_trial(first)?.meta.pins;
+    Ok(tmo::slip::model::scale_gamma(2 * pins))
 }
 
 /// How frames are labelled; `trials` give the frame rate when the window is in seconds.
@@ -236,7 +250,9 @@ pub fn train(args: TrainArgs) -> Result<()> {
         SearchMethod::None => (
             Hyperparameters {
                 c: args.c,
-                gamma: args.gamma,
+                gamma: args
+                    .gamma
+                    .unwrap_or_else(|| tmo::slip::model::scale_gamma(features.len())),
                 max_iterations: None,
             },
             None,

@@ -50,9 +50,10 @@ pub struct SweepArgs {
     /// Regularisation C when not searched.
     #[arg(long = "C", default_value_t = 3.989)]
     c: f64,
-    /// RBF kernel width gamma when not searched.
-    #[arg(long, default_value_t = 1.104)]
-    gamma: f64,
+    /// RBF kernel width gamma when not searched (default: 1 / the number of features,
+    /// scikit-learn's "scale" for standardised features: 1/60 for 30 pins).
+    #[arg(long)]
+    gamma: Option<f64>,
     /// Search C (and gamma) by Bayesian optimisation in every cell, on training trials only.
     #[arg(long, value_enum, default_value = "none")]
     search: SearchMethod,
@@ -145,7 +146,7 @@ pub fn sweep(args: SweepArgs) -> Result<()> {
     let hyper = match args.search {
         SearchMethod::None => HyperChoice::Fixed(Hyperparameters {
             c: args.c,
-            gamma: args.gamma,
+            gamma: super::slip::gamma_or_scale(args.gamma, &args.trials)?,
             max_iterations: None,
         }),
         SearchMethod::Bayes => HyperChoice::Search {

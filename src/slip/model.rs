@@ -50,6 +50,14 @@ pub struct Hyperparameters {
     pub max_iterations: Option<usize>,
 }
 
+/// The RBF kernel's gamma when none is given: one over the number of features, which is
+/// scikit-learn's `gamma = "scale"` for standardised features (each of variance 1). The
+/// paper's 1.104 was chosen for its own feature scaling; on tmo's standardised 60 features it
+/// makes every training row a support vector and the model never detects slip.
+pub fn scale_gamma(features: usize) -> f64 {
+    1.0 / features.max(1) as f64
+}
+
 impl Default for Hyperparameters {
     /// The paper's best single-finger SVM.
     fn default() -> Self {
