@@ -323,9 +323,9 @@ pub fn train(args: TrainArgs) -> Result<()> {
     }
     let fitted: usize = file.models.iter().map(|m| m.training_rows).sum();
     println!(
-        "trained {} ({:?} scope) on {} trials: {} rows, {} of them fitted (static rows down-sampled to {}), in {:.2} s",
+        "trained {} ({} scope) on {} trials: {} rows, {} of them fitted (static rows down-sampled to {}), in {:.2} s",
         args.classifier.name(),
-        args.scope,
+        args.scope.name(),
         file.training_trials.len(),
         ds.len(),
         fitted,
@@ -354,9 +354,9 @@ pub fn evaluate(args: EvaluateArgs) -> Result<()> {
     }
     let (overall, per_sensor) = model.evaluate(&ds)?;
     println!(
-        "{} ({:?} scope) on {} rows",
+        "{} ({} scope) on {} rows",
         model.classifier.name(),
-        model.scope,
+        model.scope.name(),
         ds.len()
     );
     print_scores("overall", &overall);

@@ -193,6 +193,16 @@ pub enum Scope {
     Global,
 }
 
+impl Scope {
+    /// The scope as the command line and reports spell it.
+    pub fn name(self) -> &'static str {
+        match self {
+            Scope::Local => "local",
+            Scope::Global => "global",
+        }
+    }
+}
+
 impl Dataset {
     pub fn len(&self) -> usize {
         self.y.len()
