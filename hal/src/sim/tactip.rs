@@ -52,6 +52,9 @@ pub struct SensorOptics {
     spread_px: f64,
     /// Each pin's offset from the contact centre and its distance, px.
     offsets: Vec<[f64; 3]>,
+    /// How much of a skin element's displacement under pin `k` moves pin `j` (row `j`,
+    /// column `k`): `exp(-d_jk^2 / 2 rho_0^2)`, the gel's spread.
+    element_kernel: Vec<f64>,
 }
 
 /// The skin's state that the pins show, for one frame.
@@ -85,6 +88,20 @@ impl SensorOptics {
                 [dx, dy, dx.hypot(dy)]
             })
             .collect();
+        let two_s2 = 2.0 * spread_px * spread_px;
+        let element_kernel = rest_px
+            .iter()
+            .flat_map(|&[xj, yj]| {
+                rest_px.iter().map(move |&[xk, yk]| {
+                    let d2 = (xj - xk).powi(2) + (yj - yk).powi(2);
+                    if two_s2 > 0.0 {
+                        (-d2 / two_s2).exp()
+                    } else {
+                        f64::from(u8::from(d2 == 0.0))
+                    }
+                })
+            })
+            .collect();
         Self {
             rest_px,
             contact_centre_px,
@@ -93,6 +110,26 @@ impl SensorOptics {
             radial_gain_px_per_mm,
             spread_px,
             offsets,
+            element_kernel,
+        }
+    }
+
+    /// What the pins show of the skin elements' own displacements `elements` (one per pin,
+    /// the spot of skin under it): each element's displacement reaches the pins around it
+    /// through the elastic skin and gel as it spreads an indentation, by
+    /// `exp(-d^2 / 2 rho_0^2)` at distance `d`, so a spot that sticks and lets go also
+    /// moves its neighbours, less the further they are. Written into `out`.
+    pub fn spread_elements(&self, elements: &[f64], out: &mut Vec<f64>) {
+        let n = self.rest_px.len();
+        out.clear();
+        out.resize(n, 0.0);
+        for (k, &e) in elements.iter().enumerate().take(n) {
+            if e == 0.0 {
+                continue;
+            }
+            for (j, o) in out.iter_mut().enumerate() {
+                *o += self.element_kernel[j * n + k] * e;
+            }
         }
     }
 
@@ -233,6 +270,19 @@ impl SkinTimes {
         let (fr, fi) = term(1.0 - i - g, self.fast_s);
         let (cr, ci) = term(g, self.creep_s);
         (i + fr + cr).hypot(fi + ci)
+    }
+}
+
+impl SkinTimes {
+    /// How far a spot of skin springs back within `period_s` after the grip on it lets go,
+    /// as a share of the strain it held: each share of the response relaxes as
+    /// `1 - exp(-T / tau)` (the instantaneous share at once). This bounds a stick-slip
+    /// sawtooth: the stick phase is imposed by the surface (the spot moves with the
+    /// object), only the release is driven by the skin's own elasticity.
+    pub fn releases_within(&self, period_s: f64) -> f64 {
+        let (i, g) = (self.instant_fraction, self.creep_fraction);
+        let share = |tau: f64| 1.0 - (-period_s / tau.max(1e-12)).exp();
+        i + (1.0 - i - g) * share(self.fast_s) + g * share(self.creep_s)
     }
 }
 
@@ -395,6 +445,47 @@ mod tests {
         let frame = |k: usize| shown[(k + 1) * 17] - shown[k * 17];
         assert!(frame(3) > 0.01 && frame(8) > 0.005 && frame(8) < frame(3));
         assert!((shown[999] - 1.0).abs() < 0.01);
+    }
+
+    #[test]
+    fn a_stick_slip_cycle_shows_as_far_as_the_skin_springs_back_within_it() {
+        let times = SkinTimes {
+            fast_s: 0.008,
+            creep_s: 0.15,
+            creep_fraction: 0.3,
+            instant_fraction: 0.3,
+        };
+        // a slow cycle springs back all the way; a 100 Hz one by its instantaneous share and
+        // most of its fast share, far more than a force that oscillates at 100 Hz moves it
+        assert!((times.releases_within(10.0) - 1.0).abs() < 1e-6);
+        let fast = times.releases_within(0.01);
+        assert!((0.55..0.65).contains(&fast), "{fast}");
+        assert!(fast > times.follows_at(100.0) + 0.15);
+        // never less than the instantaneous share, and more the longer the cycle
+        assert!(times.releases_within(1e-6) >= 0.3);
+        assert!(times.releases_within(0.02) > fast);
+    }
+
+    #[test]
+    fn an_element_moves_its_own_pin_fully_and_its_neighbours_less_with_distance() {
+        let o = optics();
+        let mut elements = vec![0.0; 30];
+        elements[0] = 1.0; // the centre pin's spot
+        let mut out = Vec::new();
+        o.spread_elements(&elements, &mut out);
+        assert!((out[0] - 1.0).abs() < 1e-12);
+        let by_distance = |j: usize| {
+            let [x0, y0] = o.rest_px[0];
+            let [x, y] = o.rest_px[j];
+            (x - x0).hypot(y - y0)
+        };
+        let (inner, outer) = (1, 7); // first pins of the first and second rings
+        assert!(by_distance(inner) < by_distance(outer));
+        assert!(out[inner] > out[outer] && out[outer] > 0.0 && out[inner] < 1.0);
+        // no spot displaced, no pin moved
+        elements[0] = 0.0;
+        o.spread_elements(&elements, &mut out);
+        assert!(out.iter().all(|&v| v == 0.0));
     }
 
     #[test]

@@ -97,6 +97,8 @@ struct SensorUnit {
     /// Stick-slip of the skin's elements under the pins, and their displacements this frame.
     elements: ElementStickSlip,
     element_shift_mm: Vec<f64>,
+    /// The same as the pins show them, each spread through the gel to its neighbours.
+    element_spread_mm: Vec<f64>,
 }
 
 struct MarkerUnit {
@@ -287,6 +289,7 @@ impl World {
                     local_key: None,
                     elements: ElementStickSlip::default(),
                     element_shift_mm: Vec::with_capacity(t.pins),
+                    element_spread_mm: Vec::with_capacity(t.pins),
                 }
             })
             .collect::<Vec<SensorUnit>>();
@@ -793,17 +796,20 @@ impl World {
                                 |x| cycle_mm * (1.0 + texture.at(x)).max(0.0),
                                 &mut s.element_shift_mm,
                             );
-                            // The sawtooth passes at `v / cycle`; the skin shows what its
-                            // viscoelastic response lets through.
-                            let shown = if cycle_mm > 0.0 {
-                                times.follows_at(sliding_mm_s / cycle_mm)
+                            // A cycle lasts `cycle / v`: the spot is carried with the
+                            // surface while it sticks, and shows as much of the sawtooth as
+                            // the skin springs back within one cycle.
+                            let shown = if cycle_mm > 0.0 && sliding_mm_s > 0.0 {
+                                times.releases_within(cycle_mm / sliding_mm_s)
                             } else {
                                 0.0
                             };
                             let direction = self.patches[i].shear_mm.signum();
+                            s.optics
+                                .spread_elements(&s.element_shift_mm, &mut s.element_spread_mm);
                             add_local_shear(
                                 &s.optics,
-                                &s.element_shift_mm,
+                                &s.element_spread_mm,
                                 direction * shown * px_per_mm,
                                 &mut s.scratch,
                             );
