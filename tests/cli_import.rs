@@ -81,6 +81,20 @@ fn imported_taxel_recordings_train_evaluate_sweep_and_replay() {
         2 * 2 * 30,
         "two slipping trials, two sensors, n_slip 30"
     );
+    // export keeps every frame unless told to down-sample (train's default is 0.4)
+    ok(&tmo(
+        d,
+        &[
+            "dataset",
+            "export",
+            "xela/train",
+            "--n-slip",
+            "30",
+            "--out",
+            "all.csv",
+        ],
+    ));
+    assert_eq!(std::fs::read_to_string(d.join("all.csv")).unwrap(), csv);
 
     // The paper's balancing (static frames down-sampled to 0.1) and, for the RBF kernel, a
     // gamma for z-scored features of this width.

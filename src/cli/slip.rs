@@ -27,9 +27,10 @@ pub struct LabelArgs {
     /// this times the first trial's frame rate, rounded.
     #[arg(long, conflicts_with = "n_slip")]
     n_slip_s: Option<f64>,
-    /// Proportion of static frames kept (slip frames are never dropped).
-    #[arg(long, default_value_t = 0.4)]
-    downsample: f64,
+    /// Proportion of static frames kept (slip frames are never dropped). Default: 0.4 for
+    /// train (the paper's balance), 1 for dataset export (every frame, e.g. of a test set).
+    #[arg(long)]
+    downsample: Option<f64>,
     /// Fall below the held height that marks slip onset, mm.
     #[arg(long, default_value_t = 1.0)]
     onset_threshold_mm: f64,
@@ -131,6 +132,16 @@ pub fn gamma_or_scale(given: Option<f64>, trials: &[PathBuf]) -> Result<f64> {
 }
 
 /// How frames are labelled; `trials` give the frame rate when the window is in seconds.
+impl LabelArgs {
+    /// The share of static frames kept: `--downsample`, or the command's own default.
+    fn downsample_or(&self, default: f64) -> f64 {
+        self.downsample.unwrap_or(default)
+    }
+}
+
+/// Static frames kept by `tmo train` unless told otherwise.
+const TRAIN_DOWNSAMPLE: f64 = 0.4;
+
 pub fn label_spec(args: &LabelArgs, trials: &[PathBuf]) -> Result<LabelSpec> {
     let n_slip = match args.n_slip_s {
         None => args.n_slip,
@@ -156,11 +167,12 @@ pub fn label_spec(args: &LabelArgs, trials: &[PathBuf]) -> Result<LabelSpec> {
         }
     };
     anyhow::ensure!(n_slip >= 1, "--n-slip must be at least 1");
-    anyhow::ensure!(
-        args.downsample > 0.0 && args.downsample <= 1.0,
-        "--downsample must be in (0, 1], got {}",
-        args.downsample
-    );
+    if let Some(d) = args.downsample {
+        anyhow::ensure!(
+            d > 0.0 && d <= 1.0,
+            "--downsample must be in (0, 1], got {d}"
+        );
+    }
     anyhow::ensure!(
         args.onset_threshold_mm > 0.0,
         "--onset-threshold-mm must be positive"
@@ -193,7 +205,7 @@ pub fn load_dataset(
 pub fn dataset_export(args: ExportArgs) -> Result<()> {
     let labels = label_spec(&args.labels, &args.trials)?;
     let (ds, _, _) = load_dataset(&args.trials, &labels)?;
-    let ds = ds.downsample_static(args.labels.downsample, args.labels.seed);
+    let ds = ds.downsample_static(args.labels.downsample_or(1.0), args.labels.seed);
     ds.write_csv(&args.out)
         .with_context(|| format!("cannot write {}", args.out.display()))?;
     println!(
@@ -265,7 +277,7 @@ pub fn train(args: TrainArgs) -> Result<()> {
             let spec = TuneSpec {
                 kind: args.classifier,
                 scope: args.scope,
-                downsample: args.labels.downsample,
+                downsample: args.labels.downsample_or(TRAIN_DOWNSAMPLE),
                 seed: args.labels.seed,
                 iterations: args.iters,
                 folds: args.folds,
@@ -298,7 +310,7 @@ pub fn train(args: TrainArgs) -> Result<()> {
         scope: args.scope,
         features,
         labels,
-        downsample: args.labels.downsample,
+        downsample: args.labels.downsample_or(TRAIN_DOWNSAMPLE),
         seed: args.labels.seed,
     };
     let file = ModelFile::train(&ds, &spec, refs, search)?;
@@ -329,7 +341,7 @@ pub fn train(args: TrainArgs) -> Result<()> {
         file.training_trials.len(),
         ds.len(),
         fitted,
-        args.labels.downsample,
+        args.labels.downsample_or(TRAIN_DOWNSAMPLE),
         started.elapsed().as_secs_f64()
     );
     println!("scores on the fitted rows (training data; `tmo evaluate` scores held-out trials):");
