@@ -126,7 +126,8 @@ fn imported_taxel_recordings_train_evaluate_sweep_and_replay() {
     // Every classifier finds slip on the held-out trial (all-static scores 0.44 here).
     assert!(scores.iter().all(|s| s.1 > 0.6), "{scores:?}");
 
-    let out = ok(&tmo(
+    // the grid's slip windows in seconds: 0.34 s and 0.51 s are 20 and 30 frames at 58.8 Hz
+    let swept = tmo(
         d,
         &[
             "sweep",
@@ -135,14 +136,17 @@ fn imported_taxel_recordings_train_evaluate_sweep_and_replay() {
             "xela/test",
             "--classifiers",
             "threshold,logreg",
-            "--n-slip",
-            "20:30:10",
+            "--n-slip-s",
+            "0.34,0.51",
             "--downsample",
             "0.1",
             "--out",
             "sweep.csv",
         ],
-    ));
+    );
+    let out = ok(&swept);
+    let said = String::from_utf8_lossy(&swept.stderr);
+    assert!(said.contains("n_slip [20, 30] frames at 58.8 Hz"), "{said}");
     let rows = std::fs::read_to_string(d.join("sweep.csv")).unwrap();
     assert_eq!(rows.lines().count(), 1 + 2 * 2, "{out}\n{rows}");
 

@@ -132,6 +132,21 @@ pub fn gamma_or_scale(given: Option<f64>, trials: &[PathBuf]) -> Result<f64> {
 }
 
 /// How frames are labelled; `trials` give the frame rate when the window is in seconds.
+/// The frame rate of the first of `trials` (one over its median frame interval), Hz: what
+/// a slip window in seconds is turned into frames with.
+pub fn first_trial_rate(trials: &[PathBuf]) -> Result<f64> {
+    let paths = tmo::trial::expand_trial_paths(trials)?;
+    let first = paths
+        .first()
+        .ok_or_else(|| anyhow::anyhow!("no trial logs to take a frame rate from"))?;
+    let trial = tmo::trial::read_trial(first)?;
+    let rate = tmo::slip::dataset::trial_features(&trial)
+        .map_err(|e| anyhow::anyhow!("{}: {e}", first.display()))?
+        .frame_rate_hz
+        .ok_or_else(|| anyhow::anyhow!("{}: too few frames for a frame rate", first.display()))?;
+    Ok(f64::from(rate))
+}
+
 impl LabelArgs {
     /// The share of static frames kept: `--downsample`, or the command's own default.
     fn downsample_or(&self, default: f64) -> f64 {
@@ -150,18 +165,8 @@ pub fn label_spec(args: &LabelArgs, trials: &[PathBuf]) -> Result<LabelSpec> {
                 seconds.is_finite() && seconds > 0.0,
                 "--n-slip-s must be a positive number of seconds, got {seconds}"
             );
-            let paths = tmo::trial::expand_trial_paths(trials)?;
-            let first = paths
-                .first()
-                .ok_or_else(|| anyhow::anyhow!("no trial logs to take a frame rate from"))?;
-            let trial = tmo::trial::read_trial(first)?;
-            let rate = tmo::slip::dataset::trial_features(&trial)
-                .map_err(|e| anyhow::anyhow!("{}: {e}", first.display()))?
-                .frame_rate_hz
-                .ok_or_else(|| {
-                    anyhow::anyhow!("{}: too few frames for a frame rate", first.display())
-                })?;
-            let n = tmo::slip::labels::frames_in(seconds, f64::from(rate));
+            let rate = first_trial_rate(trials)?;
+            let n = tmo::slip::labels::frames_in(seconds, rate);
             eprintln!("--n-slip-s {seconds}: n_slip {n} frames at {rate:.1} Hz");
             n
         }

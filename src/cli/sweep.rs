@@ -45,6 +45,10 @@ pub struct SweepArgs {
     /// Slip frames after onset: start:end or a list.
     #[arg(long, default_value = "1:15")]
     n_slip: String,
+    /// Slip windows in seconds instead of frames (for sensors at other rates):
+    /// start:end:step or a list; each becomes frames at the first trial's rate.
+    #[arg(long, conflicts_with = "n_slip")]
+    n_slip_s: Option<String>,
     #[arg(long, value_enum, default_value = "global")]
     scope: Scope,
     /// Regularisation C when not searched.
@@ -133,7 +137,25 @@ pub fn sweep(args: SweepArgs) -> Result<()> {
         return merge_shards(m);
     }
     let downsample = parse_f64_grid(&args.downsample).context("--downsample")?;
-    let n_slip = parse_usize_grid(&args.n_slip).context("--n-slip")?;
+    let n_slip = match &args.n_slip_s {
+        None => parse_usize_grid(&args.n_slip).context("--n-slip")?,
+        Some(text) => {
+            let seconds = parse_f64_grid(text).context("--n-slip-s")?;
+            anyhow::ensure!(
+                seconds.iter().all(|s| s.is_finite() && *s > 0.0),
+                "--n-slip-s {text}: expected positive numbers of seconds"
+            );
+            let rate = super::slip::first_trial_rate(&args.trials)?;
+            let mut frames: Vec<usize> = seconds
+                .iter()
+                .map(|s| tmo::slip::labels::frames_in(*s, rate))
+                .collect();
+            frames.sort_unstable();
+            frames.dedup();
+            eprintln!("--n-slip-s {text}: n_slip {frames:?} frames at {rate:.1} Hz");
+            frames
+        }
+    };
     anyhow::ensure!(
         args.test_fraction > 0.0 && args.test_fraction < 1.0,
         "--test-fraction must be in (0, 1), got {}",
