@@ -54,21 +54,22 @@ fn imported_taxel_recordings_train_evaluate_sweep_and_replay() {
     let d = dir.path();
     import(d);
 
-    ok(&tmo(
-        d,
-        &[
+    // the training trials' rows, n_slip 30, with `extra` options
+    let export = |out: &str, extra: &[&str]| {
+        let mut args = vec![
             "dataset",
             "export",
             "xela/train",
             "--n-slip",
             "30",
-            "--downsample",
-            "1",
             "--out",
-            "train.csv",
-        ],
-    ));
-    let csv = std::fs::read_to_string(d.join("train.csv")).unwrap();
+            out,
+        ];
+        args.extend_from_slice(extra);
+        ok(&tmo(d, &args));
+        std::fs::read_to_string(d.join(out)).unwrap()
+    };
+    let csv = export("train.csv", &["--downsample", "1"]);
     let header: Vec<&str> = csv.lines().next().unwrap().split(',').collect();
     assert_eq!(header.iter().filter(|h| h.starts_with("dr_")).count(), 16);
     assert_eq!(
@@ -82,19 +83,7 @@ fn imported_taxel_recordings_train_evaluate_sweep_and_replay() {
         "two slipping trials, two sensors, n_slip 30"
     );
     // export keeps every frame unless told to down-sample (train's default is 0.4)
-    ok(&tmo(
-        d,
-        &[
-            "dataset",
-            "export",
-            "xela/train",
-            "--n-slip",
-            "30",
-            "--out",
-            "all.csv",
-        ],
-    ));
-    assert_eq!(std::fs::read_to_string(d.join("all.csv")).unwrap(), csv);
+    assert_eq!(export("all.csv", &[]), csv);
 
     // The paper's balancing (static frames down-sampled to 0.1) and, for the RBF kernel, a
     // gamma for z-scored features of this width.

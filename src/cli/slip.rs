@@ -118,32 +118,35 @@ pub struct EvaluateArgs {
     out: Option<PathBuf>,
 }
 
+/// The first of `trials` (files or directories of them), read: what defaults that depend on
+/// the sensor (gamma, a slip window in seconds) are taken from.
+fn first_trial(trials: &[PathBuf]) -> Result<(PathBuf, tmo::trial::Trial)> {
+    let paths = tmo::trial::expand_trial_paths(trials)?;
+    let first = paths
+        .into_iter()
+        .next()
+        .ok_or_else(|| anyhow::anyhow!("no trial logs found"))?;
+    let trial = tmo::trial::read_trial(&first)?;
+    Ok((first, trial))
+}
+
 /// The RBF kernel's gamma: `given`, or one over the feature count of the first of `trials`.
 pub fn gamma_or_scale(given: Option<f64>, trials: &[PathBuf]) -> Result<f64> {
     if let Some(g) = given {
         return Ok(g);
     }
-    let paths = tmo::trial::expand_trial_paths(trials)?;
-    let first = paths
-        .first()
-        .ok_or_else(|| anyhow::anyhow!("no trial logs found"))?;
-    let pins = tmo::trial::read_trial(first)?.meta.pins;
-    Ok(tmo::slip::model::scale_gamma(2 * pins))
+    let (_, trial) = first_trial(trials)?;
+    Ok(tmo::slip::model::scale_gamma(2 * trial.meta.pins))
 }
 
-/// How frames are labelled; `trials` give the frame rate when the window is in seconds.
 /// The frame rate of the first of `trials` (one over its median frame interval), Hz: what
 /// a slip window in seconds is turned into frames with.
 pub fn first_trial_rate(trials: &[PathBuf]) -> Result<f64> {
-    let paths = tmo::trial::expand_trial_paths(trials)?;
-    let first = paths
-        .first()
-        .ok_or_else(|| anyhow::anyhow!("no trial logs to take a frame rate from"))?;
-    let trial = tmo::trial::read_trial(first)?;
+    let (path, trial) = first_trial(trials)?;
     let rate = tmo::slip::dataset::trial_features(&trial)
-        .map_err(|e| anyhow::anyhow!("{}: {e}", first.display()))?
+        .map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?
         .frame_rate_hz
-        .ok_or_else(|| anyhow::anyhow!("{}: too few frames for a frame rate", first.display()))?;
+        .ok_or_else(|| anyhow::anyhow!("{}: too few frames for a frame rate", path.display()))?;
     Ok(f64::from(rate))
 }
 
@@ -157,6 +160,7 @@ impl LabelArgs {
 /// Static frames kept by `tmo train` unless told otherwise.
 const TRAIN_DOWNSAMPLE: f64 = 0.4;
 
+/// How frames are labelled; `trials` give the frame rate when the window is in seconds.
 pub fn label_spec(args: &LabelArgs, trials: &[PathBuf]) -> Result<LabelSpec> {
     let n_slip = match args.n_slip_s {
         None => args.n_slip,
