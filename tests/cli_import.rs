@@ -155,6 +155,63 @@ fn imported_taxel_recordings_train_evaluate_sweep_and_replay() {
         out.contains("| 1Fr1Sen |") && out.contains("| 2Fr2Sen |"),
         "{out}"
     );
+
+    // the paper's figures of the imported trials, in the sensor's own units
+    let out = ok(&tmo(
+        d,
+        &["report", "xela/train", "sweep.csv", "--plots", "figures"],
+    ));
+    assert!(out.contains("| threshold |"), "{out}");
+    for figure in ["fig4a_pin_speed", "fig4b_pin_velocities", "fig5_f1_logreg"] {
+        assert!(
+            d.join(format!("figures/{figure}.png")).is_file(),
+            "{figure}"
+        );
+    }
+    let fig4a = std::fs::read_to_string(d.join("figures/fig4a_pin_speed.svg")).unwrap();
+    assert!(
+        fig4a.contains("counts per frame"),
+        "fig4a's axis names the units"
+    );
+
+    // exported back as interchange CSV and imported again: the same feature rows
+    let said = ok(&tmo(
+        d,
+        &[
+            "dataset",
+            "export",
+            "xela/train",
+            "--format",
+            "interchange",
+            "--out",
+            "again.csv",
+        ],
+    ));
+    assert!(
+        said.contains("wrote 3 trial(s) as interchange CSV"),
+        "{said}"
+    );
+    ok(&tmo(
+        d,
+        &[
+            "import",
+            "csv",
+            "again.csv",
+            "--out",
+            "again",
+            "--units",
+            "counts",
+        ],
+    ));
+    let rows = |dir: &str, out: &str| {
+        let args = ["dataset", "export", dir, "--n-slip", "30", "--out", out];
+        ok(&tmo(d, &args));
+        std::fs::read_to_string(d.join(out)).unwrap()
+    };
+    assert_eq!(
+        rows("again", "again-rows.csv"),
+        rows("xela/train", "rows.csv")
+    );
 }
 
 #[test]

@@ -46,8 +46,22 @@ pub struct ExportArgs {
     trials: Vec<PathBuf>,
     #[command(flatten)]
     labels: LabelArgs,
+    /// What to write: feature rows, or the trials' raw frames as interchange CSV (one row per
+    /// element per frame with each trial's onset, docs/formats.md; --n-slip and
+    /// --downsample do not apply).
+    #[arg(long, value_enum, default_value = "features")]
+    format: ExportFormat,
+    /// The CSV file to write.
     #[arg(long)]
     out: PathBuf,
+}
+
+#[derive(clap::ValueEnum, Clone, Copy, PartialEq, Eq)]
+pub enum ExportFormat {
+    /// Features, labels and trial/sensor/frame ids, one row per labelled frame.
+    Features,
+    /// The interchange CSV `tmo import csv` reads.
+    Interchange,
 }
 
 #[derive(clap::Args)]
@@ -213,6 +227,27 @@ pub fn load_dataset(
 
 pub fn dataset_export(args: ExportArgs) -> Result<()> {
     let labels = label_spec(&args.labels, &args.trials)?;
+    if args.format == ExportFormat::Interchange {
+        anyhow::ensure!(
+            args.labels.downsample.is_none(),
+            "--downsample applies to feature rows; --format interchange writes every frame"
+        );
+        let paths = tmo::trial::expand_trial_paths(&args.trials)?;
+        let trials = paths
+            .iter()
+            .map(|p| tmo::trial::read_trial(p))
+            .collect::<Result<Vec<_>, _>>()?;
+        let file = std::fs::File::create(&args.out)
+            .with_context(|| format!("cannot write {}", args.out.display()))?;
+        tmo::import::export_interchange(&trials, &labels.onset, std::io::BufWriter::new(file))
+            .with_context(|| format!("cannot write {}", args.out.display()))?;
+        println!(
+            "wrote {} trial(s) as interchange CSV to {}",
+            trials.len(),
+            args.out.display()
+        );
+        return Ok(());
+    }
     let (ds, _, _) = load_dataset(&args.trials, &labels)?;
     let ds = ds.downsample_static(args.labels.downsample_or(1.0), args.labels.seed);
     ds.write_csv(&args.out)

@@ -23,10 +23,14 @@ use tmo_hal::{MarkerSample, PinFrame};
 use crate::trial::{Trial, TrialEvent, TrialMeta, TRIAL_FORMAT_VERSION};
 
 pub use parse::read_interchange;
-pub use write::write_interchange;
+pub use write::{export_interchange, write_interchange, z_by_frame, ExportError};
 
 /// The topic of an imported trial's label track.
 pub const LABEL_TOPIC: &str = "/label";
+/// Topics of an imported sensor's third coordinate (`z`: a taxel's normal reading), one per
+/// sensor (`/element_z/0`, ...): one event per frame, `{"seq": N, "z": [...]}`. Carried
+/// along for the user; features use `x` and `y` only.
+pub const Z_TOPIC_PREFIX: &str = "/element_z/";
 /// Trial metadata `kind` of an imported trial.
 pub const IMPORTED_KIND: &str = "imported";
 /// Parameter naming the largest per-frame step of an element that is still a measurement
@@ -123,6 +127,8 @@ pub(crate) struct FrameRows {
     /// First line of the frame (for messages).
     pub line: u64,
     pub elements: Vec<Option<[f32; 2]>>,
+    /// The elements' `z` when the file has a `z` column (then every row has one).
+    pub z: Vec<f32>,
 }
 
 /// Builds the trial log of one trial. `elements` is the file's element count, `sensors`
@@ -137,6 +143,7 @@ pub(crate) fn build_trial(
     opts: &ImportOptions,
 ) -> Result<ImportedTrial, String> {
     let mut frames = Vec::new();
+    let mut z_events = Vec::new();
     let mut intervals = Vec::new();
     for (sensor_name, by_frame) in &rows.sensors {
         let sensor = sensors
@@ -164,6 +171,13 @@ pub(crate) fn build_trial(
                 intervals.push((f.time_s - prev_t) / (seq - prev_seq) as f64);
             }
             previous = Some((seq, f.time_s));
+            if !f.z.is_empty() {
+                z_events.push(TrialEvent {
+                    time_s: f.time_s,
+                    topic: format!("{Z_TOPIC_PREFIX}{sensor}"),
+                    data: serde_json::json!({ "seq": seq, "z": &f.z }),
+                });
+            }
             frames.push(PinFrame {
                 sensor,
                 seq,
@@ -204,6 +218,9 @@ pub(crate) fn build_trial(
         }
         LabelSource::MarkerHeights => {}
     }
+    z_events.sort_by(|a, b| a.time_s.total_cmp(&b.time_s));
+    let has_z = !z_events.is_empty();
+    events.extend(z_events);
     intervals.sort_by(f64::total_cmp);
     let rate_hz = intervals
         .get(intervals.len() / 2)
@@ -223,6 +240,9 @@ pub(crate) fn build_trial(
     ]);
     if let Some(split) = &rows.split {
         parameters.insert("split".to_string(), split.clone());
+    }
+    if has_z {
+        parameters.insert("z".to_string(), format!("{Z_TOPIC_PREFIX}<sensor>"));
     }
     let arrivals_s = frames.iter().map(|f| f.time_s).collect();
     let trial = Trial {

@@ -10,8 +10,6 @@ use super::{
 };
 
 const REQUIRED: [&str; 7] = ["trial", "sensor", "frame", "t_s", "element", "x", "y"];
-/// Columns the format knows but tmo does not store (features use `x` and `y`).
-const READ_PAST: [&str; 1] = ["z"];
 /// Largest element value a trial log holds (the log reader's bound on pin coordinates).
 const MAX_VALUE: f64 = 1e5;
 /// More elements than any sensor has; a bigger index is a typo, not a sensor.
@@ -24,6 +22,7 @@ struct Columns {
     heights: Option<(usize, usize)>,
     object: Option<usize>,
     split: Option<usize>,
+    z: Option<usize>,
 }
 
 fn columns(
@@ -64,6 +63,7 @@ fn columns(
         None => None,
     };
     let object = find("object");
+    let z = find("z");
     let known: Vec<usize> = required
         .iter()
         .copied()
@@ -73,11 +73,12 @@ fn columns(
         .chain(heights.map(|h| h.1))
         .chain(object)
         .chain(split)
+        .chain(z)
         .collect();
     let ignored = header
         .iter()
         .enumerate()
-        .filter(|(i, h)| !known.contains(i) && !READ_PAST.contains(&h.trim()))
+        .filter(|(i, _)| !known.contains(i))
         .map(|(_, h)| h.to_string())
         .collect();
     Ok((
@@ -88,6 +89,7 @@ fn columns(
             heights,
             object,
             split,
+            z,
         },
         source,
         ignored,
@@ -205,6 +207,18 @@ pub fn read_interchange(path: &Path, opts: &ImportOptions) -> Result<ImportSumma
             }
             *v = value as f32;
         }
+        let z = match cols.z {
+            Some(c) => {
+                let value = number(&record, c, "z").map_err(row_err)?;
+                if value.abs() > MAX_VALUE {
+                    return Err(row_err(format!(
+                        "column `z`: {value} is beyond +-{MAX_VALUE:e}; subtract each element's baseline (e.g. its first frame) first"
+                    )));
+                }
+                Some(value as f32)
+            }
+            None => None,
+        };
         if !sensor_names.contains(&sensor) {
             sensor_names.push(sensor.clone());
         }
@@ -281,6 +295,7 @@ pub fn read_interchange(path: &Path, opts: &ImportOptions) -> Result<ImportSumma
             time_s: t,
             line,
             elements: Vec::new(),
+            z: Vec::new(),
         });
         if f.time_s != t {
             return Err(row_err(format!(
@@ -298,6 +313,12 @@ pub fn read_interchange(path: &Path, opts: &ImportOptions) -> Result<ImportSumma
             )));
         }
         f.elements[e] = Some(xy);
+        if let Some(z) = z {
+            if f.z.len() <= e {
+                f.z.resize(e + 1, 0.0);
+            }
+            f.z[e] = z;
+        }
         elements = elements.max(e + 1);
     }
     if order.is_empty() {
@@ -396,6 +417,20 @@ mod tests {
         assert!((onset.unwrap() - 6.0 / 30.0).abs() < 1e-6);
         assert_eq!(end, None);
         assert_eq!(t.unusable(), None, "labels stand in for a marker track");
+    }
+
+    #[test]
+    fn a_z_column_is_carried_per_frame_and_a_bad_z_is_named() {
+        let text = "trial,sensor,frame,t_s,element,x,y,z,slip\na,s,0,0.0,0,1,1,7,0\na,s,0,0.0,1,2,1,8,0\na,s,1,0.02,0,1,2,9.5,1\na,s,1,0.02,1,2,2,10,1\n";
+        let s = read(text, &opts()).unwrap();
+        assert!(s.ignored_columns.is_empty(), "{:?}", s.ignored_columns);
+        let t = &s.trials[0].trial;
+        let z = crate::import::z_by_frame(t);
+        assert_eq!(z[&(0, 0)], vec![7.0, 8.0]);
+        assert_eq!(z[&(0, 1)], vec![9.5, 10.0]);
+        assert_eq!(t.meta.parameters["z"], "/element_z/<sensor>");
+        let e = message(read(&text.replace(",9.5,", ",,"), &opts()).unwrap_err());
+        assert!(e.contains("in.csv:4:") && e.contains("column `z`"), "{e}");
     }
 
     #[test]

@@ -1,49 +1,117 @@
 //! The inverse of reading: a trial log as interchange CSV rows, so that tmo's own trials can
 //! go wherever other labs' recordings come from (and the round trip can be checked).
 
+use std::collections::BTreeMap;
 use std::io::Write;
 
+use super::Z_TOPIC_PREFIX;
+use crate::slip::labels::{trial_slip_window, OnsetSpec};
 use crate::trial::Trial;
 
-/// Writes `trial` as interchange CSV (header included): one row per element per frame,
-/// sensors named by the trial's `sensor_names` parameter (else `s0`, `s1`, ...), and an
-/// `onset_s` column holding `onset_s` (empty for a trial without slip).
+/// Writes `trials` as one interchange CSV (header included): one row per element per frame,
+/// each trial named by its `trial_id`, its sensors by its `sensor_names` parameter (else
+/// `s0`, `s1`, ...), an `onset_s` column holding the trial's onset (empty for a trial
+/// without slip), and a `z` column when any trial carries its elements' z (an imported
+/// trial's `/element_z/<sensor>` events; a frame without them gets an empty `z`).
 pub fn write_interchange(
-    trial: &Trial,
-    onset_s: Option<f64>,
+    trials: &[(&Trial, Option<f64>)],
     out: impl Write,
 ) -> Result<(), csv::Error> {
-    let names: Vec<String> = match trial.meta.parameters.get("sensor_names") {
-        Some(n) if n.split(',').count() == usize::from(trial.meta.sensors) => {
-            n.split(',').map(String::from).collect()
-        }
-        _ => (0..trial.meta.sensors).map(|s| format!("s{s}")).collect(),
-    };
+    let z: Vec<_> = trials.iter().map(|(t, _)| z_by_frame(t)).collect();
+    let with_z = z.iter().any(|z| !z.is_empty());
     let mut w = csv::Writer::from_writer(out);
-    w.write_record([
+    let mut header = vec![
         "trial", "sensor", "frame", "t_s", "element", "x", "y", "onset_s",
-    ])?;
-    let onset = onset_s.map_or(String::new(), |o| o.to_string());
-    for f in &trial.frames {
-        let sensor = names
-            .get(usize::from(f.sensor))
-            .map_or("unknown", String::as_str);
-        let (frame, t) = (f.seq.to_string(), f.time_s.to_string());
-        for (e, [x, y]) in f.pins.iter().enumerate() {
-            w.write_record([
-                trial.meta.trial_id.as_str(),
-                sensor,
-                &frame,
-                &t,
-                &e.to_string(),
-                &x.to_string(),
-                &y.to_string(),
-                &onset,
-            ])?;
+    ];
+    if with_z {
+        header.push("z");
+    }
+    w.write_record(&header)?;
+    for ((trial, onset_s), z) in trials.iter().zip(&z) {
+        let names: Vec<String> = match trial.meta.parameters.get("sensor_names") {
+            Some(n) if n.split(',').count() == usize::from(trial.meta.sensors) => {
+                n.split(',').map(String::from).collect()
+            }
+            _ => (0..trial.meta.sensors).map(|s| format!("s{s}")).collect(),
+        };
+        let onset = onset_s.map_or(String::new(), |o| o.to_string());
+        for f in &trial.frames {
+            let sensor = names
+                .get(usize::from(f.sensor))
+                .map_or("unknown", String::as_str);
+            let (frame, t) = (f.seq.to_string(), f.time_s.to_string());
+            let frame_z = z.get(&(f.sensor, f.seq));
+            for (e, [x, y]) in f.pins.iter().enumerate() {
+                let mut record = vec![
+                    trial.meta.trial_id.clone(),
+                    sensor.to_string(),
+                    frame.clone(),
+                    t.clone(),
+                    e.to_string(),
+                    x.to_string(),
+                    y.to_string(),
+                    onset.clone(),
+                ];
+                if with_z {
+                    record.push(
+                        frame_z
+                            .and_then(|z| z.get(e))
+                            .map_or(String::new(), |v| v.to_string()),
+                    );
+                }
+                w.write_record(&record)?;
+            }
         }
     }
     w.flush()?;
     Ok(())
+}
+
+/// Why trials could not be written as interchange CSV.
+#[derive(Debug, thiserror::Error)]
+pub enum ExportError {
+    #[error("two trials are both named `{0}`; the interchange CSV names trials by their trial_id (export them to separate files)")]
+    DuplicateTrial(String),
+    #[error(transparent)]
+    Csv(#[from] csv::Error),
+}
+
+/// Writes `trials` as one interchange CSV, each with the slip onset tmo's own labelling
+/// finds in it (its label track, or its marker track by `onset`), so that another tool sees
+/// the labels tmo trains on.
+pub fn export_interchange(
+    trials: &[Trial],
+    onset: &OnsetSpec,
+    out: impl Write,
+) -> Result<(), ExportError> {
+    let mut seen = std::collections::BTreeSet::new();
+    if let Some(t) = trials.iter().find(|t| !seen.insert(&t.meta.trial_id)) {
+        return Err(ExportError::DuplicateTrial(t.meta.trial_id.clone()));
+    }
+    let rows: Vec<_> = trials
+        .iter()
+        .map(|t| (t, trial_slip_window(t, onset).0))
+        .collect();
+    write_interchange(&rows, out)?;
+    Ok(())
+}
+
+/// An imported trial's z readings by (sensor, frame number); empty when it has none.
+pub fn z_by_frame(trial: &Trial) -> BTreeMap<(u8, u64), Vec<f32>> {
+    #[derive(serde::Deserialize)]
+    struct ZEvent {
+        seq: u64,
+        z: Vec<f32>,
+    }
+    trial
+        .events
+        .iter()
+        .filter_map(|e| {
+            let sensor = e.topic.strip_prefix(Z_TOPIC_PREFIX)?.parse::<u8>().ok()?;
+            let z: ZEvent = serde_json::from_value(e.data.clone()).ok()?;
+            Some(((sensor, z.seq), z.z))
+        })
+        .collect()
 }
 
 #[cfg(test)]
@@ -111,11 +179,29 @@ mod tests {
             gaps in proptest::collection::vec(1u64..4, 2..20),
             values in proptest::collection::vec(-5000.0f32..5000.0, 1..64),
             onset in proptest::option::of(0.0f64..1.0),
+            with_z in any::<bool>(),
         ) {
-            let original = trial(sensors, elements, rate_hz, &gaps, &values);
+            let mut original = trial(sensors, elements, rate_hz, &gaps, &values);
+            if with_z {
+                // each frame's z: its x values reversed (any numbers will do)
+                let z: Vec<_> = original
+                    .frames
+                    .iter()
+                    .map(|f| crate::trial::TrialEvent {
+                        time_s: f.time_s,
+                        topic: format!("{Z_TOPIC_PREFIX}{}", f.sensor),
+                        data: serde_json::json!({
+                            "seq": f.seq,
+                            "z": f.pins.iter().rev().map(|p| p[0]).collect::<Vec<_>>(),
+                        }),
+                    })
+                    .collect();
+                original.events = z;
+            }
             let dir = tempfile::tempdir().unwrap();
             let path = dir.path().join("t.csv");
-            write_interchange(&original, onset, std::fs::File::create(&path).unwrap()).unwrap();
+            write_interchange(&[(&original, onset)], std::fs::File::create(&path).unwrap())
+                .unwrap();
             let opts = ImportOptions {
                 sensor_name: "any".into(),
                 units: Units::Mm,
@@ -124,6 +210,8 @@ mod tests {
             };
             let back = read_interchange(&path, &opts).unwrap().trials.remove(0).trial;
             prop_assert_eq!(&back.frames, &original.frames);
+            prop_assert_eq!(z_by_frame(&back), z_by_frame(&original));
+            prop_assert_eq!(z_by_frame(&back).len(), if with_z { back.frames.len() } else { 0 });
             let spec = trial_features(&back).unwrap();
             prop_assert_eq!(spec.pins, elements);
             prop_assert_eq!(spec.units, Units::Mm);
@@ -134,6 +222,7 @@ mod tests {
             let log = dir.path().join("t.mcap");
             crate::trial::write_trial(&log, &back).unwrap();
             let back = crate::trial::read_trial(&log).unwrap();
+            prop_assert_eq!(z_by_frame(&back), z_by_frame(&original));
             // (serde_json's default float parsing may be one ulp off)
             let (read_onset, end) =
                 crate::slip::labels::trial_slip_window(&back, &Default::default());

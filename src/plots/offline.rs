@@ -11,7 +11,7 @@ use plotters::style::text_anchor::{HPos, Pos, VPos};
 
 use super::{clear, slug, viridis, DrawResult, PlotError, FONT, SIZE};
 use crate::slip::dataset::{Dataset, LabelSpec};
-use crate::slip::features::{mean_velocity_norm, FeatureSpec};
+use crate::slip::features::{mean_velocity_norm, FeatureSpec, Units};
 use crate::slip::sweep::SweepRow;
 use crate::slip::threshold::ThresholdModel;
 use crate::slip::Class;
@@ -257,7 +257,9 @@ fn speed_histogram<DB: DrawingBackend>(
     root: &DrawingArea<DB, Shift>,
     s: &SpeedsByClass,
     threshold: (f64, &str),
+    units: Units,
 ) -> DrawResult<DB> {
+    let units = units.name();
     clear(root)?;
     // Speeds span three decades (still skin vs a sliding object): log bins show both.
     let mut all: Vec<f64> = s
@@ -289,7 +291,7 @@ fn speed_histogram<DB: DrawingBackend>(
     chart
         .configure_mesh()
         .light_line_style(TRANSPARENT)
-        .x_desc("mean pin speed |v| (px per frame, log scale)")
+        .x_desc(format!("mean pin speed |v| ({units} per frame, log scale)"))
         .x_label_formatter(&|v| format!("{v}"))
         .y_desc("fraction of the class's frames")
         .label_style((FONT, 14))
@@ -321,7 +323,7 @@ fn speed_histogram<DB: DrawingBackend>(
             5,
             BLACK.stroke_width(2),
         ))?
-        .label(format!("threshold {t:.3} px/frame ({source})"))
+        .label(format!("threshold {t:.3} {units}/frame ({source})"))
         .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 14, y)], BLACK.stroke_width(2)));
     chart
         .configure_series_labels()
@@ -366,7 +368,7 @@ fn field_of(trial: &Trial, sensor: u8, seq: u64, title: String) -> Option<PinFie
 
 /// A typical static frame (median speed) and the fastest slip frame of the first trial
 /// and sensor that has slip frames.
-pub fn example_fields(trials: &[Trial], ds: &Dataset) -> Option<[PinField; 2]> {
+pub fn example_fields(trials: &[Trial], ds: &Dataset, units: Units) -> Option<[PinField; 2]> {
     let first_slip = (0..ds.len()).find(|&i| ds.y[i] == Class::Slip)?;
     let (trial, sensor) = (ds.trial[first_slip], ds.sensor[first_slip]);
     let rows: Vec<usize> = (0..ds.len())
@@ -388,10 +390,11 @@ pub fn example_fields(trials: &[Trial], ds: &Dataset) -> Option<[PinField; 2]> {
     let t = &trials[trial as usize];
     let name = |what: &str, i: usize| {
         format!(
-            "{what}: {} sensor {sensor}, t = {:.2} s, |v| = {:.2} px/frame",
+            "{what}: {} sensor {sensor}, t = {:.2} s, |v| = {:.2} {}/frame",
             t.meta.trial_id,
             ds.time_s[i],
-            speed(i)
+            speed(i),
+            units.name()
         )
     };
     Some([
@@ -403,6 +406,7 @@ pub fn example_fields(trials: &[Trial], ds: &Dataset) -> Option<[PinField; 2]> {
 fn quiver<DB: DrawingBackend>(
     root: &DrawingArea<DB, Shift>,
     fields: &[PinField; 2],
+    units: Units,
 ) -> DrawResult<DB> {
     clear(root)?;
     let longest = fields
@@ -414,13 +418,22 @@ fn quiver<DB: DrawingBackend>(
     // One scale for both panels, so a static frame's arrows look as small as they are.
     let scale = 40.0 / longest;
     let (xs, ys): (Vec<f64>, Vec<f64>) = fields.iter().flat_map(|f| f.pins.iter().copied()).unzip();
-    let pad = 50.0;
+    // a margin of a tenth of the field's span (50 px on a TacTip image)
+    let span = |v: &[f64]| {
+        v.iter().copied().fold(f64::NEG_INFINITY, f64::max)
+            - v.iter().copied().fold(f64::INFINITY, f64::min)
+    };
+    let pad = (0.1 * span(&xs).max(span(&ys))).max(1e-3);
     let x_range = (xs.iter().copied().fold(f64::INFINITY, f64::min) - pad)
         ..(xs.iter().copied().fold(f64::NEG_INFINITY, f64::max) + pad);
     let y_lo = ys.iter().copied().fold(f64::INFINITY, f64::min) - pad;
     let y_hi = ys.iter().copied().fold(f64::NEG_INFINITY, f64::max) + pad;
     let root = root.titled(
-        &format!("Pin velocities (arrows x{scale:.0}, image coordinates)"),
+        &format!(
+            "Pin velocities (arrows x{}, sensor coordinates in {})",
+            significant(scale),
+            units.name()
+        ),
         (FONT, 20),
     )?;
     let panels = root.split_evenly((1, 2));
@@ -429,14 +442,14 @@ fn quiver<DB: DrawingBackend>(
             .caption(&f.title, (FONT, 13))
             .margin(10)
             .x_label_area_size(35)
-            .y_label_area_size(45)
+            .y_label_area_size(70)
             // image rows grow downwards
             .build_cartesian_2d(x_range.clone(), y_hi..y_lo)?;
         chart
             .configure_mesh()
             .light_line_style(TRANSPARENT)
-            .x_desc("x (px)")
-            .y_desc("y (px)")
+            .x_desc(format!("x ({})", units.name()))
+            .y_desc(format!("y ({})", units.name()))
             .label_style((FONT, 12))
             .axis_desc_style((FONT, 13))
             .draw()?;
@@ -472,6 +485,16 @@ fn quiver<DB: DrawingBackend>(
     Ok(())
 }
 
+/// `v` to two significant digits, without a trailing `.0` ("40", "0.0031").
+fn significant(v: f64) -> String {
+    if v >= 10.0 {
+        format!("{v:.0}")
+    } else {
+        let decimals = (1.0 - v.log10().floor()).clamp(0.0, 12.0) as usize;
+        format!("{v:.decimals$}")
+    }
+}
+
 /// Fig. 4a and 4b from directories of collected trials.
 pub fn trial_figures(
     dirs: &[PathBuf],
@@ -486,13 +509,10 @@ pub fn trial_figures(
     let Some(first) = trials.first() else {
         return Ok(Vec::new());
     };
-    // an imported sensor's own step limit (a bad one falls back to the pin guard: a figure,
-    // not a model, is made here)
-    let features = FeatureSpec {
-        max_pin_step_px: crate::slip::dataset::max_step(first)
-            .unwrap_or(FeatureSpec::new(0).max_pin_step_px),
-        ..FeatureSpec::new(first.meta.pins)
-    };
+    // an imported sensor's own units and step limit (bad ones fall back to the TacTip's:
+    // a figure, not a model, is made here)
+    let features =
+        crate::slip::dataset::trial_features(first).unwrap_or(FeatureSpec::new(first.meta.pins));
     let trials: Vec<Trial> = trials
         .into_iter()
         .filter(|t| t.meta.pins == features.pins)
@@ -515,13 +535,13 @@ pub fn trial_figures(
         }
     };
     let mut out = crate::svg_and_png!(dir.join("fig4a_pin_speed"), SIZE, |root| {
-        speed_histogram(&root, &speeds, (t, source))
+        speed_histogram(&root, &speeds, (t, source), features.units)
     });
-    if let Some(fields) = example_fields(&trials, &ds) {
+    if let Some(fields) = example_fields(&trials, &ds, features.units) {
         out.extend(crate::svg_and_png!(
             dir.join("fig4b_pin_velocities"),
             (1100, 560),
-            |root| { quiver(&root, &fields) }
+            |root| { quiver(&root, &fields, features.units) }
         ));
     }
     Ok(out)
