@@ -89,10 +89,12 @@ pub fn build(
         _ => "crisps_can".into(),
     });
     if preset == Preset::Rail {
-        cfg.rig = RigSetup::Rail(RailSetup {
-            object,
-            ..Default::default()
-        });
+        // a configuration's own rail settings (preload, press-in, guides) are kept
+        let rail = match &cfg.rig {
+            RigSetup::Rail(r) => r.clone(),
+            RigSetup::Hand(_) => RailSetup::default(),
+        };
+        cfg.rig = RigSetup::Rail(RailSetup { object, ..rail });
         let script = Script::Retract {
             speed_mm_s: options.retract_speed_mm_s,
             distance_mm: 10.0,

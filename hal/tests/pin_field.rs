@@ -238,3 +238,44 @@ fn the_contact_gauge_fires_at_a_light_touch() {
     }
     panic!("no sensor reached 0.5 px");
 }
+
+#[test]
+fn the_rails_initial_contact_moves_the_pins_fast_with_a_mean_vector() {
+    let rig = SimRig::new(SimConfig {
+        seed: 4,
+        rig: RigSetup::Rail(Default::default()),
+        faults: FaultRates::none(),
+        ..Default::default()
+    })
+    .unwrap();
+    let mut clock = rig.clock();
+    let mut sensors = rig.tactile_sensors();
+    let mut frames = Vec::new();
+    while clock.now_s() < 1.2 {
+        clock.sleep(0.01);
+        while let Some(f) = sensors[0].next_frame().unwrap() {
+            frames.push(f);
+        }
+    }
+    let (mut contact, mut held) = (Vec::new(), Vec::new());
+    for w in frames.windows(2) {
+        let (v, speed) = mean_velocity(&w[0], &w[1]);
+        match w[1].time_s {
+            t if t < 0.15 => contact.push((v[0].hypot(v[1]), speed)),
+            // after the support let go (0.25 s) and the load came over (0.2 s)
+            t if t > 0.8 => held.push((v[0].hypot(v[1]), speed)),
+            _ => {}
+        }
+    }
+    let held_mean_v = held.iter().map(|h| h.0).fold(0.0, f64::max);
+    let held_speed = median(&held.iter().map(|h| h.1).collect::<Vec<_>>());
+    let fastest = contact.iter().map(|c| c.1).fold(0.0, f64::max);
+    let strongest = contact.iter().map(|c| c.0).fold(0.0, f64::max);
+    // the press spreads the pins fast, and the curling finger drags the skin: a mean vector
+    // well above what a held contact's noise gives
+    assert!(fastest > 4.0 * held_speed, "{fastest} vs {held_speed}");
+    assert!(
+        strongest > 3.0 * held_mean_v,
+        "{strongest} vs {held_mean_v}"
+    );
+}

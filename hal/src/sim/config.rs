@@ -204,6 +204,7 @@ impl SimConfig {
                 ("rig.end_stop_mm", r.end_stop_mm, positive, 1e4),
                 ("rig.finger_closure", r.finger_closure, zero, 1.0),
                 ("rig.press_in_mm", r.press_in_mm, zero, 100.0),
+                ("rig.support_release_s", r.support_release_s, zero, 1e6),
             ]),
         }
         for (field, value, Low(lo, open), hi) in fields {
@@ -299,17 +300,21 @@ pub struct RailSetup {
     /// trial starts: the rig's reset leaves it closing onto the object, so every trial begins
     /// with the contact being made (the paper's "initial contact" static frames).
     pub press_in_mm: f64,
+    /// When (s from the trial's start) the rig's support lets go of the object, which then
+    /// passes to the fingertip over `physics.load_transfer_s`.
+    pub support_release_s: f64,
 }
 
 impl Default for RailSetup {
     fn default() -> Self {
         Self {
             object: "rail_object".into(),
-            preload_mm: 6.0,
+            preload_mm: 0.0,
             rail_mu: 0.05,
             end_stop_mm: 150.0,
             finger_closure: 0.5,
-            press_in_mm: 1.5,
+            press_in_mm: 7.5,
+            support_release_s: 0.25,
         }
     }
 }

@@ -641,9 +641,6 @@ impl World {
     /// The under-actuated fingers curl as they press past first touch, so each fingertip
     /// rolls along the object and drags its skin sideways, as far as friction lets it.
     fn update_rolls(&mut self) {
-        if !matches!(self.geometry, Geometry::Hand { .. }) {
-            return;
-        }
         let ratio = self.cfg.physics.finger_roll_ratio;
         let mu_s = self.object.mu_static;
         for i in 0..self.sensors.len() {
@@ -666,15 +663,16 @@ impl World {
     /// operator's hand, the rig's support) over `physics.load_transfer_s`, smoothly: its
     /// weight passes to the fingertips over that time, not in one step.
     fn load_transferred(&self, now: f64) -> f64 {
-        let held_at_start = match &self.cfg.rig {
-            RigSetup::Rail(_) => true,
-            RigSetup::Hand(h) => h.start == ObjectStart::InHand,
+        let released_at = match &self.cfg.rig {
+            RigSetup::Rail(r) => r.support_release_s,
+            RigSetup::Hand(h) if h.start == ObjectStart::InHand => 0.0,
+            RigSetup::Hand(_) => return 1.0,
         };
         let span = self.cfg.physics.load_transfer_s;
-        if !held_at_start || now >= span {
+        if now >= released_at + span {
             return 1.0;
         }
-        let x = now / span;
+        let x = (now - released_at).max(0.0) / span;
         x * x * (3.0 - 2.0 * x)
     }
 
