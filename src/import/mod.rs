@@ -127,8 +127,9 @@ pub(crate) struct FrameRows {
     /// First line of the frame (for messages).
     pub line: u64,
     pub elements: Vec<Option<[f32; 2]>>,
-    /// The elements' `z` when the file has a `z` column (then every row has one).
-    pub z: Vec<f32>,
+    /// The elements' `z` when the file has a `z` column; a frame has z on all its rows or on
+    /// none (an empty cell: e.g. a trial without z exported beside one with it).
+    pub z: Vec<Option<f32>>,
 }
 
 /// Builds the trial log of one trial. `elements` is the file's element count, `sensors`
@@ -171,12 +172,20 @@ pub(crate) fn build_trial(
                 intervals.push((f.time_s - prev_t) / (seq - prev_seq) as f64);
             }
             previous = Some((seq, f.time_s));
-            if !f.z.is_empty() {
-                z_events.push(TrialEvent {
+            let z: Option<Vec<f32>> = f.z.iter().copied().collect();
+            match z {
+                Some(z) if z.len() == elements => z_events.push(TrialEvent {
                     time_s: f.time_s,
                     topic: format!("{Z_TOPIC_PREFIX}{sensor}"),
-                    data: serde_json::json!({ "seq": seq, "z": &f.z }),
-                });
+                    data: serde_json::json!({ "seq": seq, "z": z }),
+                }),
+                _ if f.z.iter().all(Option::is_none) => {}
+                _ => {
+                    return Err(format!(
+                        "trial `{name}`, sensor `{sensor_name}`, frame {seq} (from line {}): `z` is given for some elements and not others; give it for all of a frame's elements or none",
+                        f.line
+                    ))
+                }
             }
             frames.push(PinFrame {
                 sensor,

@@ -208,6 +208,8 @@ pub fn read_interchange(path: &Path, opts: &ImportOptions) -> Result<ImportSumma
             *v = value as f32;
         }
         let z = match cols.z {
+            // an empty cell: no z for this row (see FrameRows::z)
+            Some(c) if record.get(c).is_some_and(|v| v.trim().is_empty()) => None,
             Some(c) => {
                 let value = number(&record, c, "z").map_err(row_err)?;
                 if value.abs() > MAX_VALUE {
@@ -313,9 +315,9 @@ pub fn read_interchange(path: &Path, opts: &ImportOptions) -> Result<ImportSumma
             )));
         }
         f.elements[e] = Some(xy);
-        if let Some(z) = z {
+        if z.is_some() {
             if f.z.len() <= e {
-                f.z.resize(e + 1, 0.0);
+                f.z.resize(e + 1, None);
             }
             f.z[e] = z;
         }
@@ -429,8 +431,18 @@ mod tests {
         assert_eq!(z[&(0, 0)], vec![7.0, 8.0]);
         assert_eq!(z[&(0, 1)], vec![9.5, 10.0]);
         assert_eq!(t.meta.parameters["z"], "/element_z/<sensor>");
-        let e = message(read(&text.replace(",9.5,", ",,"), &opts()).unwrap_err());
+        let e = message(read(&text.replace(",9.5,", ",x,"), &opts()).unwrap_err());
         assert!(e.contains("in.csv:4:") && e.contains("column `z`"), "{e}");
+        // z on some of a frame's elements only
+        let e = message(read(&text.replace(",9.5,", ",,"), &opts()).unwrap_err());
+        assert!(
+            e.contains("frame 1") && e.contains("`z` is given for some"),
+            "{e}"
+        );
+        // no z on a whole frame: that frame has none
+        let s = read(&text.replace(",9.5,", ",,").replace(",10,", ",,"), &opts()).unwrap();
+        let z = crate::import::z_by_frame(&s.trials[0].trial);
+        assert_eq!(z.keys().collect::<Vec<_>>(), vec![&(0, 0)]);
     }
 
     #[test]

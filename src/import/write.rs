@@ -4,6 +4,8 @@
 use std::collections::BTreeMap;
 use std::io::Write;
 
+use serde::Deserialize;
+
 use super::Z_TOPIC_PREFIX;
 use crate::slip::labels::{trial_slip_window, OnsetSpec};
 use crate::trial::Trial;
@@ -41,25 +43,23 @@ pub fn write_interchange(
                 .map_or("unknown", String::as_str);
             let (frame, t) = (f.seq.to_string(), f.time_s.to_string());
             let frame_z = z.get(&(f.sensor, f.seq));
+            // field by field: one row per element of every frame, so no row is allocated
             for (e, [x, y]) in f.pins.iter().enumerate() {
-                let mut record = vec![
-                    trial.meta.trial_id.clone(),
-                    sensor.to_string(),
-                    frame.clone(),
-                    t.clone(),
-                    e.to_string(),
-                    x.to_string(),
-                    y.to_string(),
-                    onset.clone(),
-                ];
+                w.write_field(&trial.meta.trial_id)?;
+                w.write_field(sensor)?;
+                w.write_field(&frame)?;
+                w.write_field(&t)?;
+                w.write_field(e.to_string())?;
+                w.write_field(x.to_string())?;
+                w.write_field(y.to_string())?;
+                w.write_field(&onset)?;
                 if with_z {
-                    record.push(
-                        frame_z
-                            .and_then(|z| z.get(e))
-                            .map_or(String::new(), |v| v.to_string()),
-                    );
+                    match frame_z.and_then(|z| z.get(e)) {
+                        Some(v) => w.write_field(v.to_string())?,
+                        None => w.write_field("")?,
+                    }
                 }
-                w.write_record(&record)?;
+                w.write_record(None::<&[u8]>)?;
             }
         }
     }
@@ -98,7 +98,7 @@ pub fn export_interchange(
 
 /// An imported trial's z readings by (sensor, frame number); empty when it has none.
 pub fn z_by_frame(trial: &Trial) -> BTreeMap<(u8, u64), Vec<f32>> {
-    #[derive(serde::Deserialize)]
+    #[derive(Deserialize)]
     struct ZEvent {
         seq: u64,
         z: Vec<f32>,
@@ -108,7 +108,7 @@ pub fn z_by_frame(trial: &Trial) -> BTreeMap<(u8, u64), Vec<f32>> {
         .iter()
         .filter_map(|e| {
             let sensor = e.topic.strip_prefix(Z_TOPIC_PREFIX)?.parse::<u8>().ok()?;
-            let z: ZEvent = serde_json::from_value(e.data.clone()).ok()?;
+            let z = ZEvent::deserialize(&e.data).ok()?;
             Some(((sensor, z.seq), z.z))
         })
         .collect()
@@ -167,6 +167,41 @@ mod tests {
             }
         }
         out
+    }
+
+    #[test]
+    fn trials_with_and_without_z_export_to_one_file_that_imports_again() {
+        let mut with = trial(1, 3, 50.0, &[1, 1, 1], &[1.0, 2.0, 3.0]);
+        with.events = with
+            .frames
+            .iter()
+            .map(|f| crate::trial::TrialEvent {
+                time_s: f.time_s,
+                topic: format!("{Z_TOPIC_PREFIX}{}", f.sensor),
+                data: serde_json::json!({ "seq": f.seq, "z": [7.0, 8.0, 9.0] }),
+            })
+            .collect();
+        let mut without = trial(1, 3, 50.0, &[1, 1, 1], &[4.0, 5.0]);
+        without.meta.trial_id = "u".into();
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("both.csv");
+        let file = std::fs::File::create(&path).unwrap();
+        export_interchange(&[with.clone(), without.clone()], &Default::default(), file).unwrap();
+        let opts = ImportOptions {
+            sensor_name: "any".into(),
+            units: Units::Mm,
+            split_column: None,
+            max_step: None,
+        };
+        let back = read_interchange(&path, &opts).unwrap().trials;
+        assert_eq!(back.len(), 2);
+        assert_eq!(z_by_frame(&back[0].trial), z_by_frame(&with));
+        assert!(z_by_frame(&back[1].trial).is_empty());
+        assert_eq!(back[1].trial.frames, without.frames);
+        // one name twice is refused
+        let e =
+            export_interchange(&[with.clone(), with], &Default::default(), Vec::new()).unwrap_err();
+        assert!(e.to_string().contains("`t`"), "{e}");
     }
 
     proptest! {
