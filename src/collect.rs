@@ -174,16 +174,6 @@ pub fn collect_trial(
     // Ground truth goes along for diagnostics (how late the marker onset is); labels never
     // use it.
     let events = rig.probe().events();
-    let times = |v: &[f64]| {
-        v.iter()
-            .map(|t| format!("{t:.4}"))
-            .collect::<Vec<_>>()
-            .join(",")
-    };
-    parameters.insert(
-        "sim_truth_slip_onsets_s".into(),
-        times(&events.slip_onsets_s),
-    );
     crate::runner::sim_trial::put_truth(
         &mut |k: &str, v: String| {
             parameters.insert(k.into(), v);

@@ -148,19 +148,25 @@ pub fn score_catch(
 pub struct TruthRecord {
     /// Onset of the first slip that fell measurably (see `MEASURABLE_FALL_MM`).
     pub measurable_slip_s: Option<f64>,
+    /// Onset of the trial's first gross slip, however far it fell.
+    pub first_slip_s: Option<f64>,
     pub drop_s: Option<f64>,
 }
 
-/// The verdict ground truth gives, by the same rules as [`score_catch`]: an early reaction
-/// is an FP whatever followed; a drop is an FN; a reaction with no measurable slip is
-/// "held, no measurable slip"; a reaction at or after the onset that held is a TP.
+/// The verdict ground truth gives, by the rules of [`score_catch`] where the markers can
+/// see: an early reaction is an FP whatever followed; a drop is an FN; a reaction at or
+/// after the onset that held is a TP. Where the markers cannot see (the object never fell
+/// measurably), ground truth still can: a reaction that came before any gross slip is the
+/// paper's FP ("action triggered before slip"); one that came after gross slip began and
+/// caught it within the measurable fall is "held, no measurable slip".
 pub fn truth_verdict(truth: &TruthRecord, reaction_s: Option<f64>) -> Verdict {
     match (truth.measurable_slip_s, reaction_s) {
         (Some(o), Some(r)) if r < o => Verdict::FalsePositive,
         _ if truth.drop_s.is_some() => Verdict::FalseNegative,
         (Some(_), Some(_)) => Verdict::TruePositive,
         (Some(_), None) => Verdict::FalseNegative,
-        (None, Some(_)) => Verdict::HeldNoSlip,
+        (None, Some(r)) if truth.first_slip_s.is_some_and(|s| s <= r) => Verdict::HeldNoSlip,
+        (None, Some(_)) => Verdict::FalsePositive,
         (None, None) => Verdict::NoSlip,
     }
 }
@@ -336,6 +342,7 @@ mod tests {
     fn truth_verdicts_follow_the_same_rules() {
         let slip = TruthRecord {
             measurable_slip_s: Some(1.0),
+            first_slip_s: Some(1.0),
             drop_s: None,
         };
         assert_eq!(truth_verdict(&slip, Some(1.02)), Verdict::TruePositive);
@@ -346,9 +353,22 @@ mod tests {
             ..slip
         };
         assert_eq!(truth_verdict(&dropped, Some(1.1)), Verdict::FalseNegative);
+        // the markers see nothing in either of these; ground truth tells them apart
         let still = TruthRecord::default();
-        assert_eq!(truth_verdict(&still, Some(2.0)), Verdict::HeldNoSlip);
+        assert_eq!(truth_verdict(&still, Some(2.0)), Verdict::FalsePositive);
         assert_eq!(truth_verdict(&still, None), Verdict::NoSlip);
+        let caught_within_a_mm = TruthRecord {
+            first_slip_s: Some(1.96),
+            ..still
+        };
+        assert_eq!(
+            truth_verdict(&caught_within_a_mm, Some(2.0)),
+            Verdict::HeldNoSlip
+        );
+        assert_eq!(
+            truth_verdict(&caught_within_a_mm, Some(1.9)),
+            Verdict::FalsePositive
+        );
         use Verdict::*;
         let pairs = [
             (TruePositive, Some(TruePositive)),

@@ -150,6 +150,15 @@ fn is(v: Verdict) -> impl Fn(&OutcomeRow) -> bool {
     move |r| r.verdict == v
 }
 
+/// The paper's FP, "action triggered before slip". Where a trial has ground truth (the
+/// simulator) it answers that exactly; the markers answer it only when slip followed the
+/// reaction. An early reaction on the rail or in the hand stops the object before it ever
+/// falls, so the markers score it "held, no measurable slip", the same as a catch within
+/// 1 mm; only ground truth tells a reaction to nothing from a prompt catch.
+fn reacted_before_slip(r: &OutcomeRow) -> bool {
+    r.truth_verdict.unwrap_or(r.verdict) == Verdict::FalsePositive
+}
+
 fn distances(rows: &[&OutcomeRow]) -> Vec<f64> {
     rows.iter().filter_map(|r| r.slip_distance_mm).collect()
 }
@@ -235,7 +244,7 @@ fn rail_online_measures(m: &mut Measures, rows: &[OutcomeRow]) {
         put(
             m,
             &format!("rail.online.fp.{key}"),
-            rate(&mine, is(Verdict::FalsePositive)),
+            rate(&mine, reacted_before_slip),
         );
         put(
             m,
@@ -286,16 +295,18 @@ fn hand_online_measures(m: &mut Measures, rows: &[OutcomeRow]) {
         "hand.online.fn.global",
         rate(&global, is(Verdict::FalseNegative)),
     );
-    let fp = is(Verdict::FalsePositive);
     put(
         m,
         "hand.online.fp.1Fr2Sen",
-        rate(&select(&|r| r.strategy == "1Fr2Sen"), &fp),
+        rate(&select(&|r| r.strategy == "1Fr2Sen"), reacted_before_slip),
     );
     put(
         m,
         "hand.online.fp.others",
-        rate(&select(&|r| table_iii(r) && r.strategy != "1Fr2Sen"), &fp),
+        rate(
+            &select(&|r| table_iii(r) && r.strategy != "1Fr2Sen"),
+            reacted_before_slip,
+        ),
     );
     put(
         m,
@@ -328,7 +339,7 @@ fn object_measures(m: &mut Measures, rows: &[OutcomeRow]) {
         put(
             m,
             &format!("objects.fp.{s}"),
-            rate(&mine, is(Verdict::FalsePositive)),
+            rate(&mine, reacted_before_slip),
         );
         put(
             m,
@@ -508,6 +519,28 @@ mod tests {
             "{lo} {hi}"
         );
         assert!(mean(&[]).is_none());
+    }
+
+    #[test]
+    fn a_rail_fp_is_a_reaction_before_slip_by_ground_truth_where_there_is_one() {
+        use Verdict::*;
+        let held = |truth| OutcomeRow {
+            truth_verdict: truth,
+            ..outcome("1Fr1Sen", "global", 0.0, HeldNoSlip, None)
+        };
+        let rows = vec![
+            // the markers cannot tell these two apart; ground truth can
+            held(Some(FalsePositive)),
+            held(Some(HeldNoSlip)),
+            // no ground truth (a real rig): the markers' verdict
+            held(None),
+            outcome("1Fr1Sen", "global", 0.0, FalsePositive, None),
+        ];
+        let m = measure(&Observations {
+            rail_online: Some(&rows),
+            ..Default::default()
+        });
+        assert_eq!(m["rail.online.fp.1fr"].value, 0.5);
     }
 
     #[test]

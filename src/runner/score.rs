@@ -43,6 +43,8 @@ pub fn truth_record(trial: &Trial) -> Option<TruthRecord> {
     };
     Some(TruthRecord {
         measurable_slip_s: time("sim_truth_measurable_slip_s")?,
+        first_slip_s: param(trial, "sim_truth_slip_onsets_s")
+            .and_then(|v| v.split(',').next().and_then(|t| t.parse().ok())),
         drop_s: time("sim_truth_drop_s")?,
     })
 }

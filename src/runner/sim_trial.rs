@@ -191,15 +191,6 @@ pub fn run_sim_trial(
     };
     // Ground truth for diagnostics only; scoring never reads it.
     let events = rig.probe().events();
-    put(
-        "sim_truth_slip_onsets_s",
-        events
-            .slip_onsets_s
-            .iter()
-            .map(|t| format!("{t:.4}"))
-            .collect::<Vec<_>>()
-            .join(","),
-    );
     put_truth(&mut put, &events);
     let sensors = rig.tactile_sensors().len() as u8;
     Ok(finish_trial(
@@ -216,6 +207,15 @@ pub fn run_sim_trial(
 /// The ground truth the truth verdict reads (empty text for "never").
 pub(crate) fn put_truth(put: &mut impl FnMut(&str, String), events: &tmo_hal::sim::TruthEvents) {
     let time = |t: Option<f64>| t.map_or(String::new(), |t| format!("{t:.4}"));
+    put(
+        "sim_truth_slip_onsets_s",
+        events
+            .slip_onsets_s
+            .iter()
+            .map(|t| format!("{t:.4}"))
+            .collect::<Vec<_>>()
+            .join(","),
+    );
     put(
         "sim_truth_measurable_slip_s",
         time(events.measurable_slip_s),
