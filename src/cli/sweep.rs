@@ -285,7 +285,7 @@ pub fn sweep(args: SweepArgs) -> Result<()> {
             .iter()
             .filter_map(|r| {
                 let kind = args.classifiers.iter().find(|k| k.name() == r.classifier)?;
-                let ends = ranges.ends_reached(*kind, r.c, r.gamma);
+                let ends = ranges.ends_reached(*kind, r.c?, r.gamma.unwrap_or(f64::NAN));
                 (!ends.is_empty()).then(|| {
                     let what: Vec<String> = ends
                         .iter()
@@ -386,10 +386,10 @@ fn write_outputs(
                 .map(|x| x.macro_f1)
                 .sum::<f64>()
                 / rows.iter().filter(|x| x.classifier == kind.name()).count() as f64;
-            let hyper = match kind {
-                ClassifierKind::SvmRbf => format!(" (C {:.4}, gamma {:.5})", r.c, r.gamma),
-                ClassifierKind::SvmLinear | ClassifierKind::Logreg => format!(" (C {:.4})", r.c),
-                ClassifierKind::Threshold => String::new(),
+            let hyper = match (r.c, r.gamma) {
+                (Some(c), Some(gamma)) => format!(" (C {c:.4}, gamma {gamma:.5})"),
+                (Some(c), None) => format!(" (C {c:.4})"),
+                _ => String::new(),
             };
             println!(
                 "  {:<10} {:.3} at n_slip {:>2}, d {}{hyper}; mean over {} cells {:.3}",

@@ -80,8 +80,8 @@ pub fn sweep(path: &Path, rows: &[SweepRow]) -> Result<(), InputError> {
             c.check(row, name, v, 0.0, 1.0)?;
         }
         c.optional(row, "cv_macro_f1", r.cv_macro_f1, 0.0, 1.0)?;
-        c.check(row, "c", r.c, 0.0, f64::MAX)?;
-        c.check(row, "gamma", r.gamma, 0.0, f64::MAX)?;
+        c.optional(row, "c", r.c, 0.0, f64::MAX)?;
+        c.optional(row, "gamma", r.gamma, 0.0, f64::MAX)?;
         c.check(row, "seconds", r.seconds, 0.0, f64::MAX)?;
         let d = r.downsample.parse::<f64>().unwrap_or(f64::NAN);
         if !(d.is_finite() && d > 0.0 && d <= 1.0) {

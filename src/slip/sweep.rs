@@ -62,8 +62,10 @@ pub struct SweepRow {
     pub scope: Scope,
     pub n_slip: usize,
     pub downsample: String,
-    pub c: f64,
-    pub gamma: f64,
+    /// C of the cell's classifier; empty for the threshold, which has none.
+    pub c: Option<f64>,
+    /// The RBF kernel's gamma; empty for the classifiers without one.
+    pub gamma: Option<f64>,
     /// Best cross-validated macro F1 of the search, when there was one.
     pub cv_macro_f1: Option<f64>,
     pub train_rows: usize,
@@ -257,8 +259,8 @@ pub fn run_cell(
         scope: spec.scope,
         n_slip: cell.n_slip,
         downsample: key_d,
-        c: hyper.c,
-        gamma: hyper.gamma,
+        c: (cell.classifier != ClassifierKind::Threshold).then_some(hyper.c),
+        gamma: (cell.classifier == ClassifierKind::SvmRbf).then_some(hyper.gamma),
         cv_macro_f1,
         train_rows,
         train_slip_rows,
@@ -506,6 +508,12 @@ mod tests {
             assert_eq!(r.test_rows, 2 * (60 + r.n_slip), "{r:?}");
             assert_eq!(r.train_slip_rows, 4 * r.n_slip);
             assert!(r.macro_f1 > 0.9, "{r:?}");
+            // a row names only the hyperparameters its classifier has
+            assert_eq!(r.gamma, None);
+            match r.classifier.as_str() {
+                "logreg" => assert_eq!(r.c, Some(1.0)),
+                _ => assert_eq!(r.c, None),
+            }
         }
     }
 }
