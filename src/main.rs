@@ -23,6 +23,8 @@ struct Cli {
     command: Command,
 }
 
+/// In the order of a researcher's work: collect (or import) trials, train and score
+/// classifiers, run them online, then report; `reproduce` does all of it for the paper.
 #[derive(Subcommand)]
 enum Command {
     /// The simulated rig.
@@ -41,16 +43,16 @@ enum Command {
     Train(TrainArgs),
     /// Scores a model on recorded trials (never down-sampled).
     Evaluate(EvaluateArgs),
-    /// Runs a protocol's batch of trials: on the simulator, over recorded trials, or on the real rig.
-    Run(cli::run::RunArgs),
-    /// The paper's tables (and figures) from recorded batches, sweeps and evaluations.
-    Report(cli::report::ReportArgs),
-    /// What models and strategies would have done on recorded trials (replay backend).
-    Replay(cli::replay::ReplayArgs),
-    /// The paper's experiments end to end, and a findings table against the paper.
-    Reproduce(cli::reproduce::ReproduceArgs),
     /// Trains and scores every cell of a classifier x n_slip x down-sampling grid (paper Fig. 5).
     Sweep(SweepArgs),
+    /// Runs a protocol's batch of trials: on the simulator, over recorded trials, or on the real rig.
+    Run(cli::run::RunArgs),
+    /// What models and strategies would have done on recorded trials (replay backend).
+    Replay(cli::replay::ReplayArgs),
+    /// The paper's tables (and figures) from recorded batches, sweeps and evaluations.
+    Report(cli::report::ReportArgs),
+    /// The paper's experiments end to end, and a findings table against the paper.
+    Reproduce(cli::reproduce::ReproduceArgs),
     /// Prints a shell completion script, e.g. `tmo completions bash > ~/.local/share/bash-completion/completions/tmo`.
     Completions {
         /// The shell to complete in.

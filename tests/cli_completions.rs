@@ -37,3 +37,28 @@ fn completion_scripts_name_every_subcommand_and_bash_reads_its_own() {
         "an unknown shell is a usage error"
     );
 }
+
+#[test]
+fn help_lists_the_subcommands_in_the_order_of_the_work() {
+    let dir = tempfile::tempdir().unwrap();
+    let help = ok(&tmo(dir.path(), &["--help"]));
+    let at = |name: &str| {
+        help.find(&format!("\n  {name} "))
+            .unwrap_or_else(|| panic!("{name} missing from\n{help}"))
+    };
+    let order = [
+        "sim",
+        "import",
+        "dataset",
+        "train",
+        "evaluate",
+        "sweep",
+        "run",
+        "replay",
+        "report",
+        "reproduce",
+    ];
+    for pair in order.windows(2) {
+        assert!(at(pair[0]) < at(pair[1]), "{} after {}", pair[0], pair[1]);
+    }
+}
