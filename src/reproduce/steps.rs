@@ -492,7 +492,7 @@ fn rail_sweep(ctx: &Context, c: &Counts, dir: &Path) -> Result<bool, ReproduceEr
         &test,
         &spec,
         &target,
-        |to_run, _| ctx.bar.set_length(to_run as u64),
+        |cells, _| ctx.bar.set_length(cells.len() as u64),
         |_| ctx.bar.inc(1),
     );
     let rows = match result {

@@ -26,6 +26,20 @@ pub enum HyperChoice {
     },
 }
 
+/// The expected cost of the cells a sweep runs ([`SweepSpec::costs`]).
+#[derive(Debug, Clone, Default)]
+pub struct CellCosts {
+    by_key: std::collections::HashMap<(String, usize, String), f64>,
+    pub total: f64,
+}
+
+impl CellCosts {
+    /// The cost of the cell a result row came from (0 for a cell not planned).
+    pub fn of(&self, row: &SweepRow) -> f64 {
+        self.by_key.get(&row.key()).copied().unwrap_or(0.0)
+    }
+}
+
 #[derive(Debug, Clone, PartialEq)]
 pub struct SweepSpec {
     pub classifiers: Vec<ClassifierKind>,
@@ -161,17 +175,64 @@ impl SweepSpec {
                 })
             })
             .collect();
-        let cost = |c: &Cell| {
-            let kind = match c.classifier {
-                ClassifierKind::SvmRbf => 3.0,
-                ClassifierKind::SvmLinear => 2.0,
-                ClassifierKind::Logreg => 1.0,
-                ClassifierKind::Threshold => 0.0,
-            };
-            kind * 10.0 + c.downsample
-        };
+        // Any training set will do for the order: the cost grows with d within a classifier.
+        let cost = |c: &Cell| self.cell_cost(c, 1000, 100_000);
         cells.sort_by(|a, b| cost(b).total_cmp(&cost(a)));
         cells
+    }
+
+    /// What a cell costs to run, in rough seconds of this project's 2-core reference machine,
+    /// for `slip_rows` and `static_rows` training rows (before down-sampling): only its ratio
+    /// to other cells' costs matters (the sweep runs the costliest first, and its progress
+    /// advances by cost so that its ETA does not swing as cheap cells follow dear ones).
+    /// Measured on the README's 40 hand trials, n_slip 13, fixed hyperparameters: an RBF
+    /// cell took 3.7 s at 16k training rows, 11 s at 61k and 36 s at 151k (fit and scoring
+    /// both grow about linearly there); a LogReg cell 0.28 s and 3.1 s; a threshold cell
+    /// 0.10 s and 0.31 s (the linear SVM is put between the two learned ones). A search
+    /// adds its fits: iterations x folds, each on about two thirds of the rows (capped by
+    /// `--search-rows`).
+    /// Each of `cells`' cost ([`Self::cell_cost`]) on the training set `train`, by the key a
+    /// result row carries, for progress that advances by cost.
+    pub fn costs(&self, cells: &[Cell], train: &Dataset) -> CellCosts {
+        let (slip, stat) = (
+            train.count(super::Class::Slip),
+            train.count(super::Class::Static),
+        );
+        // The slip rows depend on n_slip; the training set was labelled with the largest.
+        let max_n = self.n_slip.iter().copied().max().unwrap_or(1).max(1);
+        let by_key: std::collections::HashMap<_, _> = cells
+            .iter()
+            .map(|c| {
+                let slip_rows = slip * c.n_slip / max_n;
+                (c.key(), self.cell_cost(c, slip_rows, stat))
+            })
+            .collect();
+        let total = by_key.values().sum();
+        CellCosts { by_key, total }
+    }
+
+    pub fn cell_cost(&self, cell: &Cell, slip_rows: usize, static_rows: usize) -> f64 {
+        let rows = slip_rows as f64 + cell.downsample.clamp(0.0, 1.0) * static_rows as f64;
+        let (per_row, fixed) = match cell.classifier {
+            ClassifierKind::SvmRbf => (2.3e-4, 0.0),
+            ClassifierKind::SvmLinear => (1e-4, 0.0),
+            ClassifierKind::Logreg => (2.1e-5, 0.0),
+            ClassifierKind::Threshold => (1.5e-6, 0.08),
+        };
+        let fit = |n: f64| fixed + per_row * n;
+        match &self.hyper {
+            HyperChoice::Search {
+                iterations,
+                folds,
+                max_fit_rows,
+                ..
+            } if cell.classifier != ClassifierKind::Threshold => {
+                let fold_rows = rows * (*folds as f64 - 1.0) / (*folds as f64).max(1.0);
+                let fold_rows = max_fit_rows.map_or(fold_rows, |cap| fold_rows.min(cap as f64));
+                fit(rows) + (*iterations * *folds) as f64 * fit(fold_rows)
+            }
+            _ => fit(rows),
+        }
     }
 }
 
@@ -424,6 +485,50 @@ mod tests {
             assert!(bad.parse::<Shard>().is_err(), "{bad}");
         }
         assert_eq!("2/8".parse::<Shard>().unwrap().to_string(), "2/8");
+    }
+
+    #[test]
+    fn a_cells_cost_grows_with_its_rows_and_its_search() {
+        let mut spec = SweepSpec {
+            classifiers: vec![ClassifierKind::SvmRbf, ClassifierKind::Threshold],
+            downsample: vec![0.1, 1.0],
+            n_slip: vec![13],
+            scope: Scope::Global,
+            hyper: HyperChoice::Fixed(Hyperparameters {
+                c: 1.0,
+                gamma: 0.1,
+                max_iterations: None,
+            }),
+            seed: 1,
+        };
+        let cell = |classifier, downsample| Cell {
+            classifier,
+            n_slip: 13,
+            downsample,
+        };
+        let rbf =
+            |spec: &SweepSpec, d| spec.cell_cost(&cell(ClassifierKind::SvmRbf, d), 1400, 150_000);
+        // the README's measured cells: 3.7 s at d 0.1 and 36 s at d 1.0
+        assert!((rbf(&spec, 0.1) - 3.7).abs() < 0.5, "{}", rbf(&spec, 0.1));
+        assert!((rbf(&spec, 1.0) - 36.0).abs() < 3.0, "{}", rbf(&spec, 1.0));
+        let threshold = spec.cell_cost(&cell(ClassifierKind::Threshold, 1.0), 1400, 150_000);
+        assert!(threshold < rbf(&spec, 0.1) / 5.0);
+        spec.hyper = HyperChoice::Search {
+            iterations: 12,
+            folds: 3,
+            ranges: tuning::SearchRanges::default(),
+            max_fit_rows: Some(4000),
+        };
+        // 36 fits of 4000 rows on top of the final fit; the threshold has nothing to search
+        let searched = rbf(&spec, 1.0);
+        assert!(
+            (searched - 36.0 - 36.0 * 4000.0 * 2.3e-4).abs() < 3.0,
+            "{searched}"
+        );
+        assert_eq!(
+            spec.cell_cost(&cell(ClassifierKind::Threshold, 1.0), 1400, 150_000),
+            threshold
+        );
     }
 
     #[test]

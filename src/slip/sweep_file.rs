@@ -11,7 +11,7 @@ use std::sync::atomic::AtomicBool;
 use std::sync::Mutex;
 
 use super::dataset::Dataset;
-use super::sweep::{run_sweep_until, sort_rows, Shard, SweepError, SweepRow, SweepSpec};
+use super::sweep::{run_sweep_until, sort_rows, Cell, Shard, SweepError, SweepRow, SweepSpec};
 
 #[derive(Debug, thiserror::Error)]
 pub enum SweepFileError {
@@ -187,14 +187,14 @@ fn check_identity(target: &SweepTarget, has_cells: bool) -> Result<(), SweepFile
 }
 
 /// Runs the cells of `spec` not yet in the target (or its partial file, with `resume`),
-/// keeping each as it finishes; `on_start` learns how many will run and how many were
+/// keeping each as it finishes; `on_start` learns which cells will run and how many were
 /// done, `on_done` sees each new row.
 pub fn run_to_file(
     train: &Dataset,
     test: &Dataset,
     spec: &SweepSpec,
     target: &SweepTarget,
-    on_start: impl FnOnce(usize, usize),
+    on_start: impl FnOnce(&[Cell], usize),
     on_done: impl Fn(&SweepRow) + Sync,
 ) -> Result<SweepResult, SweepFileError> {
     let (out, resume, stop) = (target.out, target.resume, target.stop);
@@ -233,7 +233,7 @@ pub fn run_to_file(
         })?;
     }
     check_identity(target, !done.is_empty())?;
-    on_start(cells.len(), finished.len());
+    on_start(&cells, finished.len());
     let append_header = std::fs::metadata(&partial).map_or(true, |m| m.len() == 0);
     let file = std::fs::OpenOptions::new()
         .create(true)
