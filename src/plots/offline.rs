@@ -85,13 +85,13 @@ impl HeatGrid {
     }
 }
 
-fn heatmap<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, g: &HeatGrid) -> DrawResult<DB> {
+/// `g`'s cells coloured on the macro F1 scale `(lo, hi)` (shared by a sweep's maps).
+fn heatmap<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    g: &HeatGrid,
+    (lo, hi): (f64, f64),
+) -> DrawResult<DB> {
     clear(root)?;
-    let (lo, hi) = g
-        .values()
-        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
-            (a.min(v), b.max(v))
-        });
     let span = (hi - lo).max(1e-9);
     let (chart_area, bar_area) = root.split_horizontally(SIZE.0 - 110);
     let title = match g.best() {
@@ -197,13 +197,24 @@ pub fn sweep_heatmaps(
     prefix: &str,
 ) -> Result<Vec<PathBuf>, PlotError> {
     let classifiers: BTreeSet<&str> = rows.iter().map(|r| r.classifier.as_str()).collect();
+    let grids: Vec<HeatGrid> = classifiers
+        .into_iter()
+        .filter_map(|c| HeatGrid::from_rows(rows, c))
+        .collect();
+    // One colour scale for every classifier's map, so that colours compare across them (the
+    // paper's Fig. 5 panels are read side by side).
+    let scale = grids
+        .iter()
+        .flat_map(|g| g.values())
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
+            (a.min(v), b.max(v))
+        });
     let mut out = Vec::new();
-    for c in classifiers {
-        let Some(g) = HeatGrid::from_rows(rows, c) else {
-            continue;
-        };
-        let stem = dir.join(format!("{prefix}fig5_f1_{}", slug(c)));
-        out.extend(crate::svg_and_png!(stem, SIZE, |root| heatmap(&root, &g)));
+    for g in &grids {
+        let stem = dir.join(format!("{prefix}fig5_f1_{}", slug(&g.classifier)));
+        out.extend(crate::svg_and_png!(stem, SIZE, |root| heatmap(
+            &root, g, scale
+        )));
     }
     Ok(out)
 }
@@ -595,6 +606,33 @@ mod tests {
         );
         assert_eq!(g.best(), Some((0.9, 0.2, 3)));
         assert_eq!(HeatGrid::from_rows(&rows, "threshold"), None);
+    }
+
+    #[test]
+    fn a_sweeps_heatmaps_share_one_colour_scale() {
+        let dir = tempfile::tempdir().unwrap();
+        let rows = vec![
+            row("svm-rbf", 1, "0.100", 0.90),
+            row("svm-rbf", 3, "0.100", 0.95),
+            row("threshold", 1, "0.100", 0.55),
+            row("threshold", 3, "0.100", 0.60),
+        ];
+        let files = sweep_heatmaps(&rows, dir.path(), "").unwrap();
+        let svg = |name: &str| {
+            let path = files
+                .iter()
+                .find(|f| f.to_string_lossy().ends_with(name))
+                .unwrap();
+            std::fs::read_to_string(path).unwrap()
+        };
+        // both colour bars run from the threshold's worst cell (0.55) to the SVM's best
+        // (0.95), so both carry the ticks between (alone, each would span 0.05)
+        for name in ["fig5_f1_svm_rbf.svg", "fig5_f1_threshold.svg"] {
+            let text = svg(name);
+            for tick in ["0.60", "0.70", "0.80", "0.90"] {
+                assert!(text.contains(&format!("\n{tick}\n")), "{name} lacks {tick}");
+            }
+        }
     }
 
     #[test]
