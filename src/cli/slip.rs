@@ -331,7 +331,31 @@ pub fn train(args: TrainArgs) -> Result<()> {
                 },
                 max_fit_rows: args.search_rows,
             };
-            let (hyper, record) = tuning::search(&ds, &spec)?;
+            // A search takes minutes: each evaluation shows as it finishes.
+            let bar = indicatif::ProgressBar::new(spec.iterations as u64);
+            bar.set_style(
+                indicatif::ProgressStyle::with_template(
+                    "search [{bar:30}] {pos}/{len} evaluations, {elapsed} (eta {eta}) {msg}",
+                )
+                .expect("valid template")
+                .progress_chars("=> "),
+            );
+            let mut best_so_far = f64::NEG_INFINITY;
+            let searched = tuning::search_reporting(&ds, &spec, |done, h, f1| {
+                best_so_far = best_so_far.max(f1);
+                bar.set_message(format!(
+                    "last: C {:.4}{} F1 {f1:.3}; best F1 {best_so_far:.3}",
+                    h.c,
+                    if args.classifier == ClassifierKind::SvmRbf {
+                        format!(" gamma {:.5}", h.gamma)
+                    } else {
+                        String::new()
+                    }
+                ));
+                bar.set_position(done as u64);
+            });
+            bar.finish_and_clear();
+            let (hyper, record) = searched?;
             let best = record
                 .evaluations
                 .iter()

@@ -128,6 +128,16 @@ pub fn search(
     data: &Dataset,
     spec: &TuneSpec,
 ) -> Result<(Hyperparameters, SearchRecord), TuneError> {
+    search_reporting(data, spec, |_, _, _| {})
+}
+
+/// [`search`], telling `on_evaluation` of each evaluation as it finishes: how many are done,
+/// the point and its cross-validated macro F1.
+pub fn search_reporting(
+    data: &Dataset,
+    spec: &TuneSpec,
+    mut on_evaluation: impl FnMut(usize, &Hyperparameters, f64),
+) -> Result<(Hyperparameters, SearchRecord), TuneError> {
     if spec.kind == ClassifierKind::Threshold {
         return Err(TuneError::NothingToSearch("threshold"));
     }
@@ -148,14 +158,20 @@ pub fn search(
         seed: spec.seed,
     };
     let mut first_error = None;
-    let history: Vec<Evaluation> =
-        search.maximise(|p| match cross_validated_f1(data, spec, to_hyper(p)) {
+    let mut done = 0;
+    let history: Vec<Evaluation> = search.maximise(|p| {
+        let hyper = to_hyper(p);
+        let f1 = match cross_validated_f1(data, spec, hyper) {
             Ok(f1) => f1,
             Err(e) => {
                 first_error.get_or_insert(e);
                 0.0
             }
-        })?;
+        };
+        done += 1;
+        on_evaluation(done, &hyper, f1);
+        f1
+    })?;
     if history.iter().all(|e| e.score == 0.0) {
         if let Some(e) = first_error {
             return Err(e);
@@ -360,6 +376,18 @@ mod tests {
             hyper,
             "same seed, same answer"
         );
+        // each evaluation is reported as it finishes, as the record keeps it
+        let mut seen = Vec::new();
+        let (reported, _) = search_reporting(&data, &s, |done, h, f1| {
+            seen.push((done, h.c, h.gamma, f1));
+        })
+        .unwrap();
+        assert_eq!(reported, hyper);
+        assert_eq!(seen.len(), 6);
+        for (k, ((done, c, gamma, f1), e)) in seen.iter().zip(&record.evaluations).enumerate() {
+            assert_eq!(*done, k + 1);
+            assert_eq!((*c, *gamma, *f1), (e.params[0], e.params[1], e.score));
+        }
     }
 
     #[test]
