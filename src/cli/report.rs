@@ -27,6 +27,7 @@ fn extension(f: Format) -> &'static str {
         Format::Md => "md",
         Format::Csv => "csv",
         Format::Json => "json",
+        Format::Latex => "tex",
         Format::Html => "html",
     }
 }

@@ -77,6 +77,32 @@ impl Cell {
         }
     }
 
+    /// As typeset in a LaTeX table: the same content as [`Self::display`], in LaTeX's own
+    /// symbols (`\pm`, `--`, `\%`) with special characters escaped.
+    fn latex(&self) -> String {
+        match self {
+            Cell::Text(t) => latex_escape(t),
+            Cell::MeanSd { mean, sd, decimals } => {
+                format!("{mean:.decimals$} $\\pm$ {sd:.decimals$}")
+            }
+            Cell::Rate { count, trials } => {
+                let (lo, hi) = wilson(*count, *trials, Z95);
+                let pct = if *trials == 0 {
+                    0.0
+                } else {
+                    100.0 * *count as f64 / *trials as f64
+                };
+                format!(
+                    "{count}/{trials} ({pct:.0}\\,\\%; {:.0}--{:.0})",
+                    100.0 * lo,
+                    100.0 * hi
+                )
+            }
+            Cell::Empty => "--".into(),
+            other => other.display(),
+        }
+    }
+
     /// CSV columns of this cell under header `name`: rates and means split into plain
     /// numbers so a spreadsheet or pandas can use them.
     fn csv(&self, name: &str) -> Vec<(String, String)> {
@@ -162,6 +188,29 @@ impl Table {
         out
     }
 
+    /// A booktabs table (`\\usepackage{booktabs}`) with the title as its caption and
+    /// `tab:<name>` as its label, ready for `\\input` into a paper.
+    pub fn latex(&self) -> String {
+        let mut out = String::from("\\begin{table}[htbp]\n\\centering\n");
+        out += &format!("\\caption{{{}}}\n", latex_escape(&self.title));
+        out += &format!("\\label{{tab:{}}}\n", self.name);
+        let align: String = std::iter::once('l')
+            .chain(std::iter::repeat_n(
+                'r',
+                self.columns.len().saturating_sub(1),
+            ))
+            .collect();
+        out += &format!("\\begin{{tabular}}{{{align}}}\n\\toprule\n");
+        let line = |cells: Vec<String>| format!("{} \\\\\n", cells.join(" & "));
+        out += &line(self.columns.iter().map(|c| latex_escape(c)).collect());
+        out += "\\midrule\n";
+        for r in &self.rows {
+            out += &line(r.iter().map(Cell::latex).collect());
+        }
+        out += "\\bottomrule\n\\end{tabular}\n\\end{table}\n";
+        out
+    }
+
     pub fn csv(&self) -> Result<String, csv::Error> {
         let mut w = csv::Writer::from_writer(Vec::new());
         let split = |r: &Vec<Cell>| -> Vec<(String, String)> {
@@ -201,11 +250,34 @@ impl Table {
     }
 }
 
+/// `text` with LaTeX's special characters escaped (and the en dash and plus-minus sign
+/// written as LaTeX writes them).
+pub fn latex_escape(text: &str) -> String {
+    let mut out = String::with_capacity(text.len());
+    for ch in text.chars() {
+        match ch {
+            '\\' => out += "\\textbackslash{}",
+            '&' | '%' | '$' | '#' | '_' | '{' | '}' => {
+                out.push('\\');
+                out.push(ch);
+            }
+            '~' => out += "\\textasciitilde{}",
+            '^' => out += "\\textasciicircum{}",
+            '–' => out += "--",
+            '±' => out += "$\\pm$",
+            _ => out.push(ch),
+        }
+    }
+    out
+}
+
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 pub enum Format {
     Md,
     Csv,
     Json,
+    /// booktabs tables (`\\usepackage{booktabs}`), one `table` environment each.
+    Latex,
     /// One self-contained page (figures inline when `tmo report --plots` drew them).
     Html,
 }
@@ -237,6 +309,11 @@ pub fn render(tables: &[Table], format: Format) -> Result<String, ReportError> {
                 .collect::<Result<_, serde_json::Error>>()?;
             serde_json::to_string_pretty(&map)? + "\n"
         }
+        Format::Latex => tables
+            .iter()
+            .map(|t| t.latex())
+            .collect::<Vec<_>>()
+            .join("\n"),
         Format::Html => html::tables_page("tmo report", tables, &[]),
     })
 }
@@ -254,6 +331,68 @@ pub enum ReportError {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn latex_tables_are_booktabs_with_every_special_character_escaped() {
+        let mut t = Table::new(
+            "hand_online",
+            "Whole hand: 100 % of n_slip & more",
+            &["strategy", "TP", "D (mm)", "note"],
+        );
+        t.push(vec![
+            Cell::text("1Fr2Sen"),
+            Cell::Rate {
+                count: 8,
+                trials: 10,
+            },
+            Cell::MeanSd {
+                mean: 21.8,
+                sd: 3.2,
+                decimals: 1,
+            },
+            Cell::Empty,
+        ]);
+        t.push(vec![
+            Cell::text("a_b #1 {x} ~ ^ \\ $ – ±"),
+            Cell::Count(3),
+            Cell::Empty,
+            Cell::text("ok"),
+        ]);
+        let tex = t.latex();
+        for env in ["table", "tabular"] {
+            assert_eq!(
+                tex.matches(&format!("\\begin{{{env}}}")).count(),
+                tex.matches(&format!("\\end{{{env}}}")).count()
+            );
+        }
+        assert!(tex.contains("\\begin{tabular}{lrrr}"));
+        assert!(
+            tex.contains("\\toprule") && tex.contains("\\midrule") && tex.contains("\\bottomrule")
+        );
+        assert!(tex.contains("\\caption{Whole hand: 100 \\% of n\\_slip \\& more}"));
+        assert!(tex.contains("\\label{tab:hand_online}"));
+        assert!(tex.contains("1Fr2Sen & 8/10 (80\\,\\%; 49--94) & 21.8 $\\pm$ 3.2 & -- \\\\"));
+        assert!(tex.contains(
+            "a\\_b \\#1 \\{x\\} \\textasciitilde{} \\textasciicircum{} \\textbackslash{} \\$ -- $\\pm$ & 3 & -- & ok \\\\"
+        ));
+        // every row has one cell per column: three unescaped column separators
+        let body = tex.split("\\midrule\n").nth(1).unwrap();
+        for line in body.lines().take_while(|l| !l.starts_with("\\bottomrule")) {
+            let separators = line
+                .match_indices('&')
+                .filter(|(i, _)| !line[..*i].ends_with('\\'))
+                .count();
+            assert_eq!(separators, 3, "{line}");
+        }
+        // no character LaTeX would take as markup is left bare (a label may hold `_`)
+        for line in tex.lines().filter(|l| !l.starts_with("\\label")) {
+            for (i, ch) in line.char_indices() {
+                if matches!(ch, '%' | '_' | '#') {
+                    assert!(line[..i].ends_with('\\'), "bare {ch}: {line}");
+                }
+            }
+        }
+    }
 
     #[test]
     fn rates_show_counts_percent_and_interval_and_split_in_csv() {
