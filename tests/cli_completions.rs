@@ -62,3 +62,10 @@ fn help_lists_the_subcommands_in_the_order_of_the_work() {
         assert!(at(pair[0]) < at(pair[1]), "{} after {}", pair[0], pair[1]);
     }
 }
+
+#[test]
+fn the_mock_backend_is_named_in_the_help_it_is_accepted_by() {
+    let dir = tempfile::tempdir().unwrap();
+    let help = ok(&tmo(dir.path(), &["run", "--help"]));
+    assert!(help.contains("`mock` is another name for it"), "{help}");
+}

@@ -24,8 +24,8 @@ pub enum Backend {
 pub struct RunArgs {
     /// The protocol file (TOML; examples in protocols/).
     protocol: PathBuf,
-    /// Where the trials run: the simulator, recorded trials (with --from) or the real rig
-    /// (with --hardware).
+    /// Where the trials run: the simulator (`mock` is another name for it), recorded trials
+    /// (with --from) or the real rig (with --hardware).
     #[arg(long, value_enum, default_value = "sim")]
     backend: Backend,
     /// Batch directory (default results/<protocol name>).
