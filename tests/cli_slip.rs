@@ -78,6 +78,24 @@ fn export_train_evaluate_and_a_model_from_the_future() {
         );
     }
 
+    // --json prints the evaluation file's contents alone, so a pipe can read it
+    let stdout = ok(&tmo(
+        d,
+        &[
+            "evaluate",
+            "logreg.json",
+            "test",
+            "--json",
+            "--out",
+            "eval.json",
+        ],
+    ));
+    let printed: serde_json::Value = serde_json::from_str(&stdout).unwrap();
+    let written: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(d.join("eval.json")).unwrap()).unwrap();
+    assert_eq!(printed, written);
+    assert!(printed.to_string().contains("macro_f1"), "{printed}");
+
     let text = std::fs::read_to_string(d.join("logreg.json")).unwrap();
     let mut json: serde_json::Value = serde_json::from_str(&text).unwrap();
     json["version"] = serde_json::json!(999);

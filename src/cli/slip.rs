@@ -130,6 +130,9 @@ pub struct EvaluateArgs {
     /// Also write the scores as JSON (for `tmo report`).
     #[arg(long)]
     out: Option<PathBuf>,
+    /// Print the scores as JSON (the `--out` file's contents) instead of as text.
+    #[arg(long)]
+    json: bool,
 }
 
 /// The first of `trials` (files or directories of them), read: what defaults that depend on
@@ -433,28 +436,41 @@ pub fn evaluate(args: EvaluateArgs) -> Result<()> {
         );
     }
     let (overall, per_sensor) = model.evaluate(&ds)?;
-    println!(
-        "{} ({} scope) on {} rows",
-        model.classifier.name(),
-        model.scope.name(),
-        ds.len()
-    );
-    print_scores("overall", &overall);
-    for (s, scores) in &per_sensor {
-        print_scores(&format!("sensor {s}"), scores);
+    if !args.json {
+        println!(
+            "{} ({} scope) on {} rows",
+            model.classifier.name(),
+            model.scope.name(),
+            ds.len()
+        );
+        print_scores("overall", &overall);
+        for (s, scores) in &per_sensor {
+            print_scores(&format!("sensor {s}"), scores);
+        }
+    }
+    if args.out.is_none() && !args.json {
+        return Ok(());
+    }
+    let evaluation = tmo::slip::evaluation::Evaluation::of(
+        &args.model,
+        &model,
+        refs.len(),
+        ds.len(),
+        overall,
+        per_sensor,
+    )?;
+    let text = serde_json::to_string_pretty(&evaluation)?;
+    if args.json {
+        println!("{text}");
     }
     if let Some(out) = &args.out {
-        let evaluation = tmo::slip::evaluation::Evaluation::of(
-            &args.model,
-            &model,
-            refs.len(),
-            ds.len(),
-            overall,
-            per_sensor,
-        )?;
-        std::fs::write(out, serde_json::to_string_pretty(&evaluation)?)
-            .with_context(|| format!("cannot write {}", out.display()))?;
-        println!("wrote {}", out.display());
+        std::fs::write(out, &text).with_context(|| format!("cannot write {}", out.display()))?;
+        // standard output holds the JSON alone when --json asks for it
+        if args.json {
+            eprintln!("wrote {}", out.display());
+        } else {
+            println!("wrote {}", out.display());
+        }
     }
     Ok(())
 }
