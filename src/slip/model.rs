@@ -102,7 +102,9 @@ pub enum TrainError {
 }
 
 impl SensorModel {
-    /// Fits `kind` on `data` (already down-sampled as wanted).
+    /// Fits `kind` on `data` (already down-sampled as wanted). Its `training_scores` stay
+    /// empty: scoring the training rows costs another pass of prediction over them, which a
+    /// search's folds and a sweep's cells never read (see [`Self::fit_scored`]).
     pub fn fit(
         data: &Dataset,
         sensor: Option<u8>,
@@ -152,13 +154,23 @@ impl SensorModel {
                 (Some(scaler), classifier)
             }
         };
-        let mut model = Self {
+        Ok(Self {
             sensor,
             scaler,
             classifier,
             training_rows: data.len(),
             training_scores: Scores::default(),
-        };
+        })
+    }
+
+    /// [`Self::fit`], and the model's scores on its own training rows (kept in a model file).
+    pub fn fit_scored(
+        data: &Dataset,
+        sensor: Option<u8>,
+        kind: ClassifierKind,
+        hyper: Hyperparameters,
+    ) -> Result<Self, TrainError> {
+        let mut model = Self::fit(data, sensor, kind, hyper)?;
         model.training_scores = model.score(data);
         Ok(model)
     }
@@ -262,13 +274,14 @@ impl ModelFile {
         training_trials: Vec<TrialRef>,
         search: Option<SearchRecord>,
     ) -> Result<Self, TrainError> {
-        let models = train_models(
+        let models = fit_models(
             data,
             spec.kind,
             spec.hyper,
             spec.scope,
             spec.downsample,
             spec.seed,
+            SensorModel::fit_scored,
         )?;
         let (tmo_version, git_revision) = crate::trial::TrialMeta::code_version();
         Ok(ModelFile {
@@ -722,8 +735,23 @@ pub fn train_models(
     downsample: f64,
     seed: u64,
 ) -> Result<Vec<SensorModel>, TrainError> {
+    fit_models(data, kind, hyper, scope, downsample, seed, SensorModel::fit)
+}
+
+type Fit =
+    fn(&Dataset, Option<u8>, ClassifierKind, Hyperparameters) -> Result<SensorModel, TrainError>;
+
+fn fit_models(
+    data: &Dataset,
+    kind: ClassifierKind,
+    hyper: Hyperparameters,
+    scope: Scope,
+    downsample: f64,
+    seed: u64,
+    fit: Fit,
+) -> Result<Vec<SensorModel>, TrainError> {
     match scope {
-        Scope::Global => Ok(vec![SensorModel::fit(
+        Scope::Global => Ok(vec![fit(
             &data.downsample_static(downsample, seed),
             None,
             kind,
@@ -733,7 +761,7 @@ pub fn train_models(
             .sensors()
             .into_iter()
             .map(|s| {
-                SensorModel::fit(
+                fit(
                     &data.sensor_only(s).downsample_static(downsample, seed),
                     Some(s),
                     kind,
@@ -826,6 +854,42 @@ mod tests {
         local.sensors = vec![0];
         assert!(local.fits(1, 30).is_ok());
         assert!(local.fits(3, 30).unwrap_err().contains("sensor 1"));
+    }
+
+    #[test]
+    fn a_model_file_keeps_its_training_scores_and_a_search_or_sweep_fit_skips_them() {
+        let hyper = Hyperparameters {
+            c: 1.0,
+            gamma: 0.05,
+            max_iterations: None,
+        };
+        let data = data();
+        let spec = TrainSpec {
+            kind: ClassifierKind::SvmRbf,
+            hyper,
+            scope: Scope::Global,
+            features: FeatureSpec::new(30),
+            labels: LabelSpec {
+                n_slip: 5,
+                onset: OnsetSpec::default(),
+            },
+            downsample: 1.0,
+            seed: 0,
+        };
+        let file = ModelFile::train(&data, &spec, Vec::new(), None).unwrap();
+        let kept = &file.models[0].training_scores;
+        assert_eq!(
+            kept.confusion.true_slip
+                + kept.confusion.false_slip
+                + kept.confusion.true_static
+                + kept.confusion.false_static,
+            data.len() as u64
+        );
+        assert!(kept.macro_f1 > 0.9);
+        let bare = train_models(&data, spec.kind, hyper, Scope::Global, 1.0, 0).unwrap();
+        assert_eq!(bare[0].training_scores, Scores::default());
+        // the same fit all the same
+        assert_eq!(bare[0].classifier, file.models[0].classifier);
     }
 
     #[test]
