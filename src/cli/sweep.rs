@@ -222,7 +222,7 @@ pub fn sweep(args: SweepArgs) -> Result<()> {
     let bar = indicatif::ProgressBar::new(0);
     bar.set_style(
         indicatif::ProgressStyle::with_template(
-            "sweep [{bar:30}] {percent:>3}% of the expected work, {elapsed} (eta {eta}) {msg}",
+            "sweep [{bar:30}] {percent:>3}% of the expected work, {elapsed} {msg}",
         )
         .expect("valid template")
         .progress_chars("=> "),
@@ -234,6 +234,8 @@ pub fn sweep(args: SweepArgs) -> Result<()> {
         std::sync::atomic::AtomicUsize::new(0),
         std::sync::atomic::AtomicUsize::new(0),
     );
+    // cost finished so far, in ticks
+    let cost_done = std::sync::atomic::AtomicU64::new(0);
     let (n_train, n_test) = (
         is_test.iter().filter(|t| !**t).count(),
         is_test.iter().filter(|t| **t).count(),
@@ -284,17 +286,30 @@ pub fn sweep(args: SweepArgs) -> Result<()> {
             bar.set_length((c.total * TICKS).round() as u64);
         },
         |row| {
-            let done = cells_done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
+            use std::sync::atomic::Ordering::Relaxed;
+            let done = cells_done.fetch_add(1, Relaxed) + 1;
+            let ticks = (costs.get().map_or(0.0, |c| c.of(row)) * TICKS).round() as u64;
+            let ticks_done = cost_done.fetch_add(ticks, Relaxed) + ticks;
+            // indicatif's own ETA follows the recent rate, which swings as lumps of very
+            // different cost finish; this one is the whole run's rate (CellCosts::eta_s)
+            let eta = costs
+                .get()
+                .and_then(|c| c.eta_s(started.elapsed().as_secs_f64(), ticks_done as f64 / TICKS))
+                .map_or(String::new(), |s| {
+                    format!(
+                        " (eta {})",
+                        indicatif::HumanDuration(std::time::Duration::from_secs_f64(s))
+                    )
+                });
             bar.set_message(format!(
-                "{done}/{} cells; last: {} n_slip {} d {} F1 {:.3}",
-                cells_to_run.load(std::sync::atomic::Ordering::Relaxed),
+                "{done}/{} cells{eta}; last: {} n_slip {} d {} F1 {:.3}",
+                cells_to_run.load(Relaxed),
                 row.classifier,
                 row.n_slip,
                 row.downsample,
                 row.macro_f1
             ));
-            let cost = costs.get().map_or(0.0, |c| c.of(row));
-            bar.inc((cost * TICKS).round() as u64);
+            bar.inc(ticks);
         },
     );
     bar.finish_and_clear();

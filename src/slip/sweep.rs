@@ -38,6 +38,14 @@ impl CellCosts {
     pub fn of(&self, row: &SweepRow) -> f64 {
         self.by_key.get(&row.key()).copied().unwrap_or(0.0)
     }
+
+    /// Seconds left, from the time the finished cells took for their share of the cost:
+    /// `elapsed x (total - done) / done`. The whole run's average, not a recent rate: the
+    /// cells finish in lumps of very different cost, and a rate over the last few swings
+    /// with each lump. `None` before any cost is done.
+    pub fn eta_s(&self, elapsed_s: f64, done: f64) -> Option<f64> {
+        (done > 0.0 && self.total > 0.0).then(|| elapsed_s * (self.total - done).max(0.0) / done)
+    }
 }
 
 #[derive(Debug, Clone, PartialEq)]
@@ -529,6 +537,14 @@ mod tests {
             spec.cell_cost(&cell(ClassifierKind::Threshold, 1.0), 1400, 150_000),
             threshold
         );
+        // the time left follows the cost left, at the rate of the whole run so far
+        let costs = CellCosts {
+            total: 100.0,
+            ..Default::default()
+        };
+        assert_eq!(costs.eta_s(10.0, 0.0), None);
+        assert_eq!(costs.eta_s(30.0, 25.0), Some(90.0));
+        assert_eq!(costs.eta_s(60.0, 100.0), Some(0.0));
     }
 
     #[test]
