@@ -335,14 +335,8 @@ pub fn train(args: TrainArgs) -> Result<()> {
                 max_fit_rows: args.search_rows,
             };
             // A search takes minutes: each evaluation shows as it finishes.
-            let bar = indicatif::ProgressBar::new(spec.iterations as u64);
-            bar.set_style(
-                indicatif::ProgressStyle::with_template(
-                    "search [{bar:30}] {pos}/{len} evaluations, {elapsed} (eta {eta}) {msg}",
-                )
-                .expect("valid template")
-                .progress_chars("=> "),
-            );
+            let bar = super::run::progress_bar("search", "evaluations");
+            bar.set_length(spec.iterations as u64);
             let mut best_so_far = f64::NEG_INFINITY;
             let searched = tuning::search_reporting(&ds, &spec, |done, h, f1| {
                 best_so_far = best_so_far.max(f1);

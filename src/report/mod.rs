@@ -61,17 +61,8 @@ impl Cell {
             Cell::Number { value, decimals } => format!("{value:.decimals$}"),
             Cell::MeanSd { mean, sd, decimals } => format!("{mean:.decimals$} ± {sd:.decimals$}"),
             Cell::Rate { count, trials } => {
-                let (lo, hi) = wilson(*count, *trials, Z95);
-                let pct = if *trials == 0 {
-                    0.0
-                } else {
-                    100.0 * *count as f64 / *trials as f64
-                };
-                format!(
-                    "{count}/{trials} ({pct:.0} %; {:.0}–{:.0})",
-                    100.0 * lo,
-                    100.0 * hi
-                )
+                let (pct, lo, hi) = percent_and_interval(*count, *trials);
+                format!("{count}/{trials} ({pct:.0} %; {lo:.0}–{hi:.0})")
             }
             Cell::Empty => "–".into(),
         }
@@ -86,17 +77,8 @@ impl Cell {
                 format!("{mean:.decimals$} $\\pm$ {sd:.decimals$}")
             }
             Cell::Rate { count, trials } => {
-                let (lo, hi) = wilson(*count, *trials, Z95);
-                let pct = if *trials == 0 {
-                    0.0
-                } else {
-                    100.0 * *count as f64 / *trials as f64
-                };
-                format!(
-                    "{count}/{trials} ({pct:.0}\\,\\%; {:.0}--{:.0})",
-                    100.0 * lo,
-                    100.0 * hi
-                )
+                let (pct, lo, hi) = percent_and_interval(*count, *trials);
+                format!("{count}/{trials} ({pct:.0}\\,\\%; {lo:.0}--{hi:.0})")
             }
             Cell::Empty => "--".into(),
             other => other.display(),
@@ -252,6 +234,17 @@ impl Table {
 
 /// `text` with LaTeX's special characters escaped (and the en dash and plus-minus sign
 /// written as LaTeX writes them).
+/// A rate's percentage and its Wilson 95 % interval, in percent.
+fn percent_and_interval(count: u64, trials: u64) -> (f64, f64, f64) {
+    let (lo, hi) = wilson(count, trials, Z95);
+    let pct = if trials == 0 {
+        0.0
+    } else {
+        100.0 * count as f64 / trials as f64
+    };
+    (pct, 100.0 * lo, 100.0 * hi)
+}
+
 pub fn latex_escape(text: &str) -> String {
     let mut out = String::with_capacity(text.len());
     for ch in text.chars() {

@@ -802,7 +802,13 @@ mod tests {
 
     /// A trained model of `kind` as JSON.
     fn trained(kind: ClassifierKind) -> serde_json::Value {
-        let spec = TrainSpec {
+        let m = ModelFile::train(&data(), &spec(kind), Vec::new(), None).unwrap();
+        serde_json::to_value(&m).unwrap()
+    }
+
+    /// Global, C 1, gamma 0.05, n_slip 5, every row.
+    fn spec(kind: ClassifierKind) -> TrainSpec {
+        TrainSpec {
             kind,
             hyper: Hyperparameters {
                 c: 1.0,
@@ -817,9 +823,7 @@ mod tests {
             },
             downsample: 1.0,
             seed: 0,
-        };
-        let m = ModelFile::train(&data(), &spec, Vec::new(), None).unwrap();
-        serde_json::to_value(&m).unwrap()
+        }
     }
 
     fn load(v: &serde_json::Value) -> Result<ModelFile, ModelFileError> {
@@ -858,24 +862,9 @@ mod tests {
 
     #[test]
     fn a_model_file_keeps_its_training_scores_and_a_search_or_sweep_fit_skips_them() {
-        let hyper = Hyperparameters {
-            c: 1.0,
-            gamma: 0.05,
-            max_iterations: None,
-        };
         let data = data();
-        let spec = TrainSpec {
-            kind: ClassifierKind::SvmRbf,
-            hyper,
-            scope: Scope::Global,
-            features: FeatureSpec::new(30),
-            labels: LabelSpec {
-                n_slip: 5,
-                onset: OnsetSpec::default(),
-            },
-            downsample: 1.0,
-            seed: 0,
-        };
+        let spec = spec(ClassifierKind::SvmRbf);
+        let hyper = spec.hyper;
         let file = ModelFile::train(&data, &spec, Vec::new(), None).unwrap();
         let kept = &file.models[0].training_scores;
         assert_eq!(

@@ -189,16 +189,6 @@ impl SweepSpec {
         cells
     }
 
-    /// What a cell costs to run, in rough seconds of this project's 2-core reference machine,
-    /// for `slip_rows` and `static_rows` training rows (before down-sampling): only its ratio
-    /// to other cells' costs matters (the sweep runs the costliest first, and its progress
-    /// advances by cost so that its ETA does not swing as cheap cells follow dear ones).
-    /// Measured on the README's 40 hand trials, n_slip 13, fixed hyperparameters: an RBF
-    /// cell took 3.7 s at 16k training rows, 11 s at 61k and 36 s at 151k (fit and scoring
-    /// both grow about linearly there); a LogReg cell 0.28 s and 3.1 s; a threshold cell
-    /// 0.10 s and 0.31 s (the linear SVM is put between the two learned ones). A search
-    /// adds its fits: iterations x folds, each on about two thirds of the rows (capped by
-    /// `--search-rows`).
     /// Each of `cells`' cost ([`Self::cell_cost`]) on the training set `train`, by the key a
     /// result row carries, for progress that advances by cost.
     pub fn costs(&self, cells: &[Cell], train: &Dataset) -> CellCosts {
@@ -219,6 +209,16 @@ impl SweepSpec {
         CellCosts { by_key, total }
     }
 
+    /// What a cell costs to run, in rough seconds of this project's 2-core reference machine,
+    /// for `slip_rows` and `static_rows` training rows (before down-sampling): only its ratio
+    /// to other cells' costs matters (the sweep runs the costliest first, and its progress
+    /// advances by cost so that its ETA does not swing as cheap cells follow dear ones).
+    /// Measured on the README's 40 hand trials, n_slip 13, fixed hyperparameters: an RBF
+    /// cell took 3.7 s at 16k training rows, 11 s at 61k and 36 s at 151k (fit and scoring
+    /// both grow about linearly there); a LogReg cell 0.28 s and 3.1 s; a threshold cell
+    /// 0.10 s and 0.31 s (the linear SVM is put between the two learned ones). A search
+    /// adds its fits: iterations x folds, each on about two thirds of the rows (capped by
+    /// `--search-rows`).
     pub fn cell_cost(&self, cell: &Cell, slip_rows: usize, static_rows: usize) -> f64 {
         let rows = slip_rows as f64 + cell.downsample.clamp(0.0, 1.0) * static_rows as f64;
         let (per_row, fixed) = match cell.classifier {
