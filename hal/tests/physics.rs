@@ -274,3 +274,42 @@ fn a_regrasp_catches_the_slipping_can_within_its_stated_band() {
     );
     assert!((0.5..=50.0).contains(&fall_mm), "fell {fall_mm} mm");
 }
+
+/// A catch on the rail: the arm stops and presses 1.5 mm forward 30 ms after slip began.
+/// Nothing holds the object before the command reaches the arm's controller
+/// (`arm.latency_s`), and the force then builds as the arm moves: the catch comes 50 to
+/// 200 ms after the command, not within a step.
+#[test]
+fn a_rail_catch_waits_for_the_arm_then_takes_tens_of_ms() {
+    let rig = rail_rig();
+    let (mut clock, mut arm, mut hand, probe) = (rig.clock(), rig.arm(), rig.hand(), rig.probe());
+    hand.set_torque_limit(0.8).unwrap();
+    clock.sleep(1.0);
+    arm.move_linear([-20.0, 0.0, 0.0], 2.0).unwrap();
+    while probe.events().slip_onsets_s.is_empty() {
+        assert!(clock.now_s() < 20.0, "the object never slipped");
+        clock.sleep(0.001);
+    }
+    let onset = probe.events().slip_onsets_s[0];
+    clock.sleep_until(onset + 0.03);
+    let reacted = clock.now_s();
+    arm.stop().unwrap();
+    arm.move_linear([1.5, 0.0, 0.0], 20.0).unwrap();
+    hand.set_torque_limit(0.85).unwrap();
+    clock.sleep(1.0);
+    let events = probe.events();
+    let caught = events
+        .catches_s
+        .iter()
+        .copied()
+        .find(|&t| t > reacted)
+        .expect("the object was caught");
+    let latency = SimConfig::default().arm.latency_s;
+    assert!(
+        caught - reacted >= latency && caught - reacted <= 0.2,
+        "caught {:.3} s after the command",
+        caught - reacted
+    );
+    assert!(!probe.state().dropped);
+    assert!(events.max_fall_mm > 1.0, "fell {} mm", events.max_fall_mm);
+}

@@ -84,6 +84,17 @@ impl Servos {
     }
 }
 
+/// A motion command as the arm's controller receives it; a linear move's target is taken
+/// from where the arm is when the command starts (URScript computes it on the controller).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum ArmCommand {
+    Linear {
+        offset_mm: [f64; 3],
+        speed_mm_s: f64,
+    },
+    Velocity([f64; 3]),
+}
+
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum ArmMotion {
     Hold,
@@ -102,6 +113,8 @@ pub struct ArmState {
     pub acceleration_mm_s2: [f64; 3],
     pub motion: ArmMotion,
     max_acceleration: f64,
+    pending: VecDeque<(f64, ArmCommand)>,
+    latency_s: f64,
 }
 
 fn norm(v: [f64; 3]) -> f64 {
@@ -116,6 +129,38 @@ impl ArmState {
             acceleration_mm_s2: [0.0; 3],
             motion: ArmMotion::Hold,
             max_acceleration,
+            pending: VecDeque::new(),
+            latency_s: 0.0,
+        }
+    }
+
+    /// Delay from a command leaving the host to the controller acting on it, s.
+    pub fn with_latency(mut self, latency_s: f64) -> Self {
+        self.latency_s = latency_s;
+        self
+    }
+
+    pub fn command(&mut self, now_s: f64, command: ArmCommand) {
+        self.pending.push_back((now_s + self.latency_s, command));
+    }
+
+    /// Starts the commands that have reached the controller by `now_s`.
+    pub fn receive(&mut self, now_s: f64) {
+        while let Some(&(at, cmd)) = self.pending.front() {
+            if at > now_s + 1e-12 {
+                break;
+            }
+            self.pending.pop_front();
+            self.motion = match cmd {
+                ArmCommand::Linear {
+                    offset_mm,
+                    speed_mm_s,
+                } => ArmMotion::Linear {
+                    target_mm: [0, 1, 2].map(|i| self.position_mm[i] + offset_mm[i]),
+                    speed_mm_s,
+                },
+                ArmCommand::Velocity(v) => ArmMotion::Velocity(v),
+            };
         }
     }
 
@@ -230,6 +275,40 @@ mod tests {
         }
         assert_eq!(a.motion, ArmMotion::Hold);
         assert_eq!(a.position_mm, [0.0, 0.0, 10.0]);
+    }
+
+    #[test]
+    fn arm_waits_for_its_latency_and_moves_from_where_it_is_then() {
+        let mut a = ArmState::new([0.0; 3], 1000.0).with_latency(0.05);
+        a.motion = ArmMotion::Velocity([0.0, 0.0, -5.0]);
+        let mut t = 0.0;
+        let mut run = |a: &mut ArmState, steps: usize| {
+            for _ in 0..steps {
+                t += 0.001;
+                a.receive(t);
+                a.step(0.001);
+            }
+        };
+        run(&mut a, 100);
+        a.command(
+            0.1,
+            ArmCommand::Linear {
+                offset_mm: [0.0, 0.0, 1.5],
+                speed_mm_s: 20.0,
+            },
+        );
+        run(&mut a, 49);
+        // still retracting: the command has not reached the controller
+        assert_eq!(a.velocity_mm_s[2], -5.0);
+        let started_at = a.position_mm[2];
+        run(&mut a, 1);
+        assert!(matches!(a.motion, ArmMotion::Linear { .. }));
+        run(&mut a, 2000);
+        assert!(
+            (a.position_mm[2] - (started_at + 1.5)).abs() < 0.02,
+            "{:?}",
+            a.position_mm
+        );
     }
 
     #[test]

@@ -143,6 +143,7 @@ impl SimConfig {
                 positive,
                 1e6,
             ),
+            ("arm.latency_s", a.latency_s, zero, 1.0),
             ("arm.start_mm[0]", a.start_mm[0], Low(-1e4, false), 1e4),
             ("arm.start_mm[1]", a.start_mm[1], Low(-1e4, false), 1e4),
             ("arm.start_mm[2]", a.start_mm[2], Low(-1e4, false), 1e4),
@@ -423,6 +424,9 @@ pub struct ArmParams {
     /// Refuse moves faster than this, mm/s.
     pub max_speed_mm_s: f64,
     pub acceleration_mm_s2: f64,
+    /// Delay from a motion command leaving the host to the controller starting it, s: each
+    /// URScript line the host sends starts as a new program on the controller.
+    pub latency_s: f64,
     /// TCP position at start, mm.
     pub start_mm: [f64; 3],
     /// Height of the hand's marker above the TCP, mm.
@@ -434,6 +438,7 @@ impl Default for ArmParams {
         Self {
             max_speed_mm_s: 250.0,
             acceleration_mm_s2: 1200.0,
+            latency_s: 0.05,
             start_mm: [400.0, 0.0, 300.0],
             hand_marker_offset_mm: 60.0,
         }

@@ -30,7 +30,7 @@ pub use world::{nominal_contact_law, nominal_skin, TruthEvents, TruthState, MEAS
 use crate::error::{Error, ErrorKind, ErrorType};
 use crate::traits::{Arm, Clock, Hand, MarkerTracker, TactileSensor};
 use crate::types::{HandPositions, MarkerSample, PinFrame, Pose};
-use actuators::{ArmMotion, ServoCommand};
+use actuators::{ArmCommand, ServoCommand};
 use world::World;
 
 /// Errors of the simulated rig.
@@ -231,21 +231,28 @@ impl Arm for SimArm {
     fn move_linear(&mut self, offset_mm: [f64; 3], speed_mm_s: f64) -> Result<(), SimError> {
         self.check_speed(speed_mm_s)?;
         let mut w = self.world.borrow_mut();
-        let p = w.arm.position_mm;
-        w.arm.motion = ArmMotion::Linear {
-            target_mm: [0, 1, 2].map(|i| p[i] + offset_mm[i]),
-            speed_mm_s,
-        };
+        let now = w.now_s();
+        w.arm.command(
+            now,
+            ArmCommand::Linear {
+                offset_mm,
+                speed_mm_s,
+            },
+        );
         Ok(())
     }
     fn move_velocity(&mut self, velocity_mm_s: [f64; 3]) -> Result<(), SimError> {
         let speed = velocity_mm_s.iter().map(|v| v * v).sum::<f64>().sqrt();
         self.check_speed(speed)?;
-        self.world.borrow_mut().arm.motion = ArmMotion::Velocity(velocity_mm_s);
+        let mut w = self.world.borrow_mut();
+        let now = w.now_s();
+        w.arm.command(now, ArmCommand::Velocity(velocity_mm_s));
         Ok(())
     }
     fn stop(&mut self) -> Result<(), SimError> {
-        self.world.borrow_mut().arm.motion = ArmMotion::Velocity([0.0; 3]);
+        let mut w = self.world.borrow_mut();
+        let now = w.now_s();
+        w.arm.command(now, ArmCommand::Velocity([0.0; 3]));
         Ok(())
     }
 }

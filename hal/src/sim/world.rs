@@ -201,7 +201,8 @@ impl World {
             RigSetup::Rail(r) => (r.object.as_str(), 1),
         };
         let object = library.get(object_name)?.clone();
-        let arm = ArmState::new(cfg.arm.start_mm, cfg.arm.acceleration_mm_s2);
+        let arm = ArmState::new(cfg.arm.start_mm, cfg.arm.acceleration_mm_s2)
+            .with_latency(cfg.arm.latency_s);
         let hand_z = cfg.arm.start_mm[2];
         let (geometry, start_positions, support_mm, grasp_deg) = match &cfg.rig {
             RigSetup::Hand(h) => {
@@ -511,6 +512,7 @@ impl World {
         let now = self.now_s();
         self.servos.step(now, dt);
         let hand_z_before = self.hand_z();
+        self.arm.receive(now);
         self.arm.step(dt);
         let hand_v = self.arm.velocity_mm_s[2];
         let hand_a = self.arm.acceleration_mm_s2[2];
