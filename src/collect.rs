@@ -214,5 +214,7 @@ pub fn collect_trial(
                 crate::runner::event(t, "/phase", serde_json::json!({ "phase": phase }))
             })
             .collect(),
+        // a bare `sim collect` runs from its command line, not from a file
+        sources: Vec::new(),
     })
 }

@@ -126,6 +126,9 @@ pub struct HardwareFile {
     /// itself (see [`ServedSimulator`]).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub served_simulator: Option<ServedSimulator>,
+    /// The file as read, kept in every trial log the rig records.
+    #[serde(skip)]
+    pub source: Option<crate::trial::SourceFile>,
 }
 
 /// The served simulator's control port: between trials a batch sends it the next trial's
@@ -347,7 +350,8 @@ pub fn load(path: &Path) -> Result<HardwareFile, HardwareError> {
 }
 
 pub fn parse(path: &Path, text: &str) -> Result<HardwareFile, HardwareError> {
-    let file: HardwareFile = parse_toml(path, text)?;
+    let mut file: HardwareFile = parse_toml(path, text)?;
+    file.source = Some(crate::trial::SourceFile::new("hardware", path, text));
     file.check().map_err(|(field, message)| {
         let (line, column) =
             field_span(text, &field).map_or((1, 1), |s| line_column(text, s.start));

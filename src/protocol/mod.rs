@@ -160,6 +160,8 @@ pub enum KindParams {
 pub struct Plan {
     pub source: PathBuf,
     pub source_sha256: String,
+    /// The file's text, kept in every trial log it runs.
+    pub source_text: String,
     pub kind: Kind,
     pub mode: Mode,
     pub seed: u64,
@@ -605,6 +607,7 @@ pub fn validate(
     Ok(Plan {
         source: path.to_path_buf(),
         source_sha256: crate::trial::sha256_hex(text.as_bytes()),
+        source_text: text.to_string(),
         kind: file.kind,
         mode: file.mode,
         seed: file.seed,

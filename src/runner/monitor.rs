@@ -128,7 +128,9 @@ impl<'m> FrameMonitor<'m> {
             events.push(event(
                 f.time_s,
                 "/classifier",
-                json!({"sensor": f.sensor, "seq": f.seq, "class": class}),
+                // the class as a label and as a number a plot can draw
+                json!({"sensor": f.sensor, "seq": f.seq, "class": class,
+                       "slip": u8::from(class == crate::slip::Class::Slip)}),
             ));
             if armed && d.observe(usize::from(f.sensor), class) {
                 events.push(event(

@@ -218,7 +218,7 @@ pub fn run_real_trial(
             return Err(e.into());
         }
     };
-    Ok(finish_trial(
+    let mut trial = finish_trial(
         plan,
         planned,
         models,
@@ -226,5 +226,7 @@ pub fn run_real_trial(
         parameters,
         ("real", devices.sensors.len() as u8, hw.cameras.pins),
         started_unix_s,
-    ))
+    );
+    trial.sources.extend(hw.source.clone());
+    Ok(trial)
 }

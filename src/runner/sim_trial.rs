@@ -286,5 +286,10 @@ pub(crate) fn finish_trial(
         arrivals_s: record.recording.arrivals_s,
         markers: record.recording.markers,
         events: record.events,
+        sources: vec![crate::trial::SourceFile::new(
+            "protocol",
+            &plan.source,
+            &plan.source_text,
+        )],
     }
 }
