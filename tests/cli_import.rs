@@ -138,6 +138,39 @@ fn imported_taxel_recordings_train_evaluate_sweep_and_replay() {
     assert!(said.contains("n_slip [20, 30] frames at 58.8 Hz"), "{said}");
     let rows = std::fs::read_to_string(d.join("sweep.csv")).unwrap();
     assert_eq!(rows.lines().count(), 1 + 2 * 2, "{out}\n{rows}");
+    // --json: the same grid (finished, so resumed at once), its best cells as JSON alone
+    let out = ok(&tmo(
+        d,
+        &[
+            "sweep",
+            "xela/train",
+            "--test",
+            "xela/test",
+            "--classifiers",
+            "threshold,logreg",
+            "--n-slip-s",
+            "0.34,0.51",
+            "--downsample",
+            "0.1",
+            "--out",
+            "sweep.csv",
+            "--resume",
+            "--json",
+        ],
+    ));
+    let v: serde_json::Value = serde_json::from_str(&out).expect("stdout is JSON alone");
+    assert_eq!(v["cells"], 4, "{v}");
+    let best = v["best"].as_array().unwrap();
+    assert_eq!(best.len(), 2, "{v}");
+    assert!(
+        best.iter()
+            .all(|b| b["best_macro_f1"].as_f64().unwrap() > 0.0),
+        "{v}"
+    );
+    assert!(
+        best.iter().any(|b| b["c"].is_null()),
+        "the threshold has no C: {v}"
+    );
 
     let out = ok(&tmo(
         d,

@@ -115,6 +115,25 @@ fn damaged_logs_are_named_skipped_and_the_rest_evaluated() {
     assert!(stderr.contains("trial-00007.mcap"), "{stderr}");
     let stdout = String::from_utf8_lossy(&o.stdout);
     assert!(stdout.contains("14 replays of 14 trial(s)"), "{stdout}");
+    // --json: the same replay as one JSON object on standard output, skips still counted
+    let o = tmo(
+        d,
+        &[
+            "replay",
+            "b",
+            "--model",
+            "global.json",
+            "--strategy",
+            "2x2",
+            "--json",
+        ],
+    );
+    assert_eq!(o.status.code(), Some(3), "{o:?}");
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).expect("stdout is JSON alone");
+    assert_eq!(v["replays"], 14);
+    assert_eq!(v["skipped"], 2);
+    assert_eq!(v["outcomes"].as_array().unwrap().len(), 14);
+    assert_eq!(v["table"]["name"], "replay");
 }
 
 #[test]

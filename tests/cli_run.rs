@@ -98,6 +98,58 @@ fn trials_run_in_parallel_give_the_outcomes_of_a_sequential_run() {
 }
 
 #[test]
+fn run_json_is_the_summary_as_one_json_object() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    setup(d);
+    let stdout = ok(&tmo(
+        d,
+        &[
+            "run",
+            "release.toml",
+            "--repeat",
+            "1",
+            "--out",
+            "b",
+            "--json",
+        ],
+    ));
+    let v: serde_json::Value = serde_json::from_str(&stdout).expect("stdout is JSON alone");
+    assert_eq!(v["kind"], "hand_release");
+    assert_eq!(v["trials"], v["ran"]);
+    assert!(v["trials"].as_u64().unwrap() >= 1, "{v}");
+    assert!(
+        v["tables"].as_object().is_some_and(|t| !t.is_empty()),
+        "{v}"
+    );
+    assert!(
+        v["outputs"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .any(|o| o.as_str().unwrap().ends_with("outcomes.csv")),
+        "{v}"
+    );
+    // a second run finds every trial there
+    let again: serde_json::Value = serde_json::from_str(&ok(&tmo(
+        d,
+        &[
+            "run",
+            "release.toml",
+            "--repeat",
+            "1",
+            "--out",
+            "b",
+            "--resume",
+            "--json",
+        ],
+    )))
+    .unwrap();
+    assert_eq!(again["ran"], 0);
+    assert_eq!(again["already_there"], v["trials"]);
+}
+
+#[test]
 fn a_batch_run_in_shards_reports_as_the_whole_batch() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();

@@ -31,6 +31,9 @@ pub struct ReplayArgs {
     /// Also write replay.csv (one line per trial, model and strategy) and replay.md here.
     #[arg(long)]
     out: Option<PathBuf>,
+    /// Print the table and every replay's outcome as JSON instead of as text.
+    #[arg(long)]
+    json: bool,
 }
 
 fn percentile(sorted: &[f64], q: f64) -> Option<f64> {
@@ -126,7 +129,13 @@ pub fn replay(args: ReplayArgs) -> Result<bool> {
         .iter()
         .map(|s| s.parse().with_context(|| format!("--strategy {s}")))
         .collect::<Result<_>>()?;
-    replay_with(&args.trials, &args.models, &strategies, args.out.as_deref())
+    replay_with(
+        &args.trials,
+        &args.models,
+        &strategies,
+        args.out.as_deref(),
+        args.json,
+    )
 }
 
 /// The replay of `trials` through every model and strategy; whether some logs were skipped.
@@ -135,6 +144,7 @@ pub fn replay_with(
     model_paths: &[PathBuf],
     strategies: &[Strategy],
     out: Option<&std::path::Path>,
+    json: bool,
 ) -> Result<bool> {
     let models: Vec<(String, String, ModelFile)> = model_paths
         .iter()
@@ -220,15 +230,18 @@ pub fn replay_with(
         .collect::<Result<_>>()?;
     bar.finish_and_clear();
     let t = table(&rows);
-    println!(
-        "{} replays of {} trial(s) x {} model(s) x {} strateg(ies) in {:.1} s\n",
-        rows.len(),
-        trials.len(),
-        models.len(),
-        strategies.len(),
-        started.elapsed().as_secs_f64()
-    );
-    print!("{}", t.markdown());
+    let wall_s = started.elapsed().as_secs_f64();
+    if !json {
+        println!(
+            "{} replays of {} trial(s) x {} model(s) x {} strateg(ies) in {wall_s:.1} s\n",
+            rows.len(),
+            trials.len(),
+            models.len(),
+            strategies.len(),
+        );
+        print!("{}", t.markdown());
+    }
+    let mut outputs = Vec::new();
     if let Some(dir) = out {
         std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
         let mut w = csv::Writer::from_path(dir.join("replay.csv"))?;
@@ -237,11 +250,28 @@ pub fn replay_with(
         }
         w.flush()?;
         std::fs::write(dir.join("replay.md"), t.markdown())?;
-        println!(
-            "wrote {} and {}",
-            dir.join("replay.csv").display(),
-            dir.join("replay.md").display()
-        );
+        outputs = vec![dir.join("replay.csv"), dir.join("replay.md")];
+        if !json {
+            println!(
+                "wrote {} and {}",
+                outputs[0].display(),
+                outputs[1].display()
+            );
+        }
+    }
+    if json {
+        let v = serde_json::json!({
+            "replays": rows.len(),
+            "trials": trials.len(),
+            "models": models.len(),
+            "strategies": strategies.iter().map(|s| s.to_string()).collect::<Vec<_>>(),
+            "skipped": skipped,
+            "wall_s": wall_s,
+            "table": t,
+            "outcomes": rows,
+            "outputs": outputs,
+        });
+        println!("{}", serde_json::to_string_pretty(&v)?);
     }
     if skipped > 0 {
         eprintln!("{skipped} trial log(s) skipped (see above); exit code {EXIT_SKIPPED}");

@@ -59,6 +59,10 @@ pub struct RunArgs {
     /// through the protocol's models and strategies.
     #[arg(long, num_args = 1..)]
     from: Vec<PathBuf>,
+    /// Print the batch's summary as JSON (counts, the report's tables, the files written)
+    /// instead of as text; progress and notes go to standard error.
+    #[arg(long)]
+    json: bool,
 }
 
 /// Runs the batch; the exit code (0, or 3 when a replay skipped damaged logs).
@@ -99,6 +103,7 @@ pub fn run(args: RunArgs) -> Result<u8> {
             &plan.models,
             &plan.strategies,
             args.out.as_deref(),
+            args.json,
         )?;
         return Ok(if skipped {
             super::replay::EXIT_SKIPPED
@@ -183,7 +188,14 @@ pub fn run(args: RunArgs) -> Result<u8> {
             std::process::exit(EXIT_INTERRUPTED);
         }
     };
-    print_summary(&out, plan.kind, summary)?;
+    if args.json {
+        println!(
+            "{}",
+            serde_json::to_string_pretty(&summary_json(&out, plan.kind, summary)?)?
+        );
+    } else {
+        print_summary(&out, plan.kind, summary)?;
+    }
     Ok(0)
 }
 
@@ -200,8 +212,44 @@ pub fn progress_bar(verb: &str, unit: &str) -> indicatif::ProgressBar {
     bar
 }
 
+/// The batch's own report tables, so `tmo run` and `tmo report` never disagree.
+fn batch_tables(out: &Path, kind: Kind, summary: &mut BatchSummary) -> Vec<tmo::report::Table> {
+    let inputs = Inputs {
+        batches: vec![Batch {
+            dir: out.to_path_buf(),
+            manifest: summary.manifest.clone(),
+            rows: std::mem::take(&mut summary.rows).into_batch_rows(kind),
+        }],
+        ..Default::default()
+    };
+    tmo::report::build::tables(&inputs)
+}
+
+/// `tmo run --json`: what the text summary says, as one JSON object.
+fn summary_json(out: &Path, kind: Kind, mut summary: BatchSummary) -> Result<serde_json::Value> {
+    let aborted = summary.rows.aborted();
+    let truth = summary.rows.truth_agreement();
+    let tables = batch_tables(out, kind, &mut summary);
+    let tables: serde_json::Value =
+        serde_json::from_str(&tmo::report::render(&tables, tmo::report::Format::Json)?)?;
+    Ok(serde_json::json!({
+        "kind": kind.to_string(),
+        "dir": out,
+        "trials": summary.ran + summary.kept,
+        "ran": summary.ran,
+        "already_there": summary.kept,
+        "rerun_faulted": summary.rerun_faulted,
+        "aborted": aborted,
+        "wall_s": summary.wall_s,
+        "truth_agreement": truth.map(|(n, agree)| serde_json::json!({"trials": n, "agree": agree})),
+        "without_calibration": summary.without_calibration,
+        "tables": tables,
+        "outputs": summary.outputs,
+    }))
+}
+
 /// What `tmo run` prints after a batch: counts, the kind's table, where the files went.
-pub fn print_summary(out: &Path, kind: Kind, summary: BatchSummary) -> Result<()> {
+pub fn print_summary(out: &Path, kind: Kind, mut summary: BatchSummary) -> Result<()> {
     println!(
         "{} trials ({} run, {} already there) in {:.1} s",
         summary.ran + summary.kept,
@@ -235,17 +283,7 @@ pub fn print_summary(out: &Path, kind: Kind, summary: BatchSummary) -> Result<()
             g.push_str(" (for first_time_lift.calibration)");
         }
     }
-    // The summary is the report's own table for this batch, so `tmo run` and `tmo report`
-    // never disagree.
-    let inputs = Inputs {
-        batches: vec![Batch {
-            dir: out.to_path_buf(),
-            manifest: summary.manifest,
-            rows: summary.rows.into_batch_rows(kind),
-        }],
-        ..Default::default()
-    };
-    let tables = tmo::report::build::tables(&inputs);
+    let tables = batch_tables(out, kind, &mut summary);
     if tables.is_empty() {
         println!("(a collect batch: its outcomes are in the files below)");
     } else {

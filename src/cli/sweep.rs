@@ -94,6 +94,10 @@ pub struct SweepArgs {
     /// The CSV to write; its provenance goes beside it as .json, its heatmaps as .png.
     #[arg(long, default_value = "results/sweep.csv")]
     out: PathBuf,
+    /// Print the best cells and the files written as JSON instead of as text (progress
+    /// and notes go to standard error).
+    #[arg(long)]
+    json: bool,
 }
 
 #[derive(clap::Subcommand)]
@@ -275,12 +279,17 @@ pub fn sweep(args: SweepArgs) -> Result<()> {
         &spec,
         &target,
         |cells, done| {
-            println!(
+            let line = format!(
                 "sweep: {} cells to run ({done} already done), {n_train} train trials ({} rows), {n_test} test trials ({} rows)",
                 cells.len(),
                 train.len(),
                 test.len()
             );
+            if args.json {
+                eprintln!("{line}");
+            } else {
+                println!("{line}");
+            }
             let c = costs.get_or_init(|| spec.costs(cells, &train));
             cells_to_run.store(cells.len(), std::sync::atomic::Ordering::Relaxed);
             bar.set_length((c.total * TICKS).round() as u64);
@@ -395,6 +404,7 @@ pub fn sweep(args: SweepArgs) -> Result<()> {
         &provenance,
         &rows,
         started.elapsed().as_secs_f64(),
+        args.json,
     )
 }
 
@@ -404,11 +414,48 @@ fn write_outputs(
     provenance: &SweepProvenance,
     rows: &[SweepRow],
     seconds: f64,
+    json: bool,
 ) -> Result<()> {
     let meta_path = out.with_extension("json");
     std::fs::write(&meta_path, serde_json::to_string_pretty(provenance)?)
         .with_context(|| format!("cannot write {}", meta_path.display()))?;
-
+    let figures = draw_heatmaps(out, provenance, rows)?;
+    if json {
+        let best: Vec<serde_json::Value> = provenance
+            .classifiers
+            .iter()
+            .filter_map(|kind| {
+                let of_kind: Vec<&SweepRow> = rows
+                    .iter()
+                    .filter(|r| r.classifier == kind.name())
+                    .collect();
+                let best = of_kind
+                    .iter()
+                    .max_by(|a, b| a.macro_f1.total_cmp(&b.macro_f1))?;
+                let mean = of_kind.iter().map(|r| r.macro_f1).sum::<f64>() / of_kind.len() as f64;
+                Some(serde_json::json!({
+                    "classifier": best.classifier,
+                    "best_macro_f1": best.macro_f1,
+                    "n_slip": best.n_slip,
+                    "downsample": best.downsample,
+                    "c": best.c,
+                    "gamma": best.gamma,
+                    "cells": of_kind.len(),
+                    "mean_macro_f1": mean,
+                }))
+            })
+            .collect();
+        let mut outputs = vec![out.to_path_buf(), meta_path];
+        outputs.extend(figures);
+        let v = serde_json::json!({
+            "cells": rows.len(),
+            "wall_s": seconds,
+            "best": best,
+            "outputs": outputs,
+        });
+        println!("{}", serde_json::to_string_pretty(&v)?);
+        return Ok(());
+    }
     println!(
         "{} cells in {:.1} s; best test macro F1 per classifier:",
         rows.len(),
@@ -443,11 +490,23 @@ fn write_outputs(
         }
     }
     println!("wrote {} and {}", out.display(), meta_path.display());
-    if provenance.shard.is_some() {
-        // a shard's heatmaps would show holes: `tmo sweep merge` draws the whole grid
-        return Ok(());
+    if !figures.is_empty() {
+        let names: Vec<String> = figures.iter().map(|p| p.display().to_string()).collect();
+        println!("wrote {}", names.join(", "));
     }
-    // The paper's Fig. 5, through the same code as `tmo report --plots`.
+    Ok(())
+}
+
+/// The paper's Fig. 5 beside the CSV, through the same code as `tmo report --plots`; none
+/// for a shard, whose heatmaps would show holes (`tmo sweep merge` draws the whole grid).
+fn draw_heatmaps(
+    out: &std::path::Path,
+    provenance: &SweepProvenance,
+    rows: &[SweepRow],
+) -> Result<Vec<std::path::PathBuf>> {
+    if provenance.shard.is_some() {
+        return Ok(Vec::new());
+    }
     let plot_dir = out
         .parent()
         .filter(|p| !p.as_os_str().is_empty())
@@ -456,10 +515,9 @@ fn write_outputs(
     let prefix = out
         .file_stem()
         .map_or(String::new(), |s| format!("{}_", s.to_string_lossy()));
-    let figures = tmo::plots::offline::sweep_heatmaps(rows, plot_dir, &prefix)?;
-    let names: Vec<String> = figures.iter().map(|p| p.display().to_string()).collect();
-    println!("wrote {}", names.join(", "));
-    Ok(())
+    Ok(tmo::plots::offline::sweep_heatmaps(
+        rows, plot_dir, &prefix,
+    )?)
 }
 
 /// `tmo sweep merge`: the shards' rows as one sweep, after checking that the shards are the
@@ -559,5 +617,6 @@ fn merge_shards(args: MergeArgs) -> Result<()> {
         &provenance,
         &rows,
         started.elapsed().as_secs_f64(),
+        false,
     )
 }
