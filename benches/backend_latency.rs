@@ -11,7 +11,9 @@
 //!
 //! Run: `cargo bench --bench backend_latency` (prints median and p99 over the trials, for the
 //! runner's wait, which wakes on a frame's arrival, and for the previous runner's, which
-//! slept the whole 1 kHz tick, in the same run). `TICK_US=100` shortens the control tick.
+//! slept the whole 1 kHz tick, in the same run), and for the runner now with its live view
+//! serving every frame and event to a connected viewer that reads slowly (`tmo run --live`).
+//! `TICK_US=100` shortens the control tick.
 
 use std::fs::File;
 use std::io::{Read, Write};
@@ -34,6 +36,8 @@ use tmo_hal::{Clock, Hand, TactileSensor};
 
 const PINS: usize = 30;
 const TRIALS: usize = 200;
+/// How long the slow viewer takes over each message it reads, ms.
+const VIEWER_MS: u64 = 20;
 
 fn model() -> ModelFile {
     ModelFile::threshold_model(PINS, vec![0], 0.5)
@@ -87,7 +91,46 @@ enum Wait {
 }
 
 /// Latencies of `TRIALS` slips, us, sorted.
-fn measure(wait: Wait, tick_s: f64) -> Vec<f64> {
+/// A viewer of the live view that subscribes to the thumb's pins and reads one message every
+/// 20 ms, far slower than they come: the server must drop for it, never wait.
+fn slow_viewer(url: String, stop: Arc<AtomicBool>) -> std::thread::JoinHandle<usize> {
+    use tungstenite::client::IntoClientRequest;
+    std::thread::spawn(move || {
+        let mut request = url.as_str().into_client_request().unwrap();
+        request
+            .headers_mut()
+            .insert("Sec-WebSocket-Protocol", "foxglove.sdk.v1".parse().unwrap());
+        let (mut ws, _) = tungstenite::connect(request).expect("viewer connects");
+        let mut received = 0;
+        while !stop.load(Ordering::Relaxed) {
+            match ws.read() {
+                Ok(tungstenite::Message::Text(t)) => {
+                    let v: serde_json::Value = serde_json::from_str(&t).unwrap();
+                    if v["op"] == "advertise" {
+                        let subs: Vec<serde_json::Value> = v["channels"]
+                            .as_array()
+                            .unwrap()
+                            .iter()
+                            .map(|c| serde_json::json!({"id": c["id"], "channelId": c["id"]}))
+                            .collect();
+                        let msg = serde_json::json!({"op": "subscribe", "subscriptions": subs});
+                        ws.send(tungstenite::Message::text(msg.to_string()))
+                            .unwrap();
+                    }
+                }
+                Ok(tungstenite::Message::Binary(_)) => {
+                    received += 1;
+                    std::thread::sleep(Duration::from_millis(VIEWER_MS));
+                }
+                Ok(_) => {}
+                Err(_) => break,
+            }
+        }
+        received
+    })
+}
+
+fn measure(wait: Wait, tick_s: f64, live: bool) -> Vec<f64> {
     let (mut camera, _camera_slave, camera_path) = open_pty().expect("camera pty");
     let (bus_master, _bus_slave, bus_path) = open_pty().expect("bus pty");
     let stop = Arc::new(AtomicBool::new(false));
@@ -149,12 +192,25 @@ fn measure(wait: Wait, tick_s: f64) -> Vec<f64> {
         }
     });
 
+    let view = live.then(|| tmo::live::LiveView::start("127.0.0.1:0".parse().unwrap()).unwrap());
+    let viewer = view.as_ref().map(|v| slow_viewer(v.url(), stop.clone()));
+    let mut publisher = view.as_ref().map(|v| v.trial(0, false));
+    let (mut frames, mut arrivals) = (Vec::new(), Vec::new());
+    if viewer.is_some() {
+        // the viewer connects and subscribes before the first slip counts
+        std::thread::sleep(Duration::from_millis(200));
+        while sensor.next_frame().expect("frame").is_some() {}
+        while slips.try_recv().is_ok() {}
+    }
     let never = AtomicBool::new(false);
     let mut monitor = FrameMonitor::new(1, Some(online), WatchLimits::default(), mclock.now_s());
     let mut events = Vec::new();
     let mut reactions = 0;
     while reactions < TRIALS {
-        // the runners' control tick
+        // the runners' control tick: the live view gets the last tick's data first
+        if let Some(p) = &mut publisher {
+            p.publish(mclock.now_s(), &frames, &arrivals, &[], &events);
+        }
         match wait {
             Wait::Tick => mclock.sleep(tick_s),
             Wait::TickOrInput => {
@@ -166,6 +222,10 @@ fn measure(wait: Wait, tick_s: f64) -> Vec<f64> {
         while let Some(f) = sensor.next_frame().expect("frame") {
             batch.push(f);
         }
+        if publisher.is_some() {
+            frames.extend(batch.iter().cloned());
+            arrivals.extend(batch.iter().map(|_| mclock.now_s()));
+        }
         match monitor.feed(&batch, mclock.now_s(), true, &never, &mut events) {
             Verdict::React(_) => {
                 hand.set_targets([0.5, 0.5, 0.5, 0.0]).expect("hand");
@@ -175,7 +235,9 @@ fn measure(wait: Wait, tick_s: f64) -> Vec<f64> {
             Verdict::Abort(f) => panic!("fault {f:?}"),
             Verdict::Continue => {}
         }
-        events.clear();
+        if publisher.is_none() {
+            events.clear();
+        }
     }
     std::thread::sleep(Duration::from_millis(50));
     let sent: Vec<Instant> = slips.try_iter().collect();
@@ -188,21 +250,69 @@ fn measure(wait: Wait, tick_s: f64) -> Vec<f64> {
     stop.store(true, Ordering::Relaxed);
     let _ = bus.join();
     let _ = camera_thread.join();
+    if let Some(viewer) = viewer {
+        // the server stops with the last handle on it; the viewer's read then ends
+        drop(publisher);
+        drop(view);
+        let received = viewer.join().unwrap_or(0);
+        println!(
+            "  (the slow viewer read {received} of {} frames)",
+            frames.len()
+        );
+    }
     latencies_us.sort_by(f64::total_cmp);
     latencies_us
 }
+
+const CONFIGS: [(Wait, bool, &str); 3] = [
+    (Wait::Tick, false, "tick only (previous runner)"),
+    (Wait::TickOrInput, false, "tick or input (runner now)"),
+    (
+        Wait::TickOrInput,
+        true,
+        "runner now, live view with a slow viewer",
+    ),
+];
 
 fn main() {
     let tick_s = std::env::var("TICK_US")
         .ok()
         .and_then(|v| v.parse::<f64>().ok())
         .map_or(tmo::runner::TICK_S, |us| us * 1e-6);
+    // Each configuration runs in a process of its own: a finished run's device threads
+    // (pseudo-terminal readers) must not share the cores with the next run's.
+    if let Some(k) = std::env::var("LATENCY_CONFIG")
+        .ok()
+        .and_then(|k| k.parse::<usize>().ok())
+    {
+        let (wait, live, _) = CONFIGS[k];
+        let latencies_us = measure(wait, tick_s, live);
+        let text: Vec<String> = latencies_us.iter().map(|l| l.to_string()).collect();
+        println!("LATENCIES {}", text.join(" "));
+        std::process::exit(0);
+    }
     let mut medians = Vec::new();
-    for (wait, name) in [
-        (Wait::Tick, "tick only (previous runner)"),
-        (Wait::TickOrInput, "tick or input (runner now)"),
-    ] {
-        let latencies_us = measure(wait, tick_s);
+    for (k, (_, _, name)) in CONFIGS.iter().enumerate() {
+        let out = std::process::Command::new(std::env::current_exe().unwrap())
+            .env("LATENCY_CONFIG", k.to_string())
+            .output()
+            .expect("the bench runs itself");
+        let stdout = String::from_utf8_lossy(&out.stdout);
+        print!(
+            "{}",
+            stdout
+                .lines()
+                .filter(|l| !l.starts_with("LATENCIES"))
+                .map(|l| format!("{l}\n"))
+                .collect::<String>()
+        );
+        let latencies_us: Vec<f64> = stdout
+            .lines()
+            .find_map(|l| l.strip_prefix("LATENCIES "))
+            .unwrap_or_else(|| panic!("{name}: {}", String::from_utf8_lossy(&out.stderr)))
+            .split_whitespace()
+            .map(|v| v.parse().unwrap())
+            .collect();
         let at = |q: f64| {
             latencies_us
                 [((q * latencies_us.len() as f64).ceil() as usize).clamp(1, latencies_us.len()) - 1]
@@ -219,8 +329,10 @@ fn main() {
         medians.push((at(0.5), at(0.99)));
     }
     println!(
-        "now / previous: median {:.2}, p99 {:.2}",
+        "now / previous: median {:.2}, p99 {:.2}; live / now: median {:.2}, p99 {:.2}",
         medians[1].0 / medians[0].0,
-        medians[1].1 / medians[0].1
+        medians[1].1 / medians[0].1,
+        medians[2].0 / medians[1].0,
+        medians[2].1 / medians[1].1
     );
 }

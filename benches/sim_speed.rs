@@ -48,6 +48,7 @@ fn main() {
             arm: r.arm(),
             markers: r.marker_tracker(),
             sensors: r.tactile_sensors(),
+            live: None,
         };
         let t0 = Instant::now();
         let rec = devices.run(script, simulated_s, |_| {}).unwrap();

@@ -5,6 +5,7 @@
 pub mod collect;
 pub mod hardware;
 pub mod import;
+pub mod live;
 pub mod lock;
 pub mod online;
 pub mod outcome;

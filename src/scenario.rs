@@ -66,6 +66,8 @@ pub struct Devices<C, H, A, M, S> {
     pub arm: A,
     pub markers: M,
     pub sensors: Vec<S>,
+    /// Where each tick's new frames, markers and events are also sent as they arrive.
+    pub live: Option<crate::live::LivePublisher>,
 }
 
 /// The simulated rig's devices.
@@ -86,6 +88,7 @@ impl SimDevices {
             arm: rig.arm(),
             markers: rig.marker_tracker(),
             sensors: rig.tactile_sensors(),
+            live: None,
         }
     }
 }

@@ -59,6 +59,11 @@ pub struct RunArgs {
     /// through the protocol's models and strategies.
     #[arg(long, num_args = 1..)]
     from: Vec<PathBuf>,
+    /// Serve the trials live over the Foxglove WebSocket protocol while the batch runs, at
+    /// ADDR (default 127.0.0.1:8765; port 0 picks a free one). Simulated trials then run
+    /// one at a time, at wall-clock speed.
+    #[arg(long, value_name = "ADDR", num_args = 0..=1, default_missing_value = "127.0.0.1:8765")]
+    live: Option<std::net::SocketAddr>,
     /// Print the batch's summary as JSON (counts, the report's tables, the files written)
     /// instead of as text; progress and notes go to standard error.
     #[arg(long)]
@@ -89,6 +94,10 @@ pub fn run(args: RunArgs) -> Result<u8> {
         _ => None,
     };
     if args.backend == Backend::Replay {
+        anyhow::ensure!(
+            args.live.is_none(),
+            "--live serves batches on the simulator or the real rig; a replay has no live rig"
+        );
         anyhow::ensure!(
             !args.from.is_empty(),
             "--backend replay needs --from TRIALS (recorded logs or batch directories)"
@@ -145,6 +154,18 @@ pub fn run(args: RunArgs) -> Result<u8> {
         }
         None => BatchRig::Sim,
     };
+    let live = match args.live {
+        Some(addr) => {
+            let view = tmo::live::LiveView::start(addr)?;
+            eprintln!(
+                "live view at {}: in Foxglove, Open connection > Foxglove WebSocket > {} (simulated trials run one at a time, at wall-clock speed)",
+                view.url(),
+                view.url()
+            );
+            Some(view)
+        }
+        None => None,
+    };
     let bar = progress_bar("run", "trials");
     let request = BatchRequest {
         plan: &plan,
@@ -152,6 +173,7 @@ pub fn run(args: RunArgs) -> Result<u8> {
         resume: args.resume,
         rerun_faulted: args.rerun_faulted,
         shard: args.shard,
+        live: live.as_ref(),
     };
     let end = run_batch(&request, &mut rig, &stop, &bar)
         .with_context(|| args.protocol.display().to_string())?;

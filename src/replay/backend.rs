@@ -188,6 +188,7 @@ pub fn replay_devices(trial: &Trial, start_s: f64) -> (ReplayDevices, CommandLog
             clock,
         },
         sensors,
+        live: None,
     };
     (devices, log)
 }

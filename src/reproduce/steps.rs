@@ -415,6 +415,7 @@ fn run_batch_step(
         resume: true,
         rerun_faulted: false,
         shard: None,
+        live: None,
     };
     let end = run_batch(&request, &mut rig, ctx.stop, ctx.bar).map_err(batch)?;
     Ok(matches!(end, BatchEnd::Finished(_)))

@@ -174,7 +174,7 @@ where
             }
             _ => {}
         }
-        let (first_new, now) = dev.tick(&mut rec)?;
+        let (first_new, now) = dev.tick(&mut rec, &events)?;
         if let Some(a) = approach.as_mut() {
             a.observe(&rec.frames[first_new..]);
         }
@@ -326,6 +326,7 @@ mod tests {
             arm,
             markers,
             sensors,
+            live: None,
         };
         let model = threshold_model();
         let online = Online {
@@ -506,6 +507,7 @@ mod tests {
             arm,
             markers,
             sensors,
+            live: None,
         };
         let p = ReleaseParams {
             contact: Some(ContactGrasp {

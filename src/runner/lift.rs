@@ -118,7 +118,7 @@ where
         armed: bool,
         stop: &AtomicBool,
     ) -> Result<(Verdict, f64, usize), ScenarioError> {
-        let (first_new, now) = self.dev.tick(&mut self.rec)?;
+        let (first_new, now) = self.dev.tick(&mut self.rec, &self.events)?;
         let v = self.monitor.feed(
             &self.rec.frames[first_new..],
             now,
@@ -405,6 +405,7 @@ mod tests {
             arm,
             markers,
             sensors,
+            live: None,
         };
         let model = threshold_model();
         let online = Online {

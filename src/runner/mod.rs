@@ -81,9 +81,18 @@ where
     M: MarkerTracker,
     S: TactileSensor,
 {
-    /// One control tick: waits, then collects what arrived. Returns the index in
-    /// `rec.frames` of the first new frame, and the time.
-    fn tick(&mut self, rec: &mut Recording) -> Result<(usize, f64), ScenarioError> {
+    /// One control tick: sends what the last tick recorded and decided (`events` so far) to
+    /// the live view if there is one, waits, then collects what arrived. Returns the index
+    /// in `rec.frames` of the first new frame, and the time.
+    fn tick(
+        &mut self,
+        rec: &mut Recording,
+        events: &[TrialEvent],
+    ) -> Result<(usize, f64), ScenarioError> {
+        if let Some(live) = &mut self.live {
+            let now = self.clock.now_s();
+            live.publish(now, &rec.frames, &rec.arrivals_s, &rec.markers, events);
+        }
         control_wait(&mut self.clock);
         let first_new = rec.frames.len();
         self.poll(rec)?;

@@ -68,7 +68,7 @@ where
         if now - t0 >= p.max_duration_s || reaction.is_some_and(|r| now >= r.time_s + p.observe_s) {
             break;
         }
-        let (first_new, now) = dev.tick(&mut rec)?;
+        let (first_new, now) = dev.tick(&mut rec, &events)?;
         let armed = reaction.is_none() && now - t0 >= SETTLE_S;
         match monitor.feed(&rec.frames[first_new..], now, armed, stop, &mut events) {
             Verdict::Continue => {}

@@ -130,6 +130,7 @@ pub fn open_real(hw: HardwareFile, limits: SafetyLimits) -> Result<RealRig, Batc
         arm: SafeArm::new(arm, limits),
         markers,
         sensors,
+        live: None,
     };
     Ok(RealRig { hw, devices })
 }
@@ -142,6 +143,7 @@ pub fn run_real_trial(
     rig: &mut RealRig,
     started_unix_s: u64,
     stop: &std::sync::atomic::AtomicBool,
+    live: Option<&crate::live::LiveView>,
 ) -> Result<Trial, BatchError> {
     let online = match (plan.mode, planned.model, planned.strategy) {
         (Mode::Online, Some(m), Some(strategy)) => Some(Online {
@@ -155,6 +157,7 @@ pub fn run_real_trial(
         parameters.insert(k.to_string(), v);
     };
     let RealRig { hw, devices } = rig;
+    devices.live = live.map(|l| l.trial(started_unix_s.saturating_mul(1_000_000_000), false));
     let max_speed = hw.hand.max_speed_per_s;
     let watch = watch(hw);
     let result = match &plan.params {

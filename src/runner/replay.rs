@@ -125,7 +125,7 @@ where
     let mut events = Vec::new();
     let (mut reaction, mut fault) = (None, None);
     while dev.clock.now_s() < p.end_s {
-        let (first_new, now) = dev.tick(&mut rec)?;
+        let (first_new, now) = dev.tick(&mut rec, &events)?;
         let armed = p.window.armed(now);
         match monitor.feed(&rec.frames[first_new..], now, armed, stop, &mut events) {
             Verdict::Continue => {}

@@ -60,6 +60,7 @@ fn safe_sim_devices(
         arm: SafeArm::new(rig.arm(), limits),
         markers: rig.marker_tracker(),
         sensors: rig.tactile_sensors(),
+        live: None,
     }
 }
 
@@ -112,6 +113,7 @@ pub fn run_sim_trial(
     models: &[(ModelFile, String)],
     started_unix_s: u64,
     stop: &std::sync::atomic::AtomicBool,
+    live: Option<&crate::live::LiveView>,
 ) -> Result<Trial, BatchError> {
     let base = SimConfig {
         seed: planned.seed,
@@ -132,6 +134,8 @@ pub fn run_sim_trial(
     let config = world_for(plan, planned)?;
     let rig = SimRig::new(config.clone())?;
     let mut devices = safe_sim_devices(&rig, &plan.safety);
+    // watched live, the simulator is held to wall-clock speed
+    devices.live = live.map(|l| l.trial(started_unix_s.saturating_mul(1_000_000_000), true));
     let max_speed = config.servo.max_speed_per_s;
     let record = match &plan.params {
         KindParams::HandRelease(p) => {

@@ -39,6 +39,9 @@ pub struct BatchRequest<'a> {
     pub rerun_faulted: bool,
     /// Run only this part of the batch's trials (simulated batches spread over processes).
     pub shard: Option<crate::shard::Shard>,
+    /// Serve each trial live as it runs; simulated trials then run one at a time, at
+    /// wall-clock speed.
+    pub live: Option<&'a crate::live::LiveView>,
 }
 
 /// The rig a batch drives: the simulator (one world per trial) or an open real rig.
@@ -231,8 +234,8 @@ pub fn run_batch(
     // hold the other cores up (measured, 160 hand releases on 2 cores: 1.73x the
     // sequential speed; one trial a core gave 1.50x). A real rig runs one trial at a time.
     let window = match rig {
-        BatchRig::Sim => 4 * rayon::current_num_threads().max(1),
-        BatchRig::Real { .. } => 1,
+        BatchRig::Sim if req.live.is_none() => 4 * rayon::current_num_threads().max(1),
+        _ => 1,
     };
     for chunk in trials.chunks(window) {
         for t in chunk {
@@ -283,7 +286,7 @@ pub fn run_batch(
                             operator_gone: !ready && !stopped,
                         });
                     }
-                    let result = run_real_trial(plan, t, &models, rig, unix, stop)
+                    let result = run_real_trial(plan, t, &models, rig, unix, stop, req.live)
                         .map_err(|e| in_trial(t, e))
                         .and_then(|trial| keep(t, &trial).map(Some));
                     let cut = matches!(result, Ok(Some(true)));
@@ -301,7 +304,7 @@ pub fn run_batch(
                     if stop.load(Ordering::Relaxed) {
                         return Ok(None);
                     }
-                    run_sim_trial(plan, t, &models, unix, stop)
+                    run_sim_trial(plan, t, &models, unix, stop, req.live)
                         .map_err(|e| in_trial(t, e))
                         .and_then(|trial| keep(t, &trial).map(Some))
                 })

@@ -1,0 +1,183 @@
+//! A live view of the rig while a batch runs: the trial log's channels, with the same
+//! schemas and messages, served over the Foxglove WebSocket protocol by the official
+//! Foxglove SDK (`foxglove`), so Foxglove (or any client of that protocol) can watch.
+//!
+//! Publishing never waits for a viewer: the SDK queues each client's messages and drops
+//! them for a client that cannot keep up, so the control loop's timing does not depend on
+//! who watches.
+
+use std::collections::HashMap;
+use std::net::SocketAddr;
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
+
+use foxglove::{RawChannel, Schema};
+use tmo_hal::{MarkerSample, PinFrame};
+
+use crate::trial::schema;
+use crate::trial::TrialEvent;
+
+#[derive(Debug, thiserror::Error)]
+pub enum LiveError {
+    #[error("cannot serve the live view on {addr}: {message}")]
+    Serve { addr: SocketAddr, message: String },
+}
+
+/// The live view's server and its channels (made as topics first appear); clones share
+/// them.
+#[derive(Clone)]
+pub struct LiveView {
+    inner: Arc<Inner>,
+}
+
+struct Inner {
+    ctx: Arc<foxglove::Context>,
+    port: u16,
+    host: String,
+    channels: Mutex<HashMap<String, Arc<RawChannel>>>,
+    // kept for as long as the view: the server stops when its handle goes
+    _server: foxglove::WebSocketServerHandle,
+}
+
+impl LiveView {
+    /// Serves on `addr` (port 0: any free port; [`LiveView::url`] says which).
+    pub fn start(addr: SocketAddr) -> Result<Self, LiveError> {
+        let ctx = foxglove::Context::new();
+        let server = foxglove::WebSocketServer::new()
+            .name("tmo")
+            .context(&ctx)
+            .bind(addr.ip().to_string(), addr.port())
+            .start_blocking()
+            .map_err(|e| LiveError::Serve {
+                addr,
+                message: e.to_string(),
+            })?;
+        Ok(Self {
+            inner: Arc::new(Inner {
+                ctx,
+                port: server.port(),
+                host: addr.ip().to_string(),
+                channels: Mutex::new(HashMap::new()),
+                _server: server,
+            }),
+        })
+    }
+
+    /// The address a Foxglove WebSocket client connects to.
+    pub fn url(&self) -> String {
+        format!("ws://{}:{}", self.inner.host, self.inner.port)
+    }
+
+    /// A publisher for one trial whose clock starts at `started_unix_ns` (the log's time
+    /// base). `pace`: hold the trial to wall-clock speed (the simulator's clock would
+    /// otherwise run thousands of times faster than anyone can watch).
+    pub fn trial(&self, started_unix_ns: u64, pace: bool) -> LivePublisher {
+        LivePublisher {
+            view: self.clone(),
+            base_ns: started_unix_ns,
+            pace: pace.then(|| (Instant::now(), None)),
+            frames: 0,
+            markers: 0,
+            events: 0,
+        }
+    }
+
+    fn channel(&self, topic: &str) -> Option<Arc<RawChannel>> {
+        let mut channels = self
+            .inner
+            .channels
+            .lock()
+            .unwrap_or_else(|e| e.into_inner());
+        if let Some(c) = channels.get(topic) {
+            return Some(c.clone());
+        }
+        let (name, text) = if topic.starts_with("/tactile/") {
+            (schema::PIN_FRAME.0, schema::PIN_FRAME.1.to_string())
+        } else if topic == "/marker" {
+            (schema::MARKER.0, schema::MARKER.1.to_string())
+        } else {
+            schema::event_channel_schema(topic)
+        };
+        let channel = self
+            .inner
+            .ctx
+            .channel_builder(topic)
+            .message_encoding("json")
+            .schema(Schema::new(name, "jsonschema", text.into_bytes()))
+            .build_raw()
+            .ok()?;
+        channels.insert(topic.to_string(), channel.clone());
+        Some(channel)
+    }
+
+    fn publish(&self, topic: &str, message: &[u8], log_time_ns: u64) {
+        if let Some(c) = self.channel(topic) {
+            c.log_with_meta(
+                message,
+                foxglove::PartialMetadata {
+                    log_time: Some(log_time_ns),
+                },
+            );
+        }
+    }
+}
+
+/// Publishes one trial's messages as they are recorded.
+pub struct LivePublisher {
+    view: LiveView,
+    base_ns: u64,
+    /// Wall-clock instant and trial time of the first tick, when pacing.
+    pace: Option<(Instant, Option<f64>)>,
+    /// How many of the recording's frames and markers and the runner's events went out.
+    frames: usize,
+    markers: usize,
+    events: usize,
+}
+
+impl LivePublisher {
+    fn at(&self, t: f64) -> u64 {
+        self.base_ns
+            .saturating_add((t.max(0.0) * 1e9).round() as u64)
+    }
+
+    /// Sends the frames (each at its arrival time), markers and events recorded since the
+    /// last call; then, when pacing, waits until wall-clock time catches up with `now`.
+    /// Runners call it before they wait for the next tick, so a tick's frames go out after
+    /// the runner has acted on them, never in the way of a reaction.
+    pub fn publish(
+        &mut self,
+        now: f64,
+        frames: &[PinFrame],
+        arrivals_s: &[f64],
+        markers: &[MarkerSample],
+        events: &[TrialEvent],
+    ) {
+        let new = frames.get(self.frames..).unwrap_or_default();
+        for (f, arrived) in new
+            .iter()
+            .zip(arrivals_s.get(self.frames..).unwrap_or_default())
+        {
+            let body = serde_json::to_vec(&schema::PinFrameOut::from(f)).expect("frames serialise");
+            self.view
+                .publish(&format!("/tactile/{}", f.sensor), &body, self.at(*arrived));
+        }
+        self.frames = frames.len();
+        for m in markers.get(self.markers..).unwrap_or_default() {
+            let body = serde_json::to_vec(m).expect("samples serialise");
+            self.view.publish("/marker", &body, self.at(m.time_s));
+        }
+        self.markers = markers.len();
+        for e in events.get(self.events..).unwrap_or_default() {
+            let body = serde_json::to_vec(e).expect("events serialise");
+            self.view.publish(&e.topic, &body, self.at(e.time_s));
+        }
+        self.events = events.len();
+        if let Some((wall0, trial0)) = &mut self.pace {
+            let t0 = *trial0.get_or_insert(now);
+            let due = Duration::from_secs_f64((now - t0).max(0.0));
+            if let Some(wait) = due.checked_sub(wall0.elapsed()) {
+                std::thread::sleep(wait);
+            }
+        }
+    }
+}
