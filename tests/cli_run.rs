@@ -166,7 +166,7 @@ fn a_live_viewer_receives_pin_frames_while_the_batch_runs() {
             "run",
             "release.toml",
             "--repeat",
-            "1",
+            "2",
             "--out",
             "live",
             "--live",
