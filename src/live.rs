@@ -23,6 +23,20 @@ pub enum LiveError {
     Serve { addr: SocketAddr, message: String },
 }
 
+/// The channels the runners write (three fingertips at most).
+const ANNOUNCED_TOPICS: [&str; 10] = [
+    "/tactile/0",
+    "/tactile/1",
+    "/tactile/2",
+    "/marker",
+    "/phase",
+    "/command/hand",
+    "/command/arm",
+    "/classifier",
+    "/detector",
+    "/fault",
+];
+
 /// The live view's server and its channels (made as topics first appear); clones share
 /// them.
 #[derive(Clone)]
@@ -52,7 +66,7 @@ impl LiveView {
                 addr,
                 message: e.to_string(),
             })?;
-        Ok(Self {
+        let view = Self {
             inner: Arc::new(Inner {
                 ctx,
                 port: server.port(),
@@ -60,7 +74,14 @@ impl LiveView {
                 channels: Mutex::new(HashMap::new()),
                 _server: server,
             }),
-        })
+        };
+        // Every channel a runner writes exists before a viewer can connect: a viewer sees
+        // the whole list at once, and no advertisement can cross its connecting (a channel
+        // made while a client was connecting was never advertised to it).
+        for topic in ANNOUNCED_TOPICS {
+            view.channel(topic);
+        }
+        Ok(view)
     }
 
     /// The address a Foxglove WebSocket client connects to.

@@ -191,6 +191,11 @@ fn a_live_viewer_receives_pin_frames_while_the_batch_runs() {
         .headers_mut()
         .insert("Sec-WebSocket-Protocol", "foxglove.sdk.v1".parse().unwrap());
     let (mut ws, _) = tungstenite::connect(request).unwrap();
+    // a stalled stream fails the test instead of hanging it
+    if let tungstenite::stream::MaybeTlsStream::Plain(s) = ws.get_ref() {
+        s.set_read_timeout(Some(std::time::Duration::from_secs(30)))
+            .unwrap();
+    }
     let mut channel = None;
     let mut frames = Vec::new();
     let started = std::time::Instant::now();
