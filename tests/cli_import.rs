@@ -116,48 +116,28 @@ fn imported_taxel_recordings_train_evaluate_sweep_and_replay() {
     assert!(scores.iter().all(|s| s.1 > 0.6), "{scores:?}");
 
     // the grid's slip windows in seconds: 0.34 s and 0.51 s are 20 and 30 frames at 58.8 Hz
-    let swept = tmo(
-        d,
-        &[
-            "sweep",
-            "xela/train",
-            "--test",
-            "xela/test",
-            "--classifiers",
-            "threshold,logreg",
-            "--n-slip-s",
-            "0.34,0.51",
-            "--downsample",
-            "0.1",
-            "--out",
-            "sweep.csv",
-        ],
-    );
+    let sweep = [
+        "sweep",
+        "xela/train",
+        "--test",
+        "xela/test",
+        "--classifiers",
+        "threshold,logreg",
+        "--n-slip-s",
+        "0.34,0.51",
+        "--downsample",
+        "0.1",
+        "--out",
+        "sweep.csv",
+    ];
+    let swept = tmo(d, &sweep);
     let out = ok(&swept);
     let said = String::from_utf8_lossy(&swept.stderr);
     assert!(said.contains("n_slip [20, 30] frames at 58.8 Hz"), "{said}");
     let rows = std::fs::read_to_string(d.join("sweep.csv")).unwrap();
     assert_eq!(rows.lines().count(), 1 + 2 * 2, "{out}\n{rows}");
     // --json: the same grid (finished, so resumed at once), its best cells as JSON alone
-    let out = ok(&tmo(
-        d,
-        &[
-            "sweep",
-            "xela/train",
-            "--test",
-            "xela/test",
-            "--classifiers",
-            "threshold,logreg",
-            "--n-slip-s",
-            "0.34,0.51",
-            "--downsample",
-            "0.1",
-            "--out",
-            "sweep.csv",
-            "--resume",
-            "--json",
-        ],
-    ));
+    let out = ok(&tmo(d, &[&sweep[..], &["--resume", "--json"]].concat()));
     let v: serde_json::Value = serde_json::from_str(&out).expect("stdout is JSON alone");
     assert_eq!(v["cells"], 4, "{v}");
     let best = v["best"].as_array().unwrap();

@@ -102,18 +102,16 @@ fn run_json_is_the_summary_as_one_json_object() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     setup(d);
-    let stdout = ok(&tmo(
-        d,
-        &[
-            "run",
-            "release.toml",
-            "--repeat",
-            "1",
-            "--out",
-            "b",
-            "--json",
-        ],
-    ));
+    let run = [
+        "run",
+        "release.toml",
+        "--repeat",
+        "1",
+        "--out",
+        "b",
+        "--json",
+    ];
+    let stdout = ok(&tmo(d, &run));
     let v: serde_json::Value = serde_json::from_str(&stdout).expect("stdout is JSON alone");
     assert_eq!(v["kind"], "hand_release");
     assert_eq!(v["trials"], v["ran"]);
@@ -131,20 +129,8 @@ fn run_json_is_the_summary_as_one_json_object() {
         "{v}"
     );
     // a second run finds every trial there
-    let again: serde_json::Value = serde_json::from_str(&ok(&tmo(
-        d,
-        &[
-            "run",
-            "release.toml",
-            "--repeat",
-            "1",
-            "--out",
-            "b",
-            "--resume",
-            "--json",
-        ],
-    )))
-    .unwrap();
+    let again: serde_json::Value =
+        serde_json::from_str(&ok(&tmo(d, &[&run[..], &["--resume"]].concat()))).unwrap();
     assert_eq!(again["ran"], 0);
     assert_eq!(again["already_there"], v["trials"]);
 }

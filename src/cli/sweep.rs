@@ -408,6 +408,36 @@ pub fn sweep(args: SweepArgs) -> Result<()> {
     )
 }
 
+/// A classifier's best cell, and how many cells it has and their mean macro F1.
+struct BestCell<'r> {
+    row: &'r SweepRow,
+    cells: usize,
+    mean_macro_f1: f64,
+}
+
+/// Each classifier's best cell, in the sweep's classifier order (one pass per classifier).
+fn best_cells<'r>(provenance: &SweepProvenance, rows: &'r [SweepRow]) -> Vec<BestCell<'r>> {
+    provenance
+        .classifiers
+        .iter()
+        .filter_map(|kind| {
+            let of_kind: Vec<&SweepRow> = rows
+                .iter()
+                .filter(|r| r.classifier == kind.name())
+                .collect();
+            let row = *of_kind
+                .iter()
+                .max_by(|a, b| a.macro_f1.total_cmp(&b.macro_f1))?;
+            Some(BestCell {
+                row,
+                cells: of_kind.len(),
+                mean_macro_f1: of_kind.iter().map(|r| r.macro_f1).sum::<f64>()
+                    / of_kind.len() as f64,
+            })
+        })
+        .collect()
+}
+
 /// Writes the provenance beside the CSV, prints the best cells and draws the heatmaps.
 fn write_outputs(
     out: &std::path::Path,
@@ -420,29 +450,21 @@ fn write_outputs(
     std::fs::write(&meta_path, serde_json::to_string_pretty(provenance)?)
         .with_context(|| format!("cannot write {}", meta_path.display()))?;
     let figures = draw_heatmaps(out, provenance, rows)?;
+    let best = best_cells(provenance, rows);
     if json {
-        let best: Vec<serde_json::Value> = provenance
-            .classifiers
+        let best: Vec<serde_json::Value> = best
             .iter()
-            .filter_map(|kind| {
-                let of_kind: Vec<&SweepRow> = rows
-                    .iter()
-                    .filter(|r| r.classifier == kind.name())
-                    .collect();
-                let best = of_kind
-                    .iter()
-                    .max_by(|a, b| a.macro_f1.total_cmp(&b.macro_f1))?;
-                let mean = of_kind.iter().map(|r| r.macro_f1).sum::<f64>() / of_kind.len() as f64;
-                Some(serde_json::json!({
-                    "classifier": best.classifier,
-                    "best_macro_f1": best.macro_f1,
-                    "n_slip": best.n_slip,
-                    "downsample": best.downsample,
-                    "c": best.c,
-                    "gamma": best.gamma,
-                    "cells": of_kind.len(),
-                    "mean_macro_f1": mean,
-                }))
+            .map(|b| {
+                serde_json::json!({
+                    "classifier": b.row.classifier,
+                    "best_macro_f1": b.row.macro_f1,
+                    "n_slip": b.row.n_slip,
+                    "downsample": b.row.downsample,
+                    "c": b.row.c,
+                    "gamma": b.row.gamma,
+                    "cells": b.cells,
+                    "mean_macro_f1": b.mean_macro_f1,
+                })
             })
             .collect();
         let mut outputs = vec![out.to_path_buf(), meta_path];
@@ -461,33 +483,21 @@ fn write_outputs(
         rows.len(),
         seconds
     );
-    for kind in &provenance.classifiers {
-        let best = rows
-            .iter()
-            .filter(|r| r.classifier == kind.name())
-            .max_by(|a, b| a.macro_f1.total_cmp(&b.macro_f1));
-        if let Some(r) = best {
-            let mean = rows
-                .iter()
-                .filter(|x| x.classifier == kind.name())
-                .map(|x| x.macro_f1)
-                .sum::<f64>()
-                / rows.iter().filter(|x| x.classifier == kind.name()).count() as f64;
-            let hyper = match (r.c, r.gamma) {
-                (Some(c), Some(gamma)) => format!(" (C {c:.4}, gamma {gamma:.5})"),
-                (Some(c), None) => format!(" (C {c:.4})"),
-                _ => String::new(),
-            };
-            println!(
-                "  {:<10} {:.3} at n_slip {:>2}, d {}{hyper}; mean over {} cells {:.3}",
-                r.classifier,
-                r.macro_f1,
-                r.n_slip,
-                r.downsample,
-                rows.iter().filter(|x| x.classifier == kind.name()).count(),
-                mean
-            );
-        }
+    for BestCell {
+        row: r,
+        cells,
+        mean_macro_f1,
+    } in &best
+    {
+        let hyper = match (r.c, r.gamma) {
+            (Some(c), Some(gamma)) => format!(" (C {c:.4}, gamma {gamma:.5})"),
+            (Some(c), None) => format!(" (C {c:.4})"),
+            _ => String::new(),
+        };
+        println!(
+            "  {:<10} {:.3} at n_slip {:>2}, d {}{hyper}; mean over {cells} cells {mean_macro_f1:.3}",
+            r.classifier, r.macro_f1, r.n_slip, r.downsample,
+        );
     }
     println!("wrote {} and {}", out.display(), meta_path.display());
     if !figures.is_empty() {

@@ -786,14 +786,19 @@ pub(crate) mod tests {
         assert!(err.contains("t.mcap"), "{err}");
     }
 
+    /// Where the first chunk record's body starts in a log.
+    fn first_chunk_body(bytes: &[u8]) -> usize {
+        let mut at = 8;
+        while bytes[at] != 0x06 {
+            at += 9 + u64::from_le_bytes(bytes[at + 1..at + 9].try_into().unwrap()) as usize;
+        }
+        at + 9
+    }
+
     /// Where the first chunk's compressed records lie in a log.
     fn first_chunk_records(bytes: &[u8]) -> std::ops::Range<usize> {
         let u64_at = |at: usize| u64::from_le_bytes(bytes[at..at + 8].try_into().unwrap());
-        let mut at = 8;
-        while bytes[at] != 0x06 {
-            at += 9 + u64_at(at + 1) as usize;
-        }
-        let body = at + 9;
+        let body = first_chunk_body(bytes);
         let compression_len =
             u32::from_le_bytes(bytes[body + 28..body + 32].try_into().unwrap()) as usize;
         let records_len_at = body + 32 + compression_len;
@@ -824,11 +829,8 @@ pub(crate) mod tests {
         write_trial(&path, &sample_trial()).unwrap();
         let mut bytes = fs::read(&path).unwrap();
         // the uncompressed size sits 16 bytes into the first chunk's body
-        let mut at = 8;
-        while bytes[at] != 0x06 {
-            at += 9 + u64::from_le_bytes(bytes[at + 1..at + 9].try_into().unwrap()) as usize;
-        }
-        bytes[at + 9 + 16..at + 9 + 24].copy_from_slice(&(1u64 << 50).to_le_bytes());
+        let size_at = first_chunk_body(&bytes) + 16;
+        bytes[size_at..size_at + 8].copy_from_slice(&(1u64 << 50).to_le_bytes());
         fs::write(&path, &bytes).unwrap();
         let err = read_trial(&path).unwrap_err().to_string();
         assert!(
