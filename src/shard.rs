@@ -2,8 +2,8 @@
 
 /// A deterministic part of a grid, for running one sweep or batch over several processes
 /// or cluster jobs: shard `index` of `count` (1-based) takes the items at positions
-/// `index - 1`, `index - 1 + count`, ... A sweep's cells come costliest first and a batch's
-/// trials cycle through its grid, so every shard gets a like share of the work.
+/// `index - 1`, `index - 1 + count`, ... A sweep's chains of cells come costliest first and
+/// a batch's trials cycle through its grid, so every shard gets a like share of the work.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Shard {
     pub index: usize,

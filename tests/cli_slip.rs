@@ -123,9 +123,9 @@ fn three_shards_merged_give_the_sweep_one_run_gives() {
         "--classifiers",
         "logreg,threshold",
         "--downsample",
-        "0.5,1.0",
+        "0.5,0.75,1.0",
         "--n-slip",
-        "3:5",
+        "3:4",
         "--C",
         "1",
     ];

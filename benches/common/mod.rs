@@ -1,6 +1,6 @@
 //! Rows the SVM benches fit on: 40 collect-mode hand releases on the simulator, five
 //! objects, features and labels as `tmo train` makes them (n_slip 13), static rows
-//! down-sampled to 0.4.
+//! down-sampled to 0.4; or every row, for benches that narrow and down-sample per cell.
 
 use tmo::collect::{collect_trial, trial_seed, CollectRig, CollectSpec};
 use tmo::slip::dataset::{Dataset, LabelSpec};
@@ -9,7 +9,15 @@ use tmo::slip::labels::OnsetSpec;
 use tmo_hal::sim::SimConfig;
 
 /// `grasp_deg(i)` is trial `i`'s hand roll; `seed` the batch seed.
+#[allow(dead_code)] // each bench compiles this module on its own and uses part of it
 pub fn hand_release_rows(seed: u64, grasp_deg: impl Fn(u64) -> f64) -> Dataset {
+    hand_release_dataset(seed, 13, grasp_deg).downsample_static(0.4, 1)
+}
+
+/// Every row of the 40 trials, labelled with `n_slip` slip frames (narrowed per cell with
+/// [`Dataset::with_n_slip`], as a sweep does).
+#[allow(dead_code)] // each bench compiles this module on its own and uses part of it
+pub fn hand_release_dataset(seed: u64, n_slip: usize, grasp_deg: impl Fn(u64) -> f64) -> Dataset {
     let objects = [
         "crisps_can",
         "windex_bottle",
@@ -33,9 +41,8 @@ pub fn hand_release_rows(seed: u64, grasp_deg: impl Fn(u64) -> f64) -> Dataset {
         &trials,
         &FeatureSpec::new(30),
         &LabelSpec {
-            n_slip: 13,
+            n_slip,
             onset: OnsetSpec::default(),
         },
     )
-    .downsample_static(0.4, 1)
 }

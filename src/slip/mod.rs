@@ -17,6 +17,7 @@ pub mod sweep;
 pub mod sweep_file;
 pub mod threshold;
 pub mod tuning;
+pub mod warm;
 
 /// The two classes of a frame.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize)]

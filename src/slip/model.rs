@@ -13,6 +13,7 @@ use super::metrics::{Confusion, Scores};
 use super::scaler::Scaler;
 use super::svm::{SvmModel, SvmParams};
 use super::threshold::ThresholdModel;
+use super::warm::WarmStart;
 use super::Class;
 
 pub const MODEL_FORMAT: &str = "tmo-slip-model";
@@ -111,11 +112,25 @@ impl SensorModel {
         kind: ClassifierKind,
         hyper: Hyperparameters,
     ) -> Result<Self, TrainError> {
+        Self::fit_from(data, sensor, kind, hyper, None).map(|(model, _)| model)
+    }
+
+    /// [`Self::fit`] started from a neighbouring fit's solution (see [`WarmStart`]; a start
+    /// of another classifier is ignored), returning this fit's solution to start the next
+    /// (`None` for the threshold and the linear SVM, which start from their own centre).
+    pub fn fit_from(
+        data: &Dataset,
+        sensor: Option<u8>,
+        kind: ClassifierKind,
+        hyper: Hyperparameters,
+        start: Option<&WarmStart>,
+    ) -> Result<(Self, Option<WarmStart>), TrainError> {
         if data.is_empty() {
             return Err(TrainError::Empty {
                 for_sensor: sensor.map_or(String::new(), |s| format!(" for sensor {s}")),
             });
         }
+        let mut next = None;
         let (scaler, classifier) = match kind {
             ClassifierKind::Threshold => {
                 let rows: Vec<&[f32]> = (0..data.len()).map(|i| data.row(i)).collect();
@@ -128,14 +143,22 @@ impl SensorModel {
                 let scaler = Scaler::fit(data.dim, &data.x);
                 let x = scaler.transform(&data.x);
                 let classifier = match kind {
-                    ClassifierKind::SvmRbf => Classifier::Svm(
-                        SvmParams {
+                    ClassifierKind::SvmRbf => {
+                        let alpha = start.and_then(|s| s.svm_alpha_for(data));
+                        let (model, alpha) = SvmParams {
                             max_iterations: hyper.max_iterations,
                             ..SvmParams::rbf(hyper.c, hyper.gamma)
                         }
                         .check()?
-                        .fit(data.dim, &x, &data.y)?,
-                    ),
+                        .fit_from(
+                            data.dim,
+                            &x,
+                            &data.y,
+                            alpha.as_deref(),
+                        )?;
+                        next = Some(WarmStart::svm(data, &alpha));
+                        Classifier::Svm(model)
+                    }
                     ClassifierKind::SvmLinear => Classifier::Svm(
                         SvmParams {
                             max_iterations: hyper.max_iterations,
@@ -144,23 +167,31 @@ impl SensorModel {
                         .check()?
                         .fit(data.dim, &x, &data.y)?,
                     ),
-                    ClassifierKind::Logreg => Classifier::LogReg(
-                        LogRegParams::new(hyper.c)
-                            .check()?
-                            .fit(data.dim, &x, &data.y)?,
-                    ),
+                    ClassifierKind::Logreg => {
+                        let model = LogRegParams::new(hyper.c).check()?.fit_from(
+                            data.dim,
+                            &x,
+                            &data.y,
+                            start.and_then(WarmStart::logreg_theta),
+                        )?;
+                        let mut theta = model.weights.clone();
+                        theta.push(model.intercept);
+                        next = Some(WarmStart::LogReg { theta });
+                        Classifier::LogReg(model)
+                    }
                     ClassifierKind::Threshold => unreachable!("handled above"),
                 };
                 (Some(scaler), classifier)
             }
         };
-        Ok(Self {
+        let model = Self {
             sensor,
             scaler,
             classifier,
             training_rows: data.len(),
             training_scores: Scores::default(),
-        })
+        };
+        Ok((model, next))
     }
 
     /// [`Self::fit`], and the model's scores on its own training rows (kept in a model file).
@@ -736,6 +767,42 @@ pub fn train_models(
     seed: u64,
 ) -> Result<Vec<SensorModel>, TrainError> {
     fit_models(data, kind, hyper, scope, downsample, seed, SensorModel::fit)
+}
+
+/// [`train_models`] with each model's fit started from `starts` (by position: the global
+/// model, or the sensors in order; see [`WarmStart`]), returning the fits' solutions in the
+/// same order to start the next.
+pub fn train_models_from(
+    data: &Dataset,
+    kind: ClassifierKind,
+    hyper: Hyperparameters,
+    scope: Scope,
+    downsample: f64,
+    seed: u64,
+    starts: &[Option<WarmStart>],
+) -> Result<(Vec<SensorModel>, Vec<Option<WarmStart>>), TrainError> {
+    let parts: Vec<(Option<u8>, Dataset)> = match scope {
+        Scope::Global => vec![(None, data.downsample_static(downsample, seed))],
+        Scope::Local => data
+            .sensors()
+            .into_iter()
+            .map(|s| {
+                (
+                    Some(s),
+                    data.sensor_only(s).downsample_static(downsample, seed),
+                )
+            })
+            .collect(),
+    };
+    parts
+        .iter()
+        .enumerate()
+        .map(|(k, (sensor, rows))| {
+            let start = starts.get(k).and_then(Option::as_ref);
+            SensorModel::fit_from(rows, *sensor, kind, hyper, start)
+        })
+        .collect::<Result<Vec<_>, _>>()
+        .map(|fits| fits.into_iter().unzip())
 }
 
 type Fit =

@@ -3,15 +3,21 @@
 //! searched per cell on the training trials only) and score on every row of the test trials.
 //!
 //! Trials are labelled once with the largest `n_slip` and narrowed per cell
-//! ([`Dataset::with_n_slip`]); cells run in parallel, the costliest first.
+//! ([`Dataset::with_n_slip`]); cells run in chains ([`SweepSpec::chains`]), the chains in
+//! parallel, the costliest first.
 
-use std::time::Instant;
+use std::collections::HashSet;
+use std::sync::atomic::Ordering;
 
 use rayon::prelude::*;
+use std::time::Instant;
 
 use super::dataset::{Dataset, Scope};
-use super::model::{score_models, train_models, ClassifierKind, Hyperparameters, TrainError};
+use super::model::{
+    score_models, train_models_from, ClassifierKind, Hyperparameters, SensorModel, TrainError,
+};
 use super::tuning::{self, TuneError, TuneSpec};
+use super::warm::WarmStart;
 
 /// How a cell gets its hyperparameters.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -66,9 +72,12 @@ pub struct Cell {
     pub downsample: f64,
 }
 
+/// A cell as a results file names it: classifier, n_slip, d as written.
+pub type CellKey = (String, usize, String);
+
 impl Cell {
     /// Identifies the cell in a results file (d rounded as written there).
-    pub fn key(&self) -> (String, usize, String) {
+    pub fn key(&self) -> CellKey {
         (
             self.classifier.name().to_string(),
             self.n_slip,
@@ -189,6 +198,45 @@ impl SweepSpec {
         cells
     }
 
+    /// The grid as chains of cells that run in order, each cell's fits started from the
+    /// previous cell's solutions (see [`super::warm`]). With fixed hyperparameters the
+    /// logistic regression's cells at one `d` are a chain, `n_slip` rising: their training
+    /// rows are nested, its optimum is unique, and a start from the previous cell took 0.52
+    /// of a cold start's time (`cargo bench --bench warm_start`). Every other cell is a chain
+    /// of its own: the RBF SVM's start from its neighbour took 0.76 of the time at n_slip
+    /// 12-15 in that bench but 1.03 over the README grid's first 72 RBF cells (the start's
+    /// kernel rows cost as much as it saves while two fits share the memory bus, and a cell
+    /// at low n_slip differs from the one before by up to twice its slip rows), and a search
+    /// gives neighbouring cells different hyperparameters. Costliest chain first. A chain
+    /// runs whole in one shard and is resumed from its start, so that shards and resumed
+    /// sweeps give the cells a single run gives.
+    pub fn chains(&self) -> Vec<Vec<Cell>> {
+        let cells = self.cells();
+        let chained = |c: &Cell| {
+            c.classifier == ClassifierKind::Logreg && matches!(self.hyper, HyperChoice::Fixed(_))
+        };
+        let mut chains: Vec<Vec<Cell>> = Vec::new();
+        for cell in cells {
+            let same = |c: &Cell| {
+                chained(c)
+                    && c.classifier == cell.classifier
+                    && c.downsample.to_bits() == cell.downsample.to_bits()
+            };
+            match chains.iter_mut().find(|chain| same(&chain[0])) {
+                Some(chain) => chain.push(cell),
+                None => chains.push(vec![cell]),
+            }
+        }
+        let cost = |chain: &Vec<Cell>| -> f64 {
+            chain.iter().map(|c| self.cell_cost(c, 1000, 100_000)).sum()
+        };
+        for chain in &mut chains {
+            chain.sort_by_key(|c| c.n_slip);
+        }
+        chains.sort_by(|a, b| cost(b).total_cmp(&cost(a)));
+        chains
+    }
+
     /// Each of `cells`' cost ([`Self::cell_cost`]) on the training set `train`, by the key a
     /// result row carries, for progress that advances by cost.
     pub fn costs(&self, cells: &[Cell], train: &Dataset) -> CellCosts {
@@ -261,17 +309,24 @@ pub fn sort_rows(rows: &mut [SweepRow], classifiers: &[String]) {
 }
 
 /// Trains and scores one cell.
-pub fn run_cell(
+/// A cell's models, fitted on its training rows.
+struct FittedCell {
+    models: Vec<SensorModel>,
+    hyper: Hyperparameters,
+    cv_macro_f1: Option<f64>,
+    train_rows: usize,
+    train_slip_rows: usize,
+}
+
+/// Fits one cell's models, each started from `starts` (the previous cell's solutions in its
+/// chain; empty for a cold start); returns them with their own solutions.
+fn fit_cell(
     train: &Dataset,
-    test: &Dataset,
     spec: &SweepSpec,
     cell: Cell,
-) -> Result<SweepRow, SweepError> {
-    let started = Instant::now();
+    starts: &[Option<WarmStart>],
+) -> Result<(FittedCell, Vec<Option<WarmStart>>), SweepError> {
     let train = train
-        .with_n_slip(cell.n_slip)
-        .ok_or(SweepError::NotFromTrials)?;
-    let test = test
         .with_n_slip(cell.n_slip)
         .ok_or(SweepError::NotFromTrials)?;
     let (hyper, cv_macro_f1) = match (spec.hyper, cell.classifier) {
@@ -309,19 +364,40 @@ pub fn run_cell(
             (h, Some(best))
         }
     };
-    let models = train_models(
+    let (models, next) = train_models_from(
         &train,
         cell.classifier,
         hyper,
         spec.scope,
         cell.downsample,
         spec.seed,
+        starts,
     )
     .map_err(|source| SweepError::Train { cell, source })?;
-    let (s, _) = score_models(&models, spec.scope, &test)
+    let fitted = FittedCell {
+        train_rows: models.iter().map(|m| m.training_rows).sum(),
+        train_slip_rows: train.count(super::Class::Slip),
+        models,
+        hyper,
+        cv_macro_f1,
+    };
+    Ok((fitted, next))
+}
+
+/// Scores a fitted cell on every test row; `started` is when the cell's work began.
+fn score_cell(
+    fitted: &FittedCell,
+    test: &Dataset,
+    spec: &SweepSpec,
+    cell: Cell,
+    started: Instant,
+) -> Result<SweepRow, SweepError> {
+    let test = test
+        .with_n_slip(cell.n_slip)
+        .ok_or(SweepError::NotFromTrials)?;
+    let (s, _) = score_models(&fitted.models, spec.scope, &test)
         .map_err(|sensor| SweepError::Sensor { cell, sensor })?;
-    let train_rows: usize = models.iter().map(|m| m.training_rows).sum();
-    let train_slip_rows = train.count(super::Class::Slip);
+    let hyper = fitted.hyper;
     let (key_classifier, _, key_d) = cell.key();
     Ok(SweepRow {
         classifier: key_classifier,
@@ -330,9 +406,9 @@ pub fn run_cell(
         downsample: key_d,
         c: (cell.classifier != ClassifierKind::Threshold).then_some(hyper.c),
         gamma: (cell.classifier == ClassifierKind::SvmRbf).then_some(hyper.gamma),
-        cv_macro_f1,
-        train_rows,
-        train_slip_rows,
+        cv_macro_f1: fitted.cv_macro_f1,
+        train_rows: fitted.train_rows,
+        train_slip_rows: fitted.train_slip_rows,
         test_rows: test.len(),
         macro_f1: s.macro_f1,
         slip_precision: s.slip.precision,
@@ -349,41 +425,68 @@ pub fn run_cell(
     })
 }
 
-/// Runs `cells` in parallel; `on_done` sees every finished row at once (to save or count it).
-/// The first failing cell stops the sweep; rows already passed to `on_done` stay valid.
+/// Runs the whole grid of `spec` ([`SweepSpec::chains`]) in parallel; `on_done` sees every
+/// finished row at once (to save or count it).
 pub fn run_sweep(
     train: &Dataset,
     test: &Dataset,
     spec: &SweepSpec,
-    cells: &[Cell],
     on_done: impl Fn(&SweepRow) + Sync,
 ) -> Result<Vec<SweepRow>, SweepError> {
-    run_sweep_until(train, test, spec, cells, None, on_done)
+    run_chains_until(
+        train,
+        test,
+        spec,
+        &spec.chains(),
+        &HashSet::new(),
+        None,
+        on_done,
+    )
 }
 
-/// [`run_sweep`] that starts no more cells once `stop` is set (cells in flight finish and
-/// reach `on_done`); then it returns [`SweepError::Stopped`].
-pub fn run_sweep_until(
+/// Runs `chains` in parallel, each chain's cells in order, and returns the rows of the cells
+/// not in `finished`. A finished cell before an unfinished one in its chain is fitted again
+/// (not scored), so the cells after it start where a run without the interruption started
+/// them. Starts no more cells once `stop` is set (cells in flight finish and reach
+/// `on_done`); then it returns [`SweepError::Stopped`]. The first failing cell stops the
+/// sweep; rows already passed to `on_done` stay valid.
+pub fn run_chains_until(
     train: &Dataset,
     test: &Dataset,
     spec: &SweepSpec,
-    cells: &[Cell],
+    chains: &[Vec<Cell>],
+    finished: &HashSet<CellKey>,
     stop: Option<&std::sync::atomic::AtomicBool>,
     on_done: impl Fn(&SweepRow) + Sync,
 ) -> Result<Vec<SweepRow>, SweepError> {
     spec.check()?;
-    cells
-        .par_iter()
-        .with_max_len(1)
-        .map(|&cell| {
-            if stop.is_some_and(|s| s.load(std::sync::atomic::Ordering::Relaxed)) {
+    let run_chain = |chain: &[Cell]| -> Result<Vec<SweepRow>, SweepError> {
+        let mut rows = Vec::new();
+        let Some(last) = chain.iter().rposition(|c| !finished.contains(&c.key())) else {
+            return Ok(rows);
+        };
+        let mut starts = Vec::new();
+        for &cell in &chain[..=last] {
+            if stop.is_some_and(|s| s.load(Ordering::Relaxed)) {
                 return Err(SweepError::Stopped);
             }
-            let row = run_cell(train, test, spec, cell)?;
-            on_done(&row);
-            Ok(row)
-        })
-        .collect()
+            let started = Instant::now();
+            let (fitted, next) = fit_cell(train, spec, cell, &starts)?;
+            starts = next;
+            if !finished.contains(&cell.key()) {
+                let row = score_cell(&fitted, test, spec, cell, started)?;
+                on_done(&row);
+                rows.push(row);
+            }
+        }
+        Ok(rows)
+    };
+    let rows: Vec<Vec<SweepRow>> = chains
+        .par_iter()
+        .with_max_len(1)
+        .map(|chain| run_chain(chain))
+        .collect::<Result<_, SweepError>>()?;
+    Ok(rows.into_iter().flatten().collect())
 }
 
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -475,7 +578,14 @@ mod tests {
         let mut joined = Vec::new();
         for index in 1..=3 {
             let shard: Shard = format!("{index}/3").parse().unwrap();
-            let part = shard.select(all.clone());
+            // whole chains: one classifier at one d, n_slip rising
+            let chains = shard.select(spec.chains());
+            for chain in &chains {
+                assert!(chain.windows(2).all(|w| w[0].classifier == w[1].classifier
+                    && w[0].downsample == w[1].downsample
+                    && w[0].n_slip < w[1].n_slip));
+            }
+            let part: Vec<Cell> = chains.into_iter().flatten().collect();
             assert_eq!(part.len(), 8);
             // each shard gets its share of the costly RBF cells
             let rbf = part
@@ -493,6 +603,41 @@ mod tests {
             assert!(bad.parse::<Shard>().is_err(), "{bad}");
         }
         assert_eq!("2/8".parse::<Shard>().unwrap().to_string(), "2/8");
+    }
+
+    #[test]
+    fn fixed_hyperparameters_chain_the_logregs_cells_by_n_slip_and_a_search_does_not() {
+        let mut spec = SweepSpec {
+            classifiers: vec![ClassifierKind::Logreg, ClassifierKind::SvmRbf],
+            downsample: vec![0.5, 1.0],
+            n_slip: vec![3, 1, 2],
+            scope: Scope::Global,
+            hyper: HyperChoice::Fixed(Hyperparameters::default()),
+            seed: 0,
+        };
+        let chains = spec.chains();
+        // two LogReg chains and six RBF cells on their own
+        assert_eq!(chains.len(), 8);
+        // costliest first: the RBF SVM at d 1
+        assert_eq!(chains[0][0].classifier, ClassifierKind::SvmRbf);
+        assert_eq!(chains[0][0].downsample, 1.0);
+        for chain in &chains {
+            match chain[0].classifier {
+                ClassifierKind::Logreg => assert_eq!(
+                    chain.iter().map(|c| c.n_slip).collect::<Vec<_>>(),
+                    vec![1, 2, 3]
+                ),
+                _ => assert_eq!(chain.len(), 1),
+            }
+        }
+        spec.hyper = HyperChoice::Search {
+            iterations: 2,
+            folds: 2,
+            ranges: tuning::SearchRanges::default(),
+            max_fit_rows: None,
+        };
+        assert!(spec.chains().iter().all(|c| c.len() == 1));
+        assert_eq!(spec.chains().len(), 12);
     }
 
     #[test]
@@ -618,7 +763,7 @@ mod tests {
             seed: 1,
         };
         let seen = std::sync::atomic::AtomicUsize::new(0);
-        let rows = run_sweep(&train, &test, &spec, &spec.cells(), |_| {
+        let rows = run_sweep(&train, &test, &spec, |_| {
             seen.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
         })
         .unwrap();

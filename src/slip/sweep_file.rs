@@ -11,7 +11,7 @@ use std::sync::atomic::AtomicBool;
 use std::sync::Mutex;
 
 use super::dataset::Dataset;
-use super::sweep::{run_sweep_until, sort_rows, Cell, Shard, SweepError, SweepRow, SweepSpec};
+use super::sweep::{run_chains_until, sort_rows, Cell, Shard, SweepError, SweepRow, SweepSpec};
 
 #[derive(Debug, thiserror::Error)]
 pub enum SweepFileError {
@@ -218,13 +218,16 @@ pub fn run_to_file(
         Vec::new()
     };
     let finished: HashSet<_> = done.iter().map(SweepRow::key).collect();
-    let grid = match target.shard {
-        Some(shard) => shard.select(spec.cells()),
-        None => spec.cells(),
+    // A shard runs whole chains, so that its cells start as a single run starts them.
+    let chains = match target.shard {
+        Some(shard) => shard.select(spec.chains()),
+        None => spec.chains(),
     };
-    let cells: Vec<_> = grid
-        .into_iter()
+    let cells: Vec<_> = chains
+        .iter()
+        .flatten()
         .filter(|c| !finished.contains(&c.key()))
+        .copied()
         .collect();
     if let Some(dir) = out.parent().filter(|d| !d.as_os_str().is_empty()) {
         std::fs::create_dir_all(dir).map_err(|source| SweepFileError::Io {
@@ -249,7 +252,7 @@ pub fn run_to_file(
             .from_writer(file),
     );
     let write_error = Mutex::new(None);
-    let result = run_sweep_until(train, test, spec, &cells, stop, |row| {
+    let result = run_chains_until(train, test, spec, &chains, &finished, stop, |row| {
         let mut w = writer.lock().expect("writer lock");
         if let Err(e) = w
             .serialize(row)

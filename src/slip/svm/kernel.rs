@@ -162,6 +162,43 @@ impl Rows {
     }
 }
 
+impl Rows {
+    /// [`Self::dots`] for several query rows in one pass over the data: each block of rows
+    /// is read from memory once for all of them. A kernel row over many training rows is
+    /// limited by memory bandwidth, not arithmetic (measured: a full row of 151k rows took
+    /// 0.8 ms against 0.1 ms of multiply-adds), so rows computed together cost little more
+    /// than one. Every `outs[q]` has the same length.
+    pub fn dots_many(&self, xs: &[&[f32]], start: usize, outs: &mut [&mut [f32]]) {
+        /// Query rows per pass over a block: their accumulators stay in registers.
+        const GROUP: usize = 4;
+        let len = outs.first().map_or(0, |o| o.len());
+        let mut done = 0;
+        while done < len {
+            let row = start + done;
+            let (b, first) = (row / BLOCK, row % BLOCK);
+            let take = (BLOCK - first).min(len - done);
+            let block = &self.blocks[b * self.dim * BLOCK..(b + 1) * self.dim * BLOCK];
+            for group in (0..xs.len()).step_by(GROUP) {
+                let members = (xs.len() - group).min(GROUP);
+                let mut acc = [[0.0f32; BLOCK]; GROUP];
+                for f in 0..self.dim {
+                    let col = &block[f * BLOCK..(f + 1) * BLOCK];
+                    for (g, acc) in acc.iter_mut().enumerate().take(members) {
+                        let xf = xs[group + g][f];
+                        for k in 0..BLOCK {
+                            acc[k] += col[k] * xf;
+                        }
+                    }
+                }
+                for (g, acc) in acc.iter().enumerate().take(members) {
+                    outs[group + g][done..done + take].copy_from_slice(&acc[first..first + take]);
+                }
+            }
+            done += take;
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -208,6 +245,36 @@ mod tests {
         r.dots(&q, 5, &mut out);
         for (k, v) in out.iter().enumerate() {
             assert_eq!(*v, dot(&q, r.row(5 + k)), "row {}", 5 + k);
+        }
+    }
+
+    #[test]
+    fn dots_of_several_rows_at_once_match_one_at_a_time() {
+        let (n, dim) = (200, 9);
+        let x: Vec<f32> = (0..n * dim).map(|i| ((i * 53) % 17) as f32 - 8.0).collect();
+        let r = Rows::new(dim, x);
+        let queries: Vec<Vec<f32>> = (0..6)
+            .map(|q| {
+                (0..dim)
+                    .map(|f| (q * dim + f) as f32 * 0.25 - 3.0)
+                    .collect()
+            })
+            .collect();
+        let xs: Vec<&[f32]> = queries.iter().map(|q| q.as_slice()).collect();
+        for start in [0, 3, 64, 70] {
+            let mut bufs = vec![vec![0.0f32; n - start]; queries.len()];
+            let mut outs: Vec<&mut [f32]> = bufs.iter_mut().map(|b| b.as_mut_slice()).collect();
+            r.dots_many(&xs, start, &mut outs);
+            for (q, out) in queries.iter().zip(&bufs) {
+                for (k, v) in out.iter().enumerate() {
+                    assert_eq!(
+                        *v,
+                        dot(q, r.row(start + k)),
+                        "start {start} row {}",
+                        start + k
+                    );
+                }
+            }
         }
     }
 

@@ -524,6 +524,7 @@ pub(super) mod tests {
                     cache_bytes: 1 << 20,
                     max_iterations: 10_000_000,
                 },
+                None,
             );
             assert!(!reference.hit_iteration_limit);
             let (a, b) = (decision(5, &x, &y, &ipm), decision(5, &x, &y, &reference));

@@ -144,6 +144,19 @@ impl ValidSvmParams {
 
     /// Fits on `x` (row-major, `dim` wide) and labels `y`.
     pub fn fit(&self, dim: usize, x: &[f32], y: &[Class]) -> Result<SvmModel, SvmError> {
+        self.fit_from(dim, x, y, None).map(|(model, _)| model)
+    }
+
+    /// [`Self::fit`] starting from `start` (one dual variable per row, e.g. a neighbouring
+    /// fit's [`Self::fit_from`] output mapped onto these rows; RBF only, the linear solver
+    /// starts from its own centre), returning every row's dual variable beside the model.
+    pub fn fit_from(
+        &self,
+        dim: usize,
+        x: &[f32],
+        y: &[Class],
+        start: Option<&[f64]>,
+    ) -> Result<(SvmModel, Vec<f64>), SvmError> {
         let p = &self.0;
         if dim == 0 || x.len() != dim * y.len() {
             return Err(SvmError::Shape { got: x.len(), dim });
@@ -181,7 +194,7 @@ impl ValidSvmParams {
                         .max_iterations
                         .unwrap_or_else(|| (100 * n).max(10_000_000)),
                 };
-                smo::solve(dim, x.to_vec(), signs.clone(), p.kernel, &options)
+                smo::solve(dim, x.to_vec(), signs.clone(), p.kernel, &options, start)
             }
         };
         let mut support_vectors = Vec::new();
@@ -215,7 +228,7 @@ impl ValidSvmParams {
             blocks: Vec::new(),
         };
         model.prepare();
-        Ok(model)
+        Ok((model, solution.alpha))
     }
 }
 
@@ -426,6 +439,58 @@ mod tests {
                 b.decision(&x[2 * i..2 * i + 2]),
             );
             assert!((da - db).abs() < 1e-3, "row {i}: {da} vs {db}");
+        }
+    }
+
+    #[test]
+    fn a_fit_started_from_a_neighbours_solution_reaches_the_same_optimum_in_fewer_steps() {
+        let (x, y) = blobs(900);
+        let params = SvmParams::rbf(2.0, 0.5).check().unwrap();
+        // the neighbour: the same rows but the last 60, as a sweep's previous n_slip cell
+        let n0 = 840;
+        let (_, alpha0) = params.fit_from(2, &x[..2 * n0], &y[..n0], None).unwrap();
+        let mut start = alpha0.clone();
+        start.resize(900, 0.0);
+        let cold = params.fit(2, &x, &y).unwrap();
+        let (warm, alpha) = params.fit_from(2, &x, &y, Some(&start)).unwrap();
+        assert!(
+            warm.iterations < cold.iterations,
+            "{} vs {}",
+            warm.iterations,
+            cold.iterations
+        );
+        assert_eq!(alpha.len(), 900);
+        // both within the stopping tolerance of the one optimum: same decisions to ~1e-3
+        for i in 0..900 {
+            let xi = &x[2 * i..2 * i + 2];
+            let (a, b) = (cold.decision(xi), warm.decision(xi));
+            assert!((a - b).abs() < 1e-2, "row {i}: {a} vs {b}");
+        }
+        // started from its own optimum, a fit has nothing left to do
+        let (again, _) = params.fit_from(2, &x, &y, Some(&alpha)).unwrap();
+        assert_eq!(again.iterations, 0);
+    }
+
+    #[test]
+    fn a_start_is_made_feasible_before_the_solver_uses_it() {
+        let y = [1i8, 1, -1, -1];
+        // out of [0, C], and the classes' sums unequal
+        let a = smo::feasible_start(&[3.0, 0.5, f64::NAN, -1.0], &y, 2.0);
+        assert!(a.iter().all(|v| (0.0..=2.0).contains(v)), "{a:?}");
+        let balance: f64 = a.iter().zip(y).map(|(v, s)| v * f64::from(s)).sum();
+        assert!(balance.abs() < 1e-12, "{a:?}");
+        // and a fit from any start still converges to the cold fit's answer
+        let (x, labels) = blobs(200);
+        let params = SvmParams::rbf(1.0, 0.5).check().unwrap();
+        let cold = params.fit(2, &x, &labels).unwrap();
+        let junk: Vec<f64> = (0..200).map(|i| (i % 7) as f64).collect();
+        let (warm, _) = params.fit_from(2, &x, &labels, Some(&junk)).unwrap();
+        for i in 0..200 {
+            let xi = &x[2 * i..2 * i + 2];
+            assert!(
+                (cold.decision(xi) - warm.decision(xi)).abs() < 1e-2,
+                "row {i}"
+            );
         }
     }
 

@@ -57,6 +57,10 @@ struct QMatrix {
     diagonal: Vec<f64>,
 }
 
+/// Kernel rows computed together in one pass over the training rows, where the rows
+/// needed are known ahead (a warm start's).
+const ROWS_PER_PASS: usize = 16;
+
 /// Below this many multiply-adds a kernel row is computed on one thread.
 const PARALLEL_WORK: usize = 64 * 1024;
 
@@ -96,6 +100,48 @@ impl QMatrix {
         }
     }
 
+    /// Rows `targets` of Q, their first `len` entries each, computed together in one pass
+    /// over the training rows (see [`Rows::dots_many`]) and not cached: for work that reads
+    /// each row once.
+    fn compute_rows(&self, targets: &[usize], len: usize) -> Vec<Vec<f32>> {
+        let mut bufs = vec![vec![0.0f32; len]; targets.len()];
+        let (rows, y, kernel) = (&self.rows, &self.y, self.kernel);
+        let compute = |at: usize, outs: &mut [&mut [f32]]| {
+            #[cfg(target_arch = "x86_64")]
+            {
+                if std::arch::is_x86_feature_detected!("avx2")
+                    && std::arch::is_x86_feature_detected!("fma")
+                {
+                    // SAFETY: the CPU has the features the function is compiled for.
+                    return unsafe { kernel_rows_chunk_avx2(rows, y, kernel, targets, at, outs) };
+                }
+            }
+            kernel_rows_chunk(rows, y, kernel, targets, at, outs)
+        };
+        // Chunks start on block boundaries; each holds every target's slice of its columns.
+        const CHUNK: usize = 8 * BLOCK;
+        let mut per_chunk: Vec<Vec<&mut [f32]>> = Vec::new();
+        for buf in bufs.iter_mut() {
+            for (c, piece) in buf.chunks_mut(CHUNK).enumerate() {
+                if per_chunk.len() <= c {
+                    per_chunk.push(Vec::new());
+                }
+                per_chunk[c].push(piece);
+            }
+        }
+        if len * rows.dim >= PARALLEL_WORK {
+            per_chunk
+                .par_iter_mut()
+                .enumerate()
+                .for_each(|(c, outs)| compute(c * CHUNK, outs));
+        } else {
+            for (c, outs) in per_chunk.iter_mut().enumerate() {
+                compute(c * CHUNK, outs);
+            }
+        }
+        bufs
+    }
+
     fn swap(&mut self, i: usize, j: usize) {
         self.cache.swap_index(i, j);
         self.rows.swap(i, j);
@@ -121,6 +167,40 @@ fn kernel_row_chunk(
         let j = from + k;
         *v = yi * f32::from(y[j]) * kernel.from_dot(*v, ni, rows.norms[j]) as f32;
     }
+}
+
+/// [`kernel_row_chunk`] for the rows `targets`, each into its `outs` slice.
+#[inline(always)]
+fn kernel_rows_chunk(
+    rows: &Rows,
+    y: &[i8],
+    kernel: Kernel,
+    targets: &[usize],
+    from: usize,
+    outs: &mut [&mut [f32]],
+) {
+    let xs: Vec<&[f32]> = targets.iter().map(|&i| rows.row(i)).collect();
+    rows.dots_many(&xs, from, outs);
+    for (&i, out) in targets.iter().zip(outs.iter_mut()) {
+        let (ni, yi) = (rows.norms[i], f32::from(y[i]));
+        for (k, v) in out.iter_mut().enumerate() {
+            let j = from + k;
+            *v = yi * f32::from(y[j]) * kernel.from_dot(*v, ni, rows.norms[j]) as f32;
+        }
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+unsafe fn kernel_rows_chunk_avx2(
+    rows: &Rows,
+    y: &[i8],
+    kernel: Kernel,
+    targets: &[usize],
+    from: usize,
+    outs: &mut [&mut [f32]],
+) {
+    kernel_rows_chunk(rows, y, kernel, targets, from, outs)
 }
 
 /// [`kernel_row_chunk`] compiled for AVX2 and FMA (measured on a 20,000-row fit: 5.6 s
@@ -436,6 +516,33 @@ impl Solver {
         }
     }
 
+    /// Sets `alpha` to a feasible point near `start` and the gradients to match it:
+    /// `G_i = sum_j alpha_j Q_ij - 1` and `G_bar_i = C sum_{j at C} Q_ij`, one kernel row per
+    /// nonzero alpha, computed [`ROWS_PER_PASS`] at a time.
+    fn start_from(&mut self, start: &[f64]) {
+        assert_eq!(start.len(), self.n, "one starting alpha per row");
+        self.alpha = feasible_start(start, &self.q.y, self.c);
+        for i in 0..self.n {
+            self.update_status(i);
+        }
+        let nonzero: Vec<usize> = (0..self.n).filter(|&j| self.alpha[j] > 0.0).collect();
+        let (n, c) = (self.n, self.c);
+        for batch in nonzero.chunks(ROWS_PER_PASS) {
+            let rows = self.q.compute_rows(batch, n);
+            for (&j, row) in batch.iter().zip(&rows) {
+                let a = self.alpha[j];
+                for (g, q) in self.gradient.iter_mut().zip(row) {
+                    *g += a * f64::from(*q);
+                }
+                if self.status[j] == Bound::Upper {
+                    for (gb, q) in self.gradient_bar.iter_mut().zip(row) {
+                        *gb += c * f64::from(*q);
+                    }
+                }
+            }
+        }
+    }
+
     fn rho(&self) -> f64 {
         let (mut ub, mut lb, mut sum_free, mut free) =
             (f64::INFINITY, f64::NEG_INFINITY, 0.0, 0usize);
@@ -458,13 +565,49 @@ impl Solver {
     }
 }
 
-/// Solves the C-SVC dual for rows `x` (row-major, `dim` wide) with labels `y` in {-1, +1}.
+/// A feasible starting point near `start`: each alpha clipped into `[0, C]`, then the class
+/// with the larger share of `sum y_i alpha_i` scaled down so that `y^T alpha = 0` holds
+/// (SMO keeps that constraint exactly, so it must hold from the start).
+pub fn feasible_start(start: &[f64], y: &[i8], c: f64) -> Vec<f64> {
+    let mut alpha: Vec<f64> = start
+        .iter()
+        .map(|a| if a.is_finite() { a.clamp(0.0, c) } else { 0.0 })
+        .collect();
+    let (mut positive, mut negative) = (0.0, 0.0);
+    for (a, &yi) in alpha.iter().zip(y) {
+        if yi > 0 {
+            positive += a;
+        } else {
+            negative += a;
+        }
+    }
+    let (excess_class, total, keep) = if positive > negative {
+        (1, positive, negative)
+    } else {
+        (-1, negative, positive)
+    };
+    if total > keep {
+        let scale = if total > 0.0 { keep / total } else { 0.0 };
+        for (a, &yi) in alpha.iter_mut().zip(y) {
+            if yi == excess_class {
+                *a *= scale;
+            }
+        }
+    }
+    alpha
+}
+
+/// Solves the C-SVC dual for rows `x` (row-major, `dim` wide) with labels `y` in {-1, +1},
+/// from `alpha = 0`, or from `start` (one value per row; made feasible by
+/// [`feasible_start`]): a neighbouring problem's solution, for example the same rows but a
+/// few, which SMO then needs fewer steps to finish.
 pub fn solve(
     dim: usize,
     x: Vec<f32>,
     y: Vec<i8>,
     kernel: Kernel,
     options: &SolverOptions,
+    start: Option<&[f64]>,
 ) -> Solution {
     let rows = Rows::new(dim, x);
     let n = rows.len();
@@ -491,6 +634,9 @@ pub fn solve(
         eps: options.tolerance,
         unshrink: false,
     };
+    if let Some(start) = start {
+        s.start_from(start);
+    }
     let mut iterations = 0;
     let mut counter = n.min(1000) + 1;
     let mut hit_iteration_limit = false;
