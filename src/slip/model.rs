@@ -781,19 +781,7 @@ pub fn train_models_from(
     seed: u64,
     starts: &[Option<WarmStart>],
 ) -> Result<(Vec<SensorModel>, Vec<Option<WarmStart>>), TrainError> {
-    let parts: Vec<(Option<u8>, Dataset)> = match scope {
-        Scope::Global => vec![(None, data.downsample_static(downsample, seed))],
-        Scope::Local => data
-            .sensors()
-            .into_iter()
-            .map(|s| {
-                (
-                    Some(s),
-                    data.sensor_only(s).downsample_static(downsample, seed),
-                )
-            })
-            .collect(),
-    };
+    let parts = training_parts(data, scope, downsample, seed);
     parts
         .iter()
         .enumerate()
@@ -817,22 +805,29 @@ fn fit_models(
     seed: u64,
     fit: Fit,
 ) -> Result<Vec<SensorModel>, TrainError> {
+    training_parts(data, scope, downsample, seed)
+        .iter()
+        .map(|(sensor, rows)| fit(rows, *sensor, kind, hyper))
+        .collect()
+}
+
+/// Each model's training rows: all of `data` (global) or one sensor's (local, sensors in
+/// order), static rows down-sampled to `downsample` (seeded).
+fn training_parts(
+    data: &Dataset,
+    scope: Scope,
+    downsample: f64,
+    seed: u64,
+) -> Vec<(Option<u8>, Dataset)> {
     match scope {
-        Scope::Global => Ok(vec![fit(
-            &data.downsample_static(downsample, seed),
-            None,
-            kind,
-            hyper,
-        )?]),
+        Scope::Global => vec![(None, data.downsample_static(downsample, seed))],
         Scope::Local => data
             .sensors()
             .into_iter()
             .map(|s| {
-                fit(
-                    &data.sensor_only(s).downsample_static(downsample, seed),
+                (
                     Some(s),
-                    kind,
-                    hyper,
+                    data.sensor_only(s).downsample_static(downsample, seed),
                 )
             })
             .collect(),
