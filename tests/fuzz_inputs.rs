@@ -415,6 +415,50 @@ fn read_batch_dir(path: &Path) {
     }
 }
 
+/// The first frames of the real Xela recordings `tmo import csv` is tested on: 1,200 rows,
+/// both sensors' first frames of one trial, with slip labels and a split column.
+fn interchange_csv() -> &'static [u8] {
+    static CSV: OnceLock<Vec<u8>> = OnceLock::new();
+    CSV.get_or_init(|| {
+        let path =
+            Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/xela/xela-4-trials.csv");
+        let text = std::fs::read_to_string(path).unwrap();
+        let lines: Vec<&str> = text.lines().take(1201).collect();
+        (lines.join("\n") + "\n").into_bytes()
+    })
+}
+
+fn interchange_options() -> tmo::import::ImportOptions {
+    tmo::import::ImportOptions {
+        sensor_name: "xela-uskin-4x4".into(),
+        units: tmo::import::Units::Counts,
+        split_column: Some("split".into()),
+        max_step: None,
+    }
+}
+
+#[test]
+fn the_interchange_seed_imports_as_one_trial_of_two_sensors() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("x.csv");
+    std::fs::write(&path, interchange_csv()).unwrap();
+    let summary = tmo::import::read_interchange(&path, &interchange_options()).unwrap();
+    assert_eq!(summary.trials.len(), 1);
+    let trial = &summary.trials[0].trial;
+    assert_eq!((trial.meta.sensors, trial.meta.pins), (2, 16));
+    assert!(trial.frames.len() >= 70, "{}", trial.frames.len());
+}
+
+fn read_interchange(path: &Path) {
+    if let Ok(summary) = tmo::import::read_interchange(path, &interchange_options()) {
+        // what imports must also write as trial logs without panicking
+        let out = path.with_file_name("logs");
+        for t in &summary.trials {
+            let _ = tmo::trial::write_trial(&tmo::import::log_path(&out, t), &t.trial);
+        }
+    }
+}
+
 fn read_sweep(path: &Path) {
     if let Ok(inputs) = tmo::report::inputs::load(&[path.to_path_buf()]) {
         let _ = tmo::report::build::tables(&inputs);
@@ -481,6 +525,11 @@ proptest! {
             let bytes = std::fs::read(&out).unwrap();
             survives("t.mcap", bytes, &[], read_trial_deeply)?;
         }
+    }
+
+    #[test]
+    fn interchange_csvs(e in edits()) {
+        survives("x.csv", mutate(interchange_csv(), &e), &[], read_interchange)?;
     }
 
     #[test]
