@@ -343,7 +343,7 @@ pub fn train(args: TrainArgs) -> Result<()> {
                 bar.set_message(format!(
                     "last: C {:.4}{} F1 {f1:.3}; best F1 {best_so_far:.3}",
                     h.c,
-                    if args.classifier == ClassifierKind::SvmRbf {
+                    if args.classifier.uses_gamma() {
                         format!(" gamma {:.5}", h.gamma)
                     } else {
                         String::new()
@@ -358,7 +358,16 @@ pub fn train(args: TrainArgs) -> Result<()> {
                 .iter()
                 .map(|e| e.score)
                 .fold(f64::NEG_INFINITY, f64::max);
-            println!("search: {} evaluations, best cross-validated macro F1 {best:.3} at C = {:.4}, gamma = {:.5}", record.evaluations.len(), hyper.c, hyper.gamma);
+            let gamma = if args.classifier.uses_gamma() {
+                format!(", gamma = {:.5}", hyper.gamma)
+            } else {
+                String::new()
+            };
+            println!(
+                "search: {} evaluations, best cross-validated macro F1 {best:.3} at C = {:.4}{gamma}",
+                record.evaluations.len(),
+                hyper.c
+            );
             for (name, value, end) in record.best_on_range_ends() {
                 eprintln!("warning: the search's best {name} ({value:.4}) lies at the {end} end of its range; the optimum may lie beyond it (widen --{}-range)", name.to_lowercase());
             }

@@ -368,7 +368,7 @@ pub fn sweep(args: SweepArgs) -> Result<()> {
         n_slip: n_slip.clone(),
         scope: args.scope,
         hyperparameters: match hyper {
-            HyperChoice::Fixed(h) => format!("fixed C = {}, gamma = {}", h.c, h.gamma),
+            HyperChoice::Fixed(h) => format!("fixed C = {}, gamma = {} (svm-rbf only)", h.c, h.gamma),
             HyperChoice::Search {
                 iterations,
                 folds,

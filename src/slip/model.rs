@@ -29,6 +29,16 @@ pub enum ClassifierKind {
 }
 
 impl ClassifierKind {
+    /// Whether the classifier has a regularisation constant C (the threshold has none).
+    pub fn uses_c(&self) -> bool {
+        *self != ClassifierKind::Threshold
+    }
+
+    /// Whether the classifier has a kernel width gamma (only the RBF SVM).
+    pub fn uses_gamma(&self) -> bool {
+        *self == ClassifierKind::SvmRbf
+    }
+
     pub fn name(&self) -> &'static str {
         match self {
             ClassifierKind::SvmRbf => "svm-rbf",
@@ -42,7 +52,11 @@ impl ClassifierKind {
 /// Hyperparameters of one fit; which ones apply depends on the classifier.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct Hyperparameters {
+    /// Absent from model files of the threshold, which has none (the default is then kept).
+    #[serde(default = "paper_c")]
     pub c: f64,
+    /// Absent from model files of every classifier but the RBF SVM (the default is then kept).
+    #[serde(default = "paper_gamma")]
     pub gamma: f64,
     /// Cap on the SVM solver's iterations (`None`: for the RBF kernel's SMO, libsvm's
     /// `max(100 n, 10^7)` pair steps; for the linear kernel's interior-point method, 200
@@ -59,12 +73,22 @@ pub fn scale_gamma(features: usize) -> f64 {
     1.0 / features.max(1) as f64
 }
 
+/// The paper's best single-finger SVM's C.
+fn paper_c() -> f64 {
+    3.989
+}
+
+/// The paper's best single-finger SVM's gamma.
+fn paper_gamma() -> f64 {
+    1.104
+}
+
 impl Default for Hyperparameters {
     /// The paper's best single-finger SVM.
     fn default() -> Self {
         Self {
-            c: 3.989,
-            gamma: 1.104,
+            c: paper_c(),
+            gamma: paper_gamma(),
             max_iterations: None,
         }
     }
@@ -396,7 +420,18 @@ impl ModelFile {
             path: path.display().to_string(),
             source,
         };
-        let text = serde_json::to_string_pretty(self).expect("models serialise");
+        let mut value = serde_json::to_value(self).expect("models serialise");
+        // A file records only the hyperparameters its classifier uses: a logistic
+        // regression's file that named a gamma would suggest it had one.
+        if let Some(hyper) = value["hyperparameters"].as_object_mut() {
+            if !self.classifier.uses_c() {
+                hyper.remove("c");
+            }
+            if !self.classifier.uses_gamma() {
+                hyper.remove("gamma");
+            }
+        }
+        let text = serde_json::to_string_pretty(&value).expect("models serialise");
         let tmp = path.with_extension("json.partial");
         std::fs::write(&tmp, text).map_err(io)?;
         std::fs::rename(&tmp, path).map_err(io)
@@ -885,6 +920,43 @@ mod tests {
             },
             downsample: 1.0,
             seed: 0,
+        }
+    }
+
+    #[test]
+    fn a_saved_file_records_only_the_hyperparameters_its_classifier_uses() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("m.json");
+        for (kind, keys) in [
+            (ClassifierKind::SvmRbf, &["c", "gamma"][..]),
+            (ClassifierKind::SvmLinear, &["c"][..]),
+            (ClassifierKind::Logreg, &["c"][..]),
+            (ClassifierKind::Threshold, &[][..]),
+        ] {
+            let m = ModelFile::train(&data(), &spec(kind), Vec::new(), None).unwrap();
+            m.save(&path).unwrap();
+            let v: serde_json::Value =
+                serde_json::from_str(&std::fs::read_to_string(&path).unwrap()).unwrap();
+            let mut written: Vec<&str> = v["hyperparameters"]
+                .as_object()
+                .unwrap()
+                .keys()
+                .map(String::as_str)
+                .collect();
+            written.sort_unstable();
+            assert_eq!(written, keys, "{kind:?}");
+            // it loads, and saves as it was
+            let back = ModelFile::load(&path).unwrap();
+            let again = dir.path().join("again.json");
+            back.save(&again).unwrap();
+            assert_eq!(
+                std::fs::read_to_string(&again).unwrap(),
+                std::fs::read_to_string(&path).unwrap(),
+                "{kind:?}"
+            );
+            if kind.uses_c() {
+                assert_eq!(back.hyperparameters.c, 1.0);
+            }
         }
     }
 
