@@ -6,7 +6,7 @@ mod cli;
 use std::process::ExitCode;
 
 use anyhow::Result;
-use clap::{Parser, Subcommand};
+use clap::{CommandFactory, FromArgMatches, Parser, Subcommand};
 use cli::sim::SimCommand;
 use cli::slip::{DatasetCommand, EvaluateArgs, TrainArgs};
 use cli::sweep::SweepArgs;
@@ -21,6 +21,15 @@ use cli::sweep::SweepArgs;
 struct Cli {
     #[command(subcommand)]
     command: Command,
+    /// Say only results, warnings and errors: no progress bars, no notes.
+    #[arg(short, long, global = true)]
+    quiet: bool,
+    /// Also say each item as it finishes (trial, sweep cell, search evaluation, replayed log).
+    #[arg(short, long, global = true, action = clap::ArgAction::Count)]
+    verbose: u8,
+    /// Colour help and errors: `auto` on a terminal unless NO_COLOR is set.
+    #[arg(long, global = true, value_enum, default_value_t = cli::output::ColorWhen::Auto, value_name = "WHEN")]
+    color: cli::output::ColorWhen,
 }
 
 /// In the order of a researcher's work: collect (or import) trials, train and score
@@ -69,7 +78,12 @@ fn main() -> ExitCode {
     unsafe {
         libc::signal(libc::SIGPIPE, libc::SIG_DFL);
     }
-    match run(Cli::parse()) {
+    // `--color` is read before clap parses, so that clap's own help and errors follow it.
+    let color = cli::output::ColorWhen::from_args(std::env::args_os());
+    let matches = Cli::command().color(color.clap()).get_matches();
+    let cli = Cli::from_arg_matches(&matches).unwrap_or_else(|e| e.exit());
+    cli::output::set_level(cli.quiet, cli.verbose);
+    match run(cli) {
         Ok(code) => ExitCode::from(code),
         Err(e) => {
             eprintln!("error: {}", error_text(&e));
@@ -111,7 +125,6 @@ fn run(cli: Cli) -> Result<u8> {
         return cli::reproduce::run(args);
     }
     if let Command::Completions { shell } = cli.command {
-        use clap::CommandFactory;
         clap_complete::generate(shell, &mut Cli::command(), "tmo", &mut std::io::stdout());
         return Ok(0);
     }

@@ -171,8 +171,22 @@ fn every_figure_is_drawn_from_simulator_batches() {
             svg.contains("<svg") && svg.contains("<text"),
             "{stem}.svg has no text"
         );
+        assert!(
+            svg.contains("font-family=\"DejaVu Sans, sans-serif\""),
+            "{stem}.svg names the bundled font"
+        );
         let (w, h) = png_size(&d.join(format!("plots/{stem}.png")));
         assert!(w >= 800 && h >= 500, "{stem}.png is {w}x{h}");
+        let png = std::fs::read(d.join(format!("plots/{stem}.png"))).unwrap();
+        assert!(
+            png.windows(4).any(|w| w == b"pHYs"),
+            "{stem}.png states its DPI"
+        );
+        let pdf = std::fs::read(d.join(format!("plots/{stem}.pdf"))).unwrap();
+        assert!(
+            pdf.starts_with(b"%PDF-") && pdf.windows(8).any(|w| w == b"FontFile"),
+            "{stem}.pdf is a PDF with its font embedded"
+        );
     }
     assert!(
         d.join("sweep/sweep_fig5_f1_logreg.png").is_file(),

@@ -168,3 +168,41 @@ fn bad_config_names_the_file_line_and_field() {
         "{err}"
     );
 }
+
+#[test]
+fn quiet_says_only_results_verbose_says_each_trial_and_color_is_as_asked() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let collect = |flag: &str, out: &str| {
+        let o = tmo(
+            d,
+            &[
+                flag, "sim", "collect", "--trials", "2", "--seed", "5", "--out", out,
+            ],
+        );
+        let said = ok(&o);
+        (said, String::from_utf8_lossy(&o.stderr).into_owned())
+    };
+    let (said, noted) = collect("-q", "quiet");
+    assert!(said.contains("collected 2 trials"), "{said}");
+    assert_eq!(noted, "", "-q says nothing on standard error");
+    let (said, noted) = collect("-v", "verbose");
+    assert!(said.contains("collected 2 trials"), "{said}");
+    let lines: Vec<&str> = noted.lines().collect();
+    assert_eq!(lines.len(), 2, "{noted}");
+    assert!(lines[0].starts_with("trial-0000: ") && lines[1].starts_with("trial-0001: "));
+    // the same trials either way: -v only says more
+    for i in 0..2 {
+        let name = format!("trial-{i:04}.mcap");
+        let a = tmo::trial::read_trial(&d.join("quiet").join(&name)).unwrap();
+        let b = tmo::trial::read_trial(&d.join("verbose").join(&name)).unwrap();
+        assert_eq!(a.frames, b.frames);
+    }
+
+    let error = |color: &str| {
+        let o = tmo(d, &["--color", color, "sim", "bogus"]);
+        fails(&o)
+    };
+    assert!(error("always").contains('\x1b'), "{}", error("always"));
+    assert!(!error("never").contains('\x1b'), "{}", error("never"));
+}

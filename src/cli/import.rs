@@ -55,11 +55,11 @@ pub fn run(command: ImportCommand) -> Result<()> {
     for file in &args.files {
         let summary = read_interchange(file, &opts)?;
         if !summary.ignored_columns.is_empty() {
-            eprintln!(
+            super::output::note(format!(
                 "{}: columns not used: {}",
                 file.display(),
                 summary.ignored_columns.join(", ")
-            );
+            ));
         }
         for t in summary.trials {
             let path = log_path(&args.out, &t);
@@ -81,7 +81,7 @@ pub fn run(command: ImportCommand) -> Result<()> {
             trials.push((path, t));
         }
     }
-    let bar = super::run::progress_bar("importing", "trials");
+    let bar = super::output::counting_bar("importing", "trials");
     bar.set_length(trials.len() as u64);
     let mut splits: BTreeMap<String, usize> = BTreeMap::new();
     for (path, t) in &trials {

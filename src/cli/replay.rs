@@ -207,14 +207,8 @@ pub fn replay_with(
         }
     }
     let spec = CatchSpec::default();
-    let bar = indicatif::ProgressBar::new(jobs.len() as u64);
-    bar.set_style(
-        indicatif::ProgressStyle::with_template(
-            "replay [{bar:30}] {pos}/{len}, {elapsed} (eta {eta})",
-        )
-        .expect("valid template")
-        .progress_chars("=> "),
-    );
+    let bar = super::output::counting_bar("replay", "replays");
+    bar.set_length(jobs.len() as u64);
     let started = std::time::Instant::now();
     let rows: Vec<ReplayOutcome> = jobs
         .par_iter()
@@ -224,6 +218,21 @@ pub fn replay_with(
             let model = ModelRef { name, sha256, file };
             let r =
                 evaluate(trial, path, model, s, &spec).with_context(|| format!("replaying {path}"));
+            if let Ok(o) = &r {
+                super::output::detail(
+                    &bar,
+                    format!(
+                        "{path}: {} {} {}: {}",
+                        o.model,
+                        o.strategy,
+                        o.window,
+                        serde_json::to_value(o.verdict)
+                            .ok()
+                            .and_then(|v| v.as_str().map(str::to_string))
+                            .unwrap_or_default()
+                    ),
+                );
+            }
             bar.inc(1);
             r
         })

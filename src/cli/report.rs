@@ -65,7 +65,7 @@ pub fn report(args: ReportArgs) -> Result<()> {
         written.extend(tmo::plots::draw_all(&inputs, dir)?);
     }
     for p in &written {
-        eprintln!("wrote {}", p.display());
+        super::output::note(format!("wrote {}", p.display()));
     }
     Ok(())
 }
@@ -88,12 +88,12 @@ fn html_report(
             let path = dir.join("report.html");
             std::fs::write(&path, page)
                 .with_context(|| format!("cannot write {}", path.display()))?;
-            eprintln!("wrote {}", path.display());
+            super::output::note(format!("wrote {}", path.display()));
         }
         None => print!("{page}"),
     }
     for p in &figures {
-        eprintln!("wrote {}", p.display());
+        super::output::note(format!("wrote {}", p.display()));
     }
     Ok(())
 }

@@ -77,6 +77,9 @@ pub fn run(args: ReproduceArgs) -> Result<u8> {
         .context("cannot install the Ctrl-C handler")?;
 
     let multi = indicatif::MultiProgress::new();
+    if super::output::quiet() {
+        multi.set_draw_target(indicatif::ProgressDrawTarget::hidden());
+    }
     let steps = multi.add(indicatif::ProgressBar::new(0));
     steps.set_style(
         indicatif::ProgressStyle::with_template("reproduce [{bar:20}] {elapsed} {msg}")

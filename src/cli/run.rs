@@ -166,7 +166,7 @@ pub fn run(args: RunArgs) -> Result<u8> {
         }
         None => None,
     };
-    let bar = progress_bar("run", "trials");
+    let bar = super::output::counting_bar("run", "trials");
     let request = BatchRequest {
         plan: &plan,
         out: &out,
@@ -174,6 +174,7 @@ pub fn run(args: RunArgs) -> Result<u8> {
         rerun_faulted: args.rerun_faulted,
         shard: args.shard,
         live: live.as_ref(),
+        on_trial: Some(&|line: &str| super::output::detail(&bar, line)),
     };
     let end = run_batch(&request, &mut rig, &stop, &bar)
         .with_context(|| args.protocol.display().to_string())?;
@@ -219,19 +220,6 @@ pub fn run(args: RunArgs) -> Result<u8> {
         print_summary(&out, plan.kind, summary)?;
     }
     Ok(0)
-}
-
-/// A progress bar in the style every batch shows.
-pub fn progress_bar(verb: &str, unit: &str) -> indicatif::ProgressBar {
-    let bar = indicatif::ProgressBar::new(0);
-    bar.set_style(
-        indicatif::ProgressStyle::with_template(&format!(
-            "{verb} [{{bar:30}}] {{pos}}/{{len}} {unit}, {{elapsed}} (eta {{eta}}) {{msg}}"
-        ))
-        .expect("valid template")
-        .progress_chars("=> "),
-    );
-    bar
 }
 
 /// The batch's own report tables, so `tmo run` and `tmo report` never disagree.

@@ -246,15 +246,8 @@ fn sim_collect(args: CollectArgs) -> Result<()> {
     };
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("cannot create {}", args.out.display()))?;
-    let bar = indicatif::ProgressBar::new(args.trials);
-    bar.set_style(
-        indicatif::ProgressStyle::with_template(
-            "{prefix} [{bar:30}] {pos}/{len} trials, {elapsed} (eta {eta})",
-        )
-        .expect("valid template")
-        .progress_chars("=> "),
-    );
-    bar.set_prefix("collect");
+    let bar = super::output::counting_bar("collect", "trials");
+    bar.set_length(args.trials);
     let spec_of = |i: u64| {
         let n = objects.len() as u64;
         CollectSpec {
@@ -295,6 +288,16 @@ fn sim_collect(args: CollectArgs) -> Result<()> {
         let trial = collect::collect_trial(&spec, &trial_id, unix_now())
             .with_context(|| format!("trial {trial_id}"))?;
         tmo::trial::write_trial(&path, &trial)?;
+        super::output::detail(
+            &bar,
+            format!(
+                "{trial_id}: {} at {} deg, seed {}: {} frames",
+                spec.object,
+                spec.grasp_deg,
+                spec.seed,
+                trial.frames.len()
+            ),
+        );
         ran += 1;
         bar.inc(1);
     }

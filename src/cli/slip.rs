@@ -188,7 +188,9 @@ pub fn label_spec(args: &LabelArgs, trials: &[PathBuf]) -> Result<LabelSpec> {
             );
             let rate = first_trial_rate(trials)?;
             let n = tmo::slip::labels::frames_in(seconds, rate);
-            eprintln!("--n-slip-s {seconds}: n_slip {n} frames at {rate:.1} Hz");
+            super::output::note(format!(
+                "--n-slip-s {seconds}: n_slip {n} frames at {rate:.1} Hz"
+            ));
             n
         }
     };
@@ -219,11 +221,11 @@ pub fn load_dataset(
 ) -> Result<(Dataset, Vec<TrialRef>, FeatureSpec)> {
     let (ds, refs, features) = tmo::slip::dataset::load_labelled(paths, labels)?;
     if !ds.trials_without_onset.is_empty() {
-        eprintln!(
+        super::output::note(format!(
             "note: no slip onset (in the marker track or slip labels) in {} trial(s): {}",
             ds.trials_without_onset.len(),
             ds.trials_without_onset.join(", ")
-        );
+        ));
     }
     Ok((ds, refs, features))
 }
@@ -335,19 +337,26 @@ pub fn train(args: TrainArgs) -> Result<()> {
                 max_fit_rows: args.search_rows,
             };
             // A search takes minutes: each evaluation shows as it finishes.
-            let bar = super::run::progress_bar("search", "evaluations");
+            let bar = super::output::counting_bar("search", "evaluations");
             bar.set_length(spec.iterations as u64);
             let mut best_so_far = f64::NEG_INFINITY;
             let searched = tuning::search_reporting(&ds, &spec, |done, h, f1| {
                 best_so_far = best_so_far.max(f1);
-                bar.set_message(format!(
-                    "last: C {:.4}{} F1 {f1:.3}; best F1 {best_so_far:.3}",
+                let point = format!(
+                    "C {:.4}{}",
                     h.c,
                     if args.classifier.uses_gamma() {
                         format!(" gamma {:.5}", h.gamma)
                     } else {
                         String::new()
                     }
+                );
+                super::output::detail(
+                    &bar,
+                    format!("evaluation {done}: {point}: cross-validated macro F1 {f1:.3}"),
+                );
+                bar.set_message(format!(
+                    "last: {point} F1 {f1:.3}; best F1 {best_so_far:.3}"
                 ));
                 bar.set_position(done as u64);
             });
@@ -470,7 +479,7 @@ pub fn evaluate(args: EvaluateArgs) -> Result<()> {
         std::fs::write(out, &text).with_context(|| format!("cannot write {}", out.display()))?;
         // standard output holds the JSON alone when --json asks for it
         if args.json {
-            eprintln!("wrote {}", out.display());
+            super::output::note(format!("wrote {}", out.display()));
         } else {
             println!("wrote {}", out.display());
         }

@@ -156,7 +156,9 @@ pub fn sweep(args: SweepArgs) -> Result<()> {
                 .collect();
             frames.sort_unstable();
             frames.dedup();
-            eprintln!("--n-slip-s {text}: n_slip {frames:?} frames at {rate:.1} Hz");
+            super::output::note(format!(
+                "--n-slip-s {text}: n_slip {frames:?} frames at {rate:.1} Hz"
+            ));
             frames
         }
     };
@@ -223,13 +225,8 @@ pub fn sweep(args: SweepArgs) -> Result<()> {
     let started = std::time::Instant::now();
     // The bar advances by each cell's expected cost, not by one a cell: the costliest cells
     // run first, so counting cells made the ETA swing from hours to minutes in one run.
-    let bar = indicatif::ProgressBar::new(0);
-    bar.set_style(
-        indicatif::ProgressStyle::with_template(
-            "sweep [{bar:30}] {percent:>3}% of the expected work, {elapsed} {msg}",
-        )
-        .expect("valid template")
-        .progress_chars("=> "),
+    let bar = super::output::progress_bar(
+        "sweep [{bar:30}] {percent:>3}% of the expected work, {elapsed} {msg}",
     );
     // cost units a second of the reference machine is cut into (the bar counts in integers)
     const TICKS: f64 = 1000.0;
@@ -286,7 +283,7 @@ pub fn sweep(args: SweepArgs) -> Result<()> {
                 test.len()
             );
             if args.json {
-                eprintln!("{line}");
+                super::output::note(&line);
             } else {
                 println!("{line}");
             }
@@ -310,6 +307,13 @@ pub fn sweep(args: SweepArgs) -> Result<()> {
                         indicatif::HumanDuration(std::time::Duration::from_secs_f64(s))
                     )
                 });
+            super::output::detail(
+                &bar,
+                format!(
+                    "cell {} n_slip {} d {}: macro F1 {:.3} ({:.1} s)",
+                    row.classifier, row.n_slip, row.downsample, row.macro_f1, row.seconds
+                ),
+            );
             bar.set_message(format!(
                 "{done}/{} cells{eta}; last: {} n_slip {} d {} F1 {:.3}",
                 cells_to_run.load(Relaxed),
@@ -324,8 +328,8 @@ pub fn sweep(args: SweepArgs) -> Result<()> {
     bar.finish_and_clear();
     let result = result?;
     if result.cut_torn_line {
-        eprintln!(
-            "note: the partial results ended in a line cut short (a write that did not finish); that cell ran again"
+        super::output::note(
+            "note: the partial results ended in a line cut short (a write that did not finish); that cell ran again",
         );
     }
     let rows = result.rows;

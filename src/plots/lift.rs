@@ -301,7 +301,7 @@ pub fn lift_figures(inputs: &Inputs, dir: &Path) -> Result<Vec<PathBuf>, PlotErr
     }
     for (object, points) in by_mass(&rows) {
         let stem = dir.join(format!("fig10_lift_by_mass_{}", super::slug(&object)));
-        out.extend(crate::svg_and_png!(stem, SIZE, |root| mass_plot(
+        out.extend(crate::figure_files!(stem, SIZE, |root| mass_plot(
             &root, &object, &points
         )));
     }
@@ -317,7 +317,7 @@ pub fn lift_figures(inputs: &Inputs, dir: &Path) -> Result<Vec<PathBuf>, PlotErr
     if let Some(path) = pick {
         let trial = crate::trial::read_trial(&path)?;
         if let Some(l) = LiftTrace::from_trial(&trial, 1.0) {
-            out.extend(crate::svg_and_png!(
+            out.extend(crate::figure_files!(
                 dir.join("fig9_lift_heights"),
                 SIZE,
                 |root| { trace(&root, &l) }

@@ -1,11 +1,13 @@
-//! The paper's figures with plotters, each as SVG and PNG. Text is drawn with a bundled
-//! DejaVu Sans (through plotters' `ab_glyph` feature) so a machine without system font
-//! libraries draws the same PNGs.
+//! The paper's figures with plotters, each as SVG, PDF and PNG (6 x 4 in; the PNG at
+//! [`files::DPI`]). Text is drawn with a bundled DejaVu Sans (through plotters' `ab_glyph`
+//! feature) so a machine without system font libraries draws the same PNGs; the SVGs name
+//! it first and the PDFs embed it.
 //!
-//! Each figure is a function generic over the drawing backend; [`svg_and_png`] runs it on
-//! both. Data preparation is plain functions with unit tests; drawing is checked by eye (the
+//! Each figure is a function generic over the drawing backend; [`figure_files`] runs it on
+//! both and derives the PDF from the SVG. Data preparation is plain functions with unit tests; drawing is checked by eye (the
 //! issue note lists what was looked at) and by tests that the files are written.
 
+pub mod files;
 pub mod lift;
 pub mod offline;
 pub mod online;
@@ -36,8 +38,12 @@ pub enum PlotError {
 /// What a figure function returns for backend `DB`.
 pub type DrawResult<DB> = Result<(), DrawingAreaErrorKind<<DB as DrawingBackend>::ErrorType>>;
 
-/// Font family every figure uses.
-pub const FONT: &str = "sans-serif";
+/// Font family every figure uses: the bundled font by name, then the generic family for an
+/// SVG viewer without it. (Also the key the font is registered under for the PNGs.)
+pub const FONT: &str = "DejaVu Sans, sans-serif";
+
+/// The bundled font (DejaVu Sans, its licence beside it).
+pub(crate) const FONT_BYTES: &[u8] = include_bytes!("../../assets/fonts/DejaVuSans.ttf");
 
 static FONT_ONCE: std::sync::Once = std::sync::Once::new();
 
@@ -46,24 +52,22 @@ pub fn register_font() {
     FONT_ONCE.call_once(|| {
         // The bytes are a valid TrueType font checked into the repository; a failure here
         // would be a build defect, so it is reported by the figures' own errors instead.
-        let _ = plotters::style::register_font(
-            FONT,
-            FontStyle::Normal,
-            include_bytes!("../../assets/fonts/DejaVuSans.ttf"),
-        );
+        let _ = plotters::style::register_font(FONT, FontStyle::Normal, FONT_BYTES);
     });
 }
 
 /// Figure size, px (also the SVG's user units).
 pub const SIZE: (u32, u32) = (900, 600);
 
-/// Draws `figure` to `stem.svg` and `stem.png`; returns both paths.
+/// Draws `figure` to `stem.svg` and `stem.png`, converts the SVG to `stem.pdf`; returns the
+/// three paths.
 #[macro_export]
-macro_rules! svg_and_png {
+macro_rules! figure_files {
     ($stem:expr, $size:expr, |$root:ident| $figure:expr) => {{
         $crate::plots::register_font();
         let svg = $stem.with_extension("svg");
         let png = $stem.with_extension("png");
+        let pdf = $stem.with_extension("pdf");
         let err = |path: &std::path::Path, e: String| $crate::plots::PlotError::Draw {
             path: path.to_path_buf(),
             message: e,
@@ -78,7 +82,9 @@ macro_rules! svg_and_png {
             $figure.map_err(|e| err(&png, e.to_string()))?;
             $root.present().map_err(|e| err(&png, e.to_string()))?;
         }
-        vec![svg, png]
+        $crate::plots::files::state_png_dpi(&png).map_err(|e| err(&png, e))?;
+        $crate::plots::files::svg_to_pdf(&svg, &pdf).map_err(|e| err(&pdf, e))?;
+        vec![svg, pdf, png]
     }};
 }
 

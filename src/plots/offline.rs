@@ -212,7 +212,7 @@ pub fn sweep_heatmaps(
     let mut out = Vec::new();
     for g in &grids {
         let stem = dir.join(format!("{prefix}fig5_f1_{}", slug(&g.classifier)));
-        out.extend(crate::svg_and_png!(stem, SIZE, |root| heatmap(
+        out.extend(crate::figure_files!(stem, SIZE, |root| heatmap(
             &root, g, scale
         )));
     }
@@ -545,11 +545,11 @@ pub fn trial_figures(
             }
         }
     };
-    let mut out = crate::svg_and_png!(dir.join("fig4a_pin_speed"), SIZE, |root| {
+    let mut out = crate::figure_files!(dir.join("fig4a_pin_speed"), SIZE, |root| {
         speed_histogram(&root, &speeds, (t, source), features.units)
     });
     if let Some(fields) = example_fields(&trials, &ds, features.units) {
-        out.extend(crate::svg_and_png!(
+        out.extend(crate::figure_files!(
             dir.join("fig4b_pin_velocities"),
             (1100, 560),
             |root| { quiver(&root, &fields, features.units) }

@@ -216,11 +216,11 @@ pub fn hand_figures(inputs: &Inputs, dir: &Path) -> Result<Vec<PathBuf>, PlotErr
     }
     let panels = outcome_bars(&rows);
     let height = (330 * panels.len() as u32 + 40).max(520);
-    let mut out = crate::svg_and_png!(dir.join("hand_outcomes"), (1200, height), |root| {
+    let mut out = crate::figure_files!(dir.join("hand_outcomes"), (1200, height), |root| {
         bars(&root, &panels)
     });
     let groups = distances_by_strategy(&rows);
-    out.extend(crate::svg_and_png!(
+    out.extend(crate::figure_files!(
         dir.join("hand_slip_distance"),
         SIZE,
         |root| { boxes(&root, &groups) }

@@ -416,6 +416,7 @@ fn run_batch_step(
         rerun_faulted: false,
         shard: None,
         live: None,
+        on_trial: None,
     };
     let end = run_batch(&request, &mut rig, ctx.stop, ctx.bar).map_err(batch)?;
     Ok(matches!(end, BatchEnd::Finished(_)))

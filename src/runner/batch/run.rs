@@ -42,6 +42,8 @@ pub struct BatchRequest<'a> {
     /// Serve each trial live as it runs; simulated trials then run one at a time, at
     /// wall-clock speed.
     pub live: Option<&'a crate::live::LiveView>,
+    /// Told each finished trial as a line (`trial-0003: caught`), e.g. for a verbose log.
+    pub on_trial: Option<&'a (dyn Fn(&str) + Sync)>,
 }
 
 /// The rig a batch drives: the simulator (one world per trial) or an open real rig.
@@ -360,7 +362,11 @@ pub fn run_batch(
                     m
                 }
             };
-            bar.set_message(format!("{}: {message}", t.trial_id));
+            let line = format!("{}: {message}", t.trial_id);
+            if let Some(tell) = req.on_trial {
+                tell(&line);
+            }
+            bar.set_message(line);
             bar.inc(1);
         }
     }

@@ -1,0 +1,146 @@
+//! How much tmo says beyond its results, set once from the global `-q`, `-v` and `--color`.
+//!
+//! Results (tables, JSON, the paths of what was written when a command's point is to write
+//! it) go to standard output whatever the level. Progress bars and notes go to standard
+//! error; `-q` silences them, `-v` adds a line per finished item (trial, cell, evaluation).
+//! Warnings and errors are always said.
+
+use std::fmt::Display;
+use std::sync::atomic::{AtomicI8, Ordering};
+
+/// Below 0: quiet; 0: normal; above 0: verbose.
+static LEVEL: AtomicI8 = AtomicI8::new(0);
+
+/// Sets the level from the flags: `-q` wins over any `-v`.
+pub fn set_level(quiet: bool, verbose: u8) {
+    let level = if quiet {
+        -1
+    } else {
+        i8::try_from(verbose).unwrap_or(i8::MAX)
+    };
+    LEVEL.store(level, Ordering::Relaxed);
+}
+
+pub fn quiet() -> bool {
+    LEVEL.load(Ordering::Relaxed) < 0
+}
+
+pub fn verbose() -> bool {
+    LEVEL.load(Ordering::Relaxed) > 0
+}
+
+/// A note to the user on standard error (where outputs went, what was assumed), unless
+/// quiet.
+pub fn note(text: impl Display) {
+    if !quiet() {
+        eprintln!("{text}");
+    }
+}
+
+/// A line per finished item, on standard error above `bar`, when verbose. (indicatif's own
+/// `println` says nothing when the bar is hidden, e.g. when standard error is not a
+/// terminal, which is where a verbose log is most often wanted.)
+pub fn detail(bar: &indicatif::ProgressBar, text: impl Display) {
+    if verbose() {
+        bar.suspend(|| eprintln!("{text}"));
+    }
+}
+
+/// A progress bar with `template` (indicatif's syntax), drawn on standard error unless
+/// quiet.
+pub fn progress_bar(template: &str) -> indicatif::ProgressBar {
+    let bar = if quiet() {
+        indicatif::ProgressBar::hidden()
+    } else {
+        indicatif::ProgressBar::new(0)
+    };
+    bar.set_style(
+        indicatif::ProgressStyle::with_template(template)
+            .expect("valid template")
+            .progress_chars("=> "),
+    );
+    bar
+}
+
+/// A bar in the style every batch shows: `verb [=====>  ] 12/40 unit, 3s (eta 7s) msg`.
+pub fn counting_bar(verb: &str, unit: &str) -> indicatif::ProgressBar {
+    progress_bar(&format!(
+        "{verb} [{{bar:30}}] {{pos}}/{{len}} {unit}, {{elapsed}} (eta {{eta}}) {{msg}}"
+    ))
+}
+
+/// When to colour what tmo writes to a terminal (clap's help and errors).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum ColorWhen {
+    /// When writing to a terminal and `NO_COLOR` is not set.
+    Auto,
+    Always,
+    Never,
+}
+
+impl ColorWhen {
+    /// The choice on a command line, read before clap parses it, so that clap's own help
+    /// and errors already follow it. The last `--color` wins, as clap would have it.
+    pub fn from_args<I: IntoIterator<Item = std::ffi::OsString>>(args: I) -> ColorWhen {
+        let mut choice = ColorWhen::Auto;
+        let mut args = args.into_iter().map(|a| a.to_string_lossy().into_owned());
+        while let Some(arg) = args.next() {
+            if arg == "--" {
+                break;
+            }
+            let value = match arg.strip_prefix("--color") {
+                Some("") => args.next(),
+                Some(rest) => rest.strip_prefix('=').map(str::to_string),
+                None => None,
+            };
+            choice = match value.as_deref() {
+                Some("always") => ColorWhen::Always,
+                Some("never") => ColorWhen::Never,
+                Some("auto") => ColorWhen::Auto,
+                _ => choice,
+            };
+        }
+        choice
+    }
+
+    pub fn clap(self) -> clap::ColorChoice {
+        match self {
+            ColorWhen::Auto => clap::ColorChoice::Auto,
+            ColorWhen::Always => clap::ColorChoice::Always,
+            ColorWhen::Never => clap::ColorChoice::Never,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn color(args: &[&str]) -> ColorWhen {
+        ColorWhen::from_args(args.iter().map(std::ffi::OsString::from))
+    }
+
+    #[test]
+    fn the_color_choice_is_read_in_either_spelling_and_the_last_wins() {
+        assert_eq!(color(&["tmo", "run", "p.toml"]), ColorWhen::Auto);
+        assert_eq!(color(&["tmo", "--color", "never", "run"]), ColorWhen::Never);
+        assert_eq!(color(&["tmo", "run", "--color=always"]), ColorWhen::Always);
+        assert_eq!(
+            color(&["tmo", "--color=never", "run", "--color", "always"]),
+            ColorWhen::Always
+        );
+        // a value clap will refuse leaves the choice as it was; after `--` nothing is an option
+        assert_eq!(color(&["tmo", "--color", "sometimes"]), ColorWhen::Auto);
+        assert_eq!(color(&["tmo", "--", "--color=never"]), ColorWhen::Auto);
+    }
+
+    #[test]
+    fn quiet_wins_over_verbose() {
+        set_level(true, 2);
+        assert!(quiet() && !verbose());
+        set_level(false, 1);
+        assert!(!quiet() && verbose());
+        set_level(false, 0);
+        assert!(!quiet() && !verbose());
+    }
+}
