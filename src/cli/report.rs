@@ -11,6 +11,7 @@ pub struct ReportArgs {
     /// evaluations (`tmo evaluate --out`).
     #[arg(required = true)]
     inputs: Vec<PathBuf>,
+    /// How the tables are written.
     #[arg(long, value_enum, default_value = "md")]
     format: Format,
     /// Also write each table to DIR/<table>.<md|csv|json> (with html: the page to

@@ -26,6 +26,8 @@ pub enum BackendArg {
 
 #[derive(clap::Args)]
 pub struct ReproduceArgs {
+    /// How much to run: `quick` (a few trials a cell, about 20 s) or `paper` (the paper's
+    /// counts, about 15 min on 2 cores).
     #[arg(long, value_enum, default_value = "quick")]
     preset: PresetArg,
     /// Where every step's outputs and the findings report go.
@@ -34,6 +36,7 @@ pub struct ReproduceArgs {
     /// Finish or update a reproduction in --out: steps whose inputs are unchanged are kept.
     #[arg(long)]
     resume: bool,
+    /// Where the trials run: the simulator, or the real rig (`--hardware`).
     #[arg(long, value_enum, default_value = "sim")]
     backend: BackendArg,
     /// With `--backend real`: the hand rig's hardware file.

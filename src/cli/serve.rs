@@ -34,6 +34,7 @@ pub struct ServeArgs {
     /// The object the served rig starts with (each trial's reset brings its own).
     #[arg(long)]
     object: Option<String>,
+    /// Seed of the served world's randomness; each trial's reset derives its own from it.
     #[arg(long, default_value_t = 1)]
     seed: u64,
     /// Serve the UR controller at this loopback address on a controller's own ports (RTDE

@@ -61,6 +61,7 @@ pub struct TraceArgs {
     /// Hand roll, degrees (the paper uses 0 and 180).
     #[arg(long, default_value_t = 0.0)]
     grasp_deg: f64,
+    /// Seed of the trial's randomness (object, noise, units): the same seed, the same trace.
     #[arg(long, default_value_t = 1)]
     seed: u64,
     /// Simulated seconds.

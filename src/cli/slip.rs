@@ -69,8 +69,10 @@ pub struct TrainArgs {
     /// Trial logs (.mcap) or directories of them.
     #[arg(required = true)]
     trials: Vec<PathBuf>,
+    /// The classifier to train.
     #[arg(long, value_enum, default_value = "svm-rbf")]
     classifier: ClassifierKind,
+    /// One model on every sensor's frames (global) or one per sensor (local).
     #[arg(long, value_enum, default_value = "global")]
     scope: Scope,
     #[command(flatten)]
@@ -110,6 +112,7 @@ pub struct TrainArgs {
     /// no model written) instead of a warning.
     #[arg(long)]
     strict: bool,
+    /// The model file to write (JSON, docs/formats.md).
     #[arg(long)]
     out: PathBuf,
 }

@@ -49,6 +49,7 @@ pub struct SweepArgs {
     /// start:end:step or a list; each becomes frames at the first trial's rate.
     #[arg(long, conflicts_with = "n_slip")]
     n_slip_s: Option<String>,
+    /// One model on every sensor's frames (global) or one per sensor (local), in every cell.
     #[arg(long, value_enum, default_value = "global")]
     scope: Scope,
     /// Regularisation C when not searched.
@@ -111,6 +112,7 @@ struct MergeArgs {
     /// Every shard's CSV (each with its provenance .json beside it).
     #[arg(required = true)]
     shards: Vec<PathBuf>,
+    /// The merged CSV to write (its provenance .json and figures beside it).
     #[arg(long, default_value = "results/sweep.csv")]
     out: PathBuf,
 }
