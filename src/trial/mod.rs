@@ -211,6 +211,21 @@ fn time_base_ns(meta: &TrialMeta) -> u64 {
 /// The trial's provenance as MCAP metadata records, one per concern, each field its own
 /// entry: `tmo.trial` (with the whole of it as `json` too, which readers read), `tmo.code`,
 /// `tmo.parameters`, `tmo.model`, and one `tmo.<role>` per source file with its text.
+/// A command line as a POSIX shell would take it back: each argument single-quoted when it
+/// holds anything but letters, digits and `-_./:=,+@%`.
+fn command_line(args: impl Iterator<Item = String>) -> String {
+    let plain = |c: char| c.is_ascii_alphanumeric() || "-_./:=,+@%".contains(c);
+    args.map(|a| {
+        if !a.is_empty() && a.chars().all(plain) {
+            a
+        } else {
+            format!("'{}'", a.replace('\'', "'\\''"))
+        }
+    })
+    .collect::<Vec<_>>()
+    .join(" ")
+}
+
 fn metadata_records(trial: &Trial) -> Vec<(String, BTreeMap<String, String>)> {
     let m = &trial.meta;
     let fields = |pairs: &[(&str, String)]| -> BTreeMap<String, String> {
@@ -244,6 +259,7 @@ fn metadata_records(trial: &Trial) -> Vec<(String, BTreeMap<String, String>)> {
             fields(&[
                 ("tmo_version", m.tmo_version.clone()),
                 ("git_revision", m.git_revision.clone()),
+                ("command_line", command_line(std::env::args())),
             ]),
         ),
         ("tmo.parameters".to_string(), m.parameters.clone()),
@@ -557,6 +573,15 @@ pub(crate) mod tests {
     }
 
     #[test]
+    fn a_command_line_is_quoted_as_a_shell_reads_it() {
+        let args = ["tmo", "run", "p q.toml", "--out", "it's", "", "--seed=3"];
+        assert_eq!(
+            command_line(args.iter().map(|s| s.to_string())),
+            r#"tmo run 'p q.toml' --out 'it'\''s' '' --seed=3"#
+        );
+    }
+
+    #[test]
     fn provenance_is_one_metadata_record_per_concern() {
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("t.mcap");
@@ -582,6 +607,13 @@ pub(crate) mod tests {
         assert!(protocol["text"].contains("# a comment"));
         assert_eq!(protocol["sha256"], sha256_hex(protocol["text"].as_bytes()));
         assert!(!records.contains_key("tmo.model"), "no model ran");
+        // the command that wrote the log (here the test binary)
+        let argv0 = std::env::args().next().unwrap();
+        assert!(
+            records["tmo.code"]["command_line"].starts_with(&argv0),
+            "{:?}",
+            records["tmo.code"]
+        );
     }
 
     #[test]
