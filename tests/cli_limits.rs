@@ -72,6 +72,11 @@ fn train_checks_where_the_model_goes_before_training() {
         out.contains("fitted") && out.contains("scores on the fitted rows (training data"),
         "{out}"
     );
+    // and before them a held-out score, labelled as one
+    assert!(
+        out.contains("held-out scores, cross-validated by trial (3 folds"),
+        "{out}"
+    );
 }
 
 #[test]

@@ -90,7 +90,8 @@ pub struct TrainArgs {
     /// Evaluations of the search.
     #[arg(long, default_value_t = 20)]
     iters: usize,
-    /// Cross-validation folds (split by trial) of the search.
+    /// Cross-validation folds, split by trial: of the search, or (without one) of the
+    /// held-out score `train` prints before the final fit; 0: no held-out score.
     #[arg(long, default_value_t = 3)]
     folds: usize,
     /// Range of C the search explores (log-uniform), LOW:HIGH.
@@ -399,6 +400,11 @@ pub fn train(args: TrainArgs) -> Result<()> {
         downsample: args.labels.downsample_or(TRAIN_DOWNSAMPLE),
         seed: args.labels.seed,
     };
+    let held_out = match (&search, args.folds) {
+        // a search has cross-validated its choice already, and says so
+        (Some(_), _) | (None, 0) => None,
+        (None, folds) => cross_validate_fixed(&ds, &args, &spec, folds)?,
+    };
     let file = ModelFile::train(&ds, &spec, refs, search)?;
     let unconverged: Vec<String> = file
         .unconverged()
@@ -430,6 +436,9 @@ pub fn train(args: TrainArgs) -> Result<()> {
         args.labels.downsample_or(TRAIN_DOWNSAMPLE),
         started.elapsed().as_secs_f64()
     );
+    if let Some(folds) = &held_out {
+        print_held_out(folds);
+    }
     println!("scores on the fitted rows (training data; `tmo evaluate` scores held-out trials):");
     for m in &file.models {
         let label = m
@@ -439,6 +448,68 @@ pub fn train(args: TrainArgs) -> Result<()> {
     }
     println!("wrote {}", args.out.display());
     Ok(())
+}
+
+/// Each fold's scores when trained on the others (by trial) with `spec`'s settings, or
+/// `None` (and a note) when there are fewer trials than folds.
+fn cross_validate_fixed(
+    ds: &Dataset,
+    args: &TrainArgs,
+    spec: &model::TrainSpec,
+    folds: usize,
+) -> Result<Option<Vec<tmo::slip::metrics::Scores>>> {
+    let trials = ds.trial_ids.len();
+    if folds < 2 || trials < folds {
+        super::output::note(format!(
+            "note: no held-out score: --folds {folds} needs at least 2 folds and as many trials ({trials} given)"
+        ));
+        return Ok(None);
+    }
+    let tune = TuneSpec {
+        kind: spec.kind,
+        scope: spec.scope,
+        downsample: spec.downsample,
+        seed: spec.seed,
+        iterations: 0,
+        folds,
+        ranges: tuning::SearchRanges {
+            c: args.c_range,
+            gamma: args.gamma_range,
+        },
+        max_fit_rows: None,
+    };
+    let bar = super::output::progress_bar("cross-validating by trial {spinner} {elapsed}");
+    bar.enable_steady_tick(std::time::Duration::from_millis(200));
+    let scores = tuning::cross_validate(ds, &tune, spec.hyper);
+    bar.finish_and_clear();
+    Ok(Some(scores?))
+}
+
+/// The held-out folds' scores, labelled as such, and a warning for a fold on which the
+/// model detects (almost) no slip: such a model scores well on its training rows and never
+/// fires on a new trial.
+fn print_held_out(folds: &[tmo::slip::metrics::Scores]) {
+    let n = folds.len() as f64;
+    let mean = |f: fn(&tmo::slip::metrics::Scores) -> f64| folds.iter().map(f).sum::<f64>() / n;
+    let each: Vec<String> = folds.iter().map(|s| format!("{:.3}", s.macro_f1)).collect();
+    println!(
+        "held-out scores, cross-validated by trial ({} folds, each scored on every row of its trials by a model trained on the others): macro F1 {:.3} (folds {}), slip precision {:.3}, slip recall {:.3}",
+        folds.len(),
+        mean(|s| s.macro_f1),
+        each.join(", "),
+        mean(|s| s.slip.precision),
+        mean(|s| s.slip.recall),
+    );
+    for (k, s) in folds.iter().enumerate() {
+        if s.detects_almost_no_slip() {
+            eprintln!(
+                "warning: on held-out fold {} the model detects almost no slip ({} of {} slip rows): it would miss slips on new trials (a smaller --gamma, or --search bayes, usually helps)",
+                k + 1,
+                s.confusion.true_slip,
+                s.slip.support
+            );
+        }
+    }
 }
 
 pub fn evaluate(args: EvaluateArgs) -> Result<()> {

@@ -89,6 +89,17 @@ impl Confusion {
     }
 }
 
+/// Below this slip recall, on rows that hold slip, a model counts as one that detects
+/// (almost) no slip: it scores well on static rows and never fires on a new trial.
+pub const ALMOST_NO_SLIP_RECALL: f64 = 0.05;
+
+impl Scores {
+    /// Whether these rows held slip and the model found almost none of it.
+    pub fn detects_almost_no_slip(&self) -> bool {
+        self.slip.support > 0 && self.slip.recall < ALMOST_NO_SLIP_RECALL
+    }
+}
+
 /// Macro F1 of predictions against labels.
 pub fn macro_f1(truth: &[Class], predicted: &[Class]) -> f64 {
     Confusion::from_pairs(truth, predicted).scores().macro_f1
@@ -98,6 +109,20 @@ pub fn macro_f1(truth: &[Class], predicted: &[Class]) -> f64 {
 mod tests {
     use super::*;
     use Class::{Slip as P, Static as N};
+
+    #[test]
+    fn a_model_that_finds_almost_no_slip_is_told_apart() {
+        let scores = |found: usize, slip: usize| {
+            let truth: Vec<Class> = (0..100).map(|i| if i < slip { P } else { N }).collect();
+            let pred: Vec<Class> = (0..100).map(|i| if i < found { P } else { N }).collect();
+            Confusion::from_pairs(&truth, &pred).scores()
+        };
+        assert!(scores(0, 40).detects_almost_no_slip());
+        assert!(scores(1, 40).detects_almost_no_slip());
+        assert!(!scores(2, 40).detects_almost_no_slip());
+        // rows without slip say nothing about it
+        assert!(!scores(0, 0).detects_almost_no_slip());
+    }
 
     #[test]
     fn hand_computed_scores() {

@@ -8,6 +8,7 @@ use rayon::prelude::*;
 
 use super::bayes::{best, BayesSearch, Evaluation, LogRange, SearchError};
 use super::dataset::{Dataset, Scope};
+use super::metrics::Scores;
 use super::model::{
     score_models, train_models, ClassifierKind, Hyperparameters, SearchRecord, TrainError,
 };
@@ -66,6 +67,18 @@ pub fn cross_validated_f1(
     spec: &TuneSpec,
     hyper: Hyperparameters,
 ) -> Result<f64, TuneError> {
+    let folds = cross_validate(data, spec, hyper)?;
+    Ok(folds.iter().map(|s| s.macro_f1).sum::<f64>() / folds.len() as f64)
+}
+
+/// Each of `folds` folds of whole trials scored (every row) by a model trained (static rows
+/// down-sampled) on the rest. A fold whose sensor the training folds never saw (a local
+/// model set lacking it) scores as all wrong.
+pub fn cross_validate(
+    data: &Dataset,
+    spec: &TuneSpec,
+    hyper: Hyperparameters,
+) -> Result<Vec<Scores>, TuneError> {
     if spec.folds < 2 {
         return Err(TuneError::Folds(spec.folds));
     }
@@ -87,7 +100,7 @@ pub fn cross_validated_f1(
     let fold_of = |t: u32| fold_by_trial[t as usize];
     // Folds fit in parallel: the solver's own parallel kernel rows leave a core idle
     // during its sequential working-set steps.
-    let scores: Vec<Result<f64, TuneError>> = (0..spec.folds)
+    let scores: Vec<Result<Scores, TuneError>> = (0..spec.folds)
         .into_par_iter()
         .map(|fold| {
             let train = data.filter(|i| fold_of(data.trial[i]) != fold);
@@ -112,15 +125,12 @@ pub fn cross_validated_f1(
                 spec.downsample,
                 spec.seed,
             )?;
-            // A local model set lacks a sensor only if the training folds never saw it: 0.
-            Ok(score_models(&models, spec.scope, &test).map_or(0.0, |(s, _)| s.macro_f1))
+            // A local model set lacks a sensor only if the training folds never saw it.
+            Ok(score_models(&models, spec.scope, &test)
+                .map_or_else(|_| Scores::default(), |(s, _)| s))
         })
         .collect();
-    let mut total = 0.0;
-    for s in scores {
-        total += s?;
-    }
-    Ok(total / spec.folds as f64)
+    scores.into_iter().collect()
 }
 
 /// Searches C (and gamma for the RBF SVM) by Bayesian optimisation; a fit that fails scores 0.
