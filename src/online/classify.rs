@@ -4,7 +4,7 @@
 use tmo_hal::PinFrame;
 
 use super::strategy::{Detector, Strategy};
-use crate::slip::features::frame_features;
+use crate::slip::features::{frame_features, mean_velocity_norm};
 use crate::slip::model::ModelFile;
 use crate::slip::Class;
 
@@ -14,6 +14,14 @@ pub struct FrameClassifier<'m> {
     previous: Vec<Option<PinFrame>>,
     features: Vec<f32>,
     scratch: Vec<f32>,
+}
+
+/// One classified frame: its class and the norm of its mean pin velocity (px per frame, the
+/// quantity the threshold classifier and the paper's pin-speed histogram use), for logs.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Classified {
+    pub class: Class,
+    pub mean_velocity_px: f32,
 }
 
 impl<'m> FrameClassifier<'m> {
@@ -29,11 +37,19 @@ impl<'m> FrameClassifier<'m> {
     /// The class of `frame`, or `None` when it cannot be classified: a sensor's first frame,
     /// a frame whose pins do not match, or a sensor the model has no classifier for.
     pub fn classify(&mut self, frame: &PinFrame) -> Option<Class> {
+        self.classify_frame(frame).map(|c| c.class)
+    }
+
+    /// Like [`Self::classify`], with the frame's mean pin velocity beside the class.
+    pub fn classify_frame(&mut self, frame: &PinFrame) -> Option<Classified> {
         let slot = self.previous.get_mut(usize::from(frame.sensor))?;
         let previous = slot.replace(frame.clone())?;
         frame_features(&self.model.features, &previous, frame, &mut self.features).ok()?;
         let model = self.model.for_sensor(frame.sensor)?;
-        Some(model.predict(&self.features, &mut self.scratch))
+        Some(Classified {
+            class: model.predict(&self.features, &mut self.scratch),
+            mean_velocity_px: mean_velocity_norm(&self.features),
+        })
     }
 }
 

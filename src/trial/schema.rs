@@ -75,7 +75,7 @@ pub fn event_channel_schema(topic: &str) -> (&'static str, String) {
             event_schema(
                 "tmo.Classification",
                 "The slip classifier's output for one frame",
-                r#"{"type":"object","properties":{"sensor":{"type":"integer","minimum":0},"seq":{"type":"integer","minimum":0},"class":{"type":"string","enum":["static","slip"]},"slip":{"type":"integer","minimum":0,"maximum":1,"description":"1 for slip, 0 for static (plottable)"}},"required":["sensor","seq","class"],"additionalProperties":false}"#,
+                r#"{"type":"object","properties":{"sensor":{"type":"integer","minimum":0},"seq":{"type":"integer","minimum":0},"class":{"type":"string","enum":["static","slip"]},"slip":{"type":"integer","minimum":0,"maximum":1,"description":"1 for slip, 0 for static (plottable)"},"mean_velocity_px":{"type":"number","description":"norm of the frame's mean pin velocity, px per frame (what the threshold classifier thresholds)"}},"required":["sensor","seq","class"],"additionalProperties":false}"#,
             ),
         ),
         "/detector" => (
