@@ -8,6 +8,7 @@
 
 use std::collections::HashMap;
 use std::net::SocketAddr;
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
@@ -15,7 +16,7 @@ use foxglove::{RawChannel, Schema};
 use tmo_hal::{MarkerSample, PinFrame};
 
 use crate::trial::schema;
-use crate::trial::TrialEvent;
+use crate::trial::{Trial, TrialEvent};
 
 #[derive(Debug, thiserror::Error)]
 pub enum LiveError {
@@ -100,6 +101,43 @@ impl LiveView {
             frames: 0,
             markers: 0,
             events: 0,
+        }
+    }
+
+    /// Plays a recorded trial to the viewers at wall-clock speed, every channel as it was
+    /// logged (frames at their arrival, markers and events at their times), in steps of one
+    /// 60 fps frame. Returns `false` if `stop` was set before the trial's end.
+    pub fn play(&self, trial: &Trial, stop: &AtomicBool) -> bool {
+        const STEP_S: f64 = 1.0 / 60.0;
+        let end = [
+            trial.arrivals_s.last().copied(),
+            trial.markers.last().map(|m| m.time_s),
+            trial.events.last().map(|e| e.time_s),
+        ]
+        .into_iter()
+        .flatten()
+        .fold(0.0, f64::max);
+        let mut publisher = self.trial(crate::trial::time_base_ns(&trial.meta), true);
+        let mut t = 0.0;
+        loop {
+            // logs keep frames in arrival order and markers and events in time order
+            let frames = trial.arrivals_s.partition_point(|&a| a <= t);
+            let markers = trial.markers.partition_point(|m| m.time_s <= t);
+            let events = trial.events.partition_point(|e| e.time_s <= t);
+            publisher.publish(
+                t,
+                &trial.frames[..frames],
+                &trial.arrivals_s[..frames],
+                &trial.markers[..markers],
+                &trial.events[..events],
+            );
+            if t > end {
+                return true;
+            }
+            if stop.load(Ordering::Relaxed) {
+                return false;
+            }
+            t += STEP_S;
         }
     }
 

@@ -163,3 +163,45 @@ fn run_with_the_replay_backend_uses_the_protocols_models_and_strategies() {
     let e = fails(&tmo(d, &["run", "hand.toml", "--backend", "replay"]));
     assert!(e.contains("--from"), "{e}");
 }
+
+/// `tmo replay --live` plays each trial to a Foxglove viewer at wall-clock speed before the
+/// replay; Ctrl-C skips the rest of the playing, and the replay still runs and reports.
+#[test]
+fn a_replay_plays_its_trials_live_and_ctrl_c_skips_to_the_table() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    collect_and_train(d, &["--trials", "3", "--seed", "5"], "t", "m.json");
+    let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_tmo"))
+        .current_dir(d)
+        .args([
+            "replay",
+            "t",
+            "--model",
+            "m.json",
+            "--strategy",
+            "1x1",
+            "--live",
+            "127.0.0.1:0",
+        ])
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let started = std::time::Instant::now();
+    let frames = common::live::pin_frames(&mut child, 20);
+    // consecutive frames of the recorded trial, at about the camera's 60 fps
+    assert!(frames.windows(2).all(|w| w[0] < w[1]), "{frames:?}");
+    assert!(
+        started.elapsed().as_secs_f64() > 19.0 / 60.0,
+        "20 frames in {:?}: not at wall-clock speed",
+        started.elapsed()
+    );
+    // SAFETY: signals a child process this test started and still owns.
+    unsafe {
+        libc::kill(child.id() as i32, libc::SIGINT);
+    }
+    let out = child.wait_with_output().unwrap();
+    let said = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success(), "{said}");
+    assert!(said.contains("3 replays of 3 trial(s)"), "{said}");
+}

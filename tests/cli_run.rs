@@ -135,14 +135,10 @@ fn run_json_is_the_summary_as_one_json_object() {
     assert_eq!(again["already_there"], v["trials"]);
 }
 
-/// `tmo run --live`: a WebSocket client that speaks the Foxglove protocol connects while
+/// A viewer connected to `tmo run --live` (loopback, port 0: the address tmo prints) while
 /// the batch runs, subscribes to the thumb's pin channel and receives its frames.
 #[test]
 fn a_live_viewer_receives_pin_frames_while_the_batch_runs() {
-    use std::io::{BufRead, BufReader};
-    use tungstenite::client::IntoClientRequest;
-    use tungstenite::Message;
-
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     setup(d);
@@ -162,78 +158,7 @@ fn a_live_viewer_receives_pin_frames_while_the_batch_runs() {
         .stderr(std::process::Stdio::piped())
         .spawn()
         .unwrap();
-    let mut said = String::new();
-    BufReader::new(child.stderr.as_mut().unwrap())
-        .read_line(&mut said)
-        .unwrap();
-    let url = said
-        .split_whitespace()
-        .find(|w| w.starts_with("ws://"))
-        .unwrap_or_else(|| panic!("no address in {said:?}"))
-        .trim_end_matches(':')
-        .to_string();
-    let mut request = url.as_str().into_client_request().unwrap();
-    request
-        .headers_mut()
-        .insert("Sec-WebSocket-Protocol", "foxglove.sdk.v1".parse().unwrap());
-    let (mut ws, _) = tungstenite::connect(request).unwrap();
-    // a stalled stream fails the test instead of hanging it
-    if let tungstenite::stream::MaybeTlsStream::Plain(s) = ws.get_ref() {
-        s.set_read_timeout(Some(std::time::Duration::from_secs(30)))
-            .unwrap();
-    }
-    let mut channel = None;
-    let mut frames = Vec::new();
-    let started = std::time::Instant::now();
-    while frames.len() < 10 {
-        assert!(
-            started.elapsed().as_secs() < 60,
-            "no frames within a minute"
-        );
-        let message = match ws.read() {
-            Ok(m) => m,
-            Err(e) => {
-                let _ = child.kill();
-                let mut rest = String::new();
-                let _ = std::io::Read::read_to_string(child.stderr.as_mut().unwrap(), &mut rest);
-                panic!("{e} after {} frames; tmo said: {said}{rest}", frames.len());
-            }
-        };
-        match message {
-            Message::Text(text) => {
-                let v: serde_json::Value = serde_json::from_str(&text).unwrap();
-                if v["op"] != "advertise" || channel.is_some() {
-                    continue;
-                }
-                if let Some(c) = v["channels"]
-                    .as_array()
-                    .unwrap()
-                    .iter()
-                    .find(|c| c["topic"] == "/tactile/0")
-                {
-                    assert_eq!(c["schemaName"], "tmo.PinFrame");
-                    channel = c["id"].as_u64();
-                    let subscribe = serde_json::json!({"op": "subscribe",
-                        "subscriptions": [{"id": 7, "channelId": channel}]});
-                    ws.send(Message::text(subscribe.to_string())).unwrap();
-                }
-            }
-            // opcode 1 (message data), subscription id, log time (ns), the message
-            Message::Binary(b) if b.first() == Some(&1) => {
-                assert_eq!(u32::from_le_bytes(b[1..5].try_into().unwrap()), 7);
-                let log_time = u64::from_le_bytes(b[5..13].try_into().unwrap());
-                assert!(
-                    log_time > 1_700_000_000_000_000_000,
-                    "wall-clock time: {log_time}"
-                );
-                let v: serde_json::Value = serde_json::from_slice(&b[13..]).unwrap();
-                assert_eq!(v["sensor"], 0);
-                assert_eq!(v["x"].as_array().unwrap().len(), 30);
-                frames.push(v["seq"].as_u64().unwrap());
-            }
-            _ => {}
-        }
-    }
+    let frames = common::live::pin_frames(&mut child, 10);
     assert!(frames.windows(2).all(|w| w[0] < w[1]), "{frames:?}");
     child.kill().unwrap();
     child.wait().unwrap();

@@ -34,6 +34,11 @@ pub struct ReplayArgs {
     /// Print the table and every replay's outcome as JSON instead of as text.
     #[arg(long)]
     json: bool,
+    /// First play each trial log to a Foxglove viewer at wall-clock speed (every channel as
+    /// recorded), served at ADDR (default 127.0.0.1:8765; port 0 picks a free one) over the
+    /// Foxglove WebSocket protocol. Ctrl-C skips to the replay's table.
+    #[arg(long, value_name = "ADDR", num_args = 0..=1, default_missing_value = "127.0.0.1:8765")]
+    live: Option<std::net::SocketAddr>,
 }
 
 fn percentile(sorted: &[f64], q: f64) -> Option<f64> {
@@ -135,7 +140,32 @@ pub fn replay(args: ReplayArgs) -> Result<bool> {
         &strategies,
         args.out.as_deref(),
         args.json,
+        args.live,
     )
+}
+
+/// Plays every trial to a live view at `addr`, one after another at wall-clock speed, until
+/// the last one ends or Ctrl-C.
+fn play_live(addr: std::net::SocketAddr, trials: &[(String, Trial)]) -> Result<()> {
+    use std::sync::atomic::{AtomicBool, Ordering};
+    let view = tmo::live::LiveView::start(addr)?;
+    eprintln!(
+        "live view at {}: in Foxglove, Open connection > Foxglove WebSocket > {} (each trial plays at wall-clock speed; Ctrl-C skips to the replay)",
+        view.url(),
+        view.url()
+    );
+    let stop = std::sync::Arc::new(AtomicBool::new(false));
+    let flag = stop.clone();
+    ctrlc::set_handler(move || flag.store(true, Ordering::Relaxed))
+        .context("cannot install the Ctrl-C handler")?;
+    for (i, (path, trial)) in trials.iter().enumerate() {
+        super::output::note(format!("playing {path} ({}/{})", i + 1, trials.len()));
+        if !view.play(trial, &stop) {
+            super::output::note("stopped playing; replaying");
+            break;
+        }
+    }
+    Ok(())
 }
 
 /// The replay of `trials` through every model and strategy; whether some logs were skipped.
@@ -145,6 +175,7 @@ pub fn replay_with(
     strategies: &[Strategy],
     out: Option<&std::path::Path>,
     json: bool,
+    live: Option<std::net::SocketAddr>,
 ) -> Result<bool> {
     let models: Vec<(String, String, ModelFile)> = model_paths
         .iter()
@@ -195,6 +226,9 @@ pub fn replay_with(
                 );
             }
         }
+    }
+    if let Some(addr) = live {
+        play_live(addr, &trials)?;
     }
     let mut jobs = Vec::new();
     for (ti, (_, t)) in trials.iter().enumerate() {

@@ -61,7 +61,8 @@ pub struct RunArgs {
     from: Vec<PathBuf>,
     /// Serve the trials live over the Foxglove WebSocket protocol while the batch runs, at
     /// ADDR (default 127.0.0.1:8765; port 0 picks a free one). Simulated trials then run
-    /// one at a time, at wall-clock speed.
+    /// one at a time, at wall-clock speed; with `--backend replay` the recorded trials play
+    /// first, as `tmo replay --live` does.
     #[arg(long, value_name = "ADDR", num_args = 0..=1, default_missing_value = "127.0.0.1:8765")]
     live: Option<std::net::SocketAddr>,
     /// Print the batch's summary as JSON (counts, the report's tables, the files written)
@@ -95,10 +96,6 @@ pub fn run(args: RunArgs) -> Result<u8> {
     };
     if args.backend == Backend::Replay {
         anyhow::ensure!(
-            args.live.is_none(),
-            "--live serves batches on the simulator or the real rig; a replay has no live rig"
-        );
-        anyhow::ensure!(
             !args.from.is_empty(),
             "--backend replay needs --from TRIALS (recorded logs or batch directories)"
         );
@@ -113,6 +110,8 @@ pub fn run(args: RunArgs) -> Result<u8> {
             &plan.strategies,
             args.out.as_deref(),
             args.json,
+            // the recorded trials play to the viewer first, as `tmo replay --live` does
+            args.live,
         )?;
         return Ok(if skipped {
             super::replay::EXIT_SKIPPED

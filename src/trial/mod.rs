@@ -200,7 +200,8 @@ fn nanos(t: f64) -> u64 {
 }
 
 /// Log time of trial-clock time 0, ns since the Unix epoch (0 for format 1).
-fn time_base_ns(meta: &TrialMeta) -> u64 {
+/// Where a log's times start: the trial's wall-clock start, ns (format 1: 0).
+pub(crate) fn time_base_ns(meta: &TrialMeta) -> u64 {
     if meta.format_version >= 2 {
         meta.started_unix_s.saturating_mul(1_000_000_000)
     } else {

@@ -2,6 +2,7 @@
 
 #![allow(dead_code)] // each test file uses its own subset
 
+pub mod live;
 pub mod logs;
 
 use std::path::Path;
