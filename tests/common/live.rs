@@ -8,7 +8,8 @@ use tungstenite::Message;
 
 /// Reads the live view's address from the first line `child` (a `tmo ... --live
 /// 127.0.0.1:0`, its stderr piped) says, connects, subscribes to the thumb's pin channel
-/// `/tactile/0` and returns the sequence numbers of the first `n` frames it receives. Each
+/// `/tactile/0` and returns the sequence numbers of the first `n` frames it receives (the
+/// pin scene `/tactile/scene` must be advertised beside it). Each
 /// frame is checked: wall-clock log time, schema `tmo.PinFrame`, sensor 0, 30 pins. A
 /// stream that stalls fails the test with what tmo said instead of hanging it.
 pub fn pin_frames(child: &mut Child, n: usize) -> Vec<u64> {
@@ -54,12 +55,15 @@ pub fn pin_frames(child: &mut Child, n: usize) -> Vec<u64> {
                 if v["op"] != "advertise" || channel.is_some() {
                     continue;
                 }
-                if let Some(c) = v["channels"]
-                    .as_array()
-                    .unwrap()
-                    .iter()
-                    .find(|c| c["topic"] == "/tactile/0")
-                {
+                let channels = v["channels"].as_array().unwrap();
+                // the pin fields as a well-known scene, for Foxglove's 3D panel
+                let scene = channels.iter().find(|c| c["topic"] == "/tactile/scene");
+                assert_eq!(
+                    scene.map(|c| c["schemaName"].clone()),
+                    Some(serde_json::json!("foxglove.SceneUpdate")),
+                    "{channels:?}"
+                );
+                if let Some(c) = channels.iter().find(|c| c["topic"] == "/tactile/0") {
                     assert_eq!(c["schemaName"], "tmo.PinFrame");
                     channel = c["id"].as_u64();
                     let subscribe = serde_json::json!({"op": "subscribe",

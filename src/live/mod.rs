@@ -15,7 +15,10 @@ use std::time::{Duration, Instant};
 use foxglove::{RawChannel, Schema};
 use tmo_hal::{MarkerSample, PinFrame};
 
+use crate::slip::Class;
 use crate::trial::schema;
+
+pub mod scene;
 use crate::trial::{Trial, TrialEvent};
 
 #[derive(Debug, thiserror::Error)]
@@ -50,6 +53,8 @@ struct Inner {
     port: u16,
     host: String,
     channels: Mutex<HashMap<String, Arc<RawChannel>>>,
+    /// Every fingertip's pin field as a well-known scene (live only: see `scene`).
+    scene: foxglove::Channel<foxglove::messages::SceneUpdate>,
     // kept for as long as the view: the server stops when its handle goes
     _server: foxglove::WebSocketServerHandle,
 }
@@ -67,9 +72,11 @@ impl LiveView {
                 addr,
                 message: e.to_string(),
             })?;
+        let scene = ctx.channel_builder(scene::SCENE_TOPIC).build();
         let view = Self {
             inner: Arc::new(Inner {
                 ctx,
+                scene,
                 port: server.port(),
                 host: addr.ip().to_string(),
                 channels: Mutex::new(HashMap::new()),
@@ -101,6 +108,7 @@ impl LiveView {
             frames: 0,
             markers: 0,
             events: 0,
+            classes: Vec::new(),
         }
     }
 
@@ -191,9 +199,25 @@ pub struct LivePublisher {
     frames: usize,
     markers: usize,
     events: usize,
+    /// Each sensor's latest class from the classifier's events, for the pin scene.
+    classes: Vec<Option<Class>>,
 }
 
 impl LivePublisher {
+    /// Takes a `/classifier` event's sensor and class.
+    fn note_class(&mut self, data: &serde_json::Value) {
+        let sensor = data["sensor"]
+            .as_u64()
+            .and_then(|s| usize::try_from(s).ok());
+        let class = serde_json::from_value::<Class>(data["class"].clone()).ok();
+        if let (Some(sensor), Some(class)) = (sensor.filter(|&s| s < 256), class) {
+            if self.classes.len() <= sensor {
+                self.classes.resize(sensor + 1, None);
+            }
+            self.classes[sensor] = Some(class);
+        }
+    }
+
     fn at(&self, t: f64) -> u64 {
         self.base_ns
             .saturating_add((t.max(0.0) * 1e9).round() as u64)
@@ -211,14 +235,27 @@ impl LivePublisher {
         markers: &[MarkerSample],
         events: &[TrialEvent],
     ) {
+        // a frame and its classification are recorded in the same tick: the scene takes
+        // the tick's classes first, so a frame's pins show its own class
+        for e in events.get(self.events..).unwrap_or_default() {
+            if e.topic == "/classifier" {
+                self.note_class(&e.data);
+            }
+        }
         let new = frames.get(self.frames..).unwrap_or_default();
         for (f, arrived) in new
             .iter()
             .zip(arrivals_s.get(self.frames..).unwrap_or_default())
         {
             let body = serde_json::to_vec(&schema::PinFrameOut::from(f)).expect("frames serialise");
+            let at = self.at(*arrived);
             self.view
-                .publish(&format!("/tactile/{}", f.sensor), &body, self.at(*arrived));
+                .publish(&format!("/tactile/{}", f.sensor), &body, at);
+            let class = self.classes.get(usize::from(f.sensor)).copied().flatten();
+            self.view.inner.scene.log_with_meta(
+                &scene::pin_scene(f, class),
+                foxglove::PartialMetadata { log_time: Some(at) },
+            );
         }
         self.frames = frames.len();
         for m in markers.get(self.markers..).unwrap_or_default() {
