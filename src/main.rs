@@ -172,6 +172,13 @@ mod tests {
     }
 
     #[test]
+    fn the_command_line_is_well_formed() {
+        // clap's own checks: no two arguments share a name or a short flag (the global
+        // -q and -v included), defaults parse, and so on
+        Cli::command().debug_assert();
+    }
+
+    #[test]
     fn every_command_and_argument_has_help() {
         let mut missing = Vec::new();
         without_help(&Cli::command(), "tmo", &mut missing);

@@ -100,8 +100,16 @@ fn every_panel_is_configured_and_reads_fields_tmo_writes() {
             paths.push(t.to_string());
         }
         // a 3D panel's topics: the live view's pin scene
-        for topic in config["topics"].as_object().into_iter().flat_map(|t| t.keys()) {
-            assert_eq!(topic, tmo::live::scene::SCENE_TOPIC, "a 3D panel shows {topic}");
+        for topic in config["topics"]
+            .as_object()
+            .into_iter()
+            .flat_map(|t| t.keys())
+        {
+            assert_eq!(
+                topic,
+                tmo::live::scene::SCENE_TOPIC,
+                "a 3D panel shows {topic}"
+            );
         }
     }
     // the pins of all three fingertips, the classifier, the heights and the commands
