@@ -23,6 +23,9 @@ fn category(labels: &[String], v: f64) -> String {
     }
 }
 
+/// Trials that neither slipped measurably nor were judged TP, FP or FN.
+const OTHER_COLOUR: RGBColor = RGBColor(170, 170, 170);
+
 /// Outcome counts of one bar.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Bar {
@@ -30,6 +33,10 @@ pub struct Bar {
     pub tp: usize,
     pub fp: usize,
     pub fn_: usize,
+    /// Trials with neither a TP, an FP nor an FN: no slip at all, or held with no
+    /// measurable slip. Drawn too, so that a bar's height is its trial count and a cell
+    /// whose trials all ended so is not an empty slot.
+    pub other: usize,
 }
 
 /// Bars per scope, one per strategy and grasp, from completed trials.
@@ -55,6 +62,7 @@ pub fn outcome_bars(rows: &[&OutcomeRow]) -> BTreeMap<String, Vec<Bar>> {
                         tp: n(Verdict::TruePositive),
                         fp: n(Verdict::FalsePositive),
                         fn_: n(Verdict::FalseNegative),
+                        other: n(Verdict::NoSlip) + n(Verdict::HeldNoSlip),
                     }
                 })
                 .collect();
@@ -74,15 +82,19 @@ fn bars<DB: DrawingBackend>(
     )?;
     let areas = root.split_evenly((panels.len().max(1), 1));
     for (area, (scope, bars)) in areas.iter().zip(panels) {
-        let top = bars.iter().map(|b| b.tp + b.fp + b.fn_).max().unwrap_or(1) as f64;
+        let top = bars
+            .iter()
+            .map(|b| b.tp + b.fp + b.fn_ + b.other)
+            .max()
+            .unwrap_or(1) as f64;
         let labels: Vec<String> = bars.iter().map(|b| b.label.clone()).collect();
         let mut chart = ChartBuilder::on(area)
             .caption(format!("{scope} model"), (FONT, 15))
             .margin(8)
             .x_label_area_size(30)
             .y_label_area_size(50)
-            // headroom above the bars for the legend
-            .build_cartesian_2d(-0.5..(bars.len() as f64 - 0.5), 0.0..top * 1.3)?;
+            // headroom above the bars for the legend's four entries
+            .build_cartesian_2d(-0.5..(bars.len() as f64 - 0.5), 0.0..top * 1.7)?;
         chart
             .configure_mesh()
             .light_line_style(TRANSPARENT)
@@ -94,13 +106,18 @@ fn bars<DB: DrawingBackend>(
             .label_style((FONT, 12))
             .axis_desc_style((FONT, 13))
             .draw()?;
-        for (k, (colour, name)) in [(TP_COLOUR, "TP"), (FP_COLOUR, "FP"), (FN_COLOUR, "FN")]
-            .into_iter()
-            .enumerate()
+        for (k, (colour, name)) in [
+            (TP_COLOUR, "TP"),
+            (FP_COLOUR, "FP"),
+            (FN_COLOUR, "FN"),
+            (OTHER_COLOUR, "no slip, or held with none"),
+        ]
+        .into_iter()
+        .enumerate()
         {
             chart
                 .draw_series(bars.iter().enumerate().map(|(i, b)| {
-                    let counts = [b.tp, b.fp, b.fn_];
+                    let counts = [b.tp, b.fp, b.fn_, b.other];
                     let base: usize = counts[..k].iter().sum();
                     let x = i as f64;
                     Rectangle::new(
@@ -259,6 +276,8 @@ mod tests {
             row("global", "2Fr2Sen", 0.0, Verdict::FalsePositive, None),
             row("global", "2Fr2Sen", 180.0, Verdict::FalseNegative, None),
             row("local", "1Fr1Sen", 0.0, Verdict::TruePositive, Some(1.0)),
+            row("local", "2Fr2Sen", 0.0, Verdict::NoSlip, None),
+            row("local", "2Fr2Sen", 0.0, Verdict::HeldNoSlip, None),
         ];
         let refs: Vec<&OutcomeRow> = rows.iter().collect();
         let b = outcome_bars(&refs);
@@ -269,10 +288,13 @@ mod tests {
                 label: "2Fr2Sen 0°".into(),
                 tp: 1,
                 fp: 1,
-                fn_: 0
+                fn_: 0,
+                other: 0
             }
         );
         assert_eq!(b["global"][1].fn_, 1);
+        // every trial is in its bar: those without a slip too
+        assert_eq!((b["local"][1].tp, b["local"][1].other), (0, 2));
         let d = distances_by_strategy(&refs);
         assert_eq!(
             d,
