@@ -451,20 +451,14 @@ pub fn train(args: TrainArgs) -> Result<()> {
 }
 
 /// Each fold's scores when trained on the others (by trial) with `spec`'s settings, or
-/// `None` (and a note) when there are fewer trials than folds.
+/// `None` (and a note) when the library says the folds cannot be made (too few trials, or
+/// fewer than 2 folds).
 fn cross_validate_fixed(
     ds: &Dataset,
     args: &TrainArgs,
     spec: &model::TrainSpec,
     folds: usize,
 ) -> Result<Option<Vec<tmo::slip::metrics::Scores>>> {
-    let trials = ds.trial_ids.len();
-    if folds < 2 || trials < folds {
-        super::output::note(format!(
-            "note: no held-out score: --folds {folds} needs at least 2 folds and as many trials ({trials} given)"
-        ));
-        return Ok(None);
-    }
     let tune = TuneSpec {
         kind: spec.kind,
         scope: spec.scope,
@@ -482,7 +476,14 @@ fn cross_validate_fixed(
     bar.enable_steady_tick(std::time::Duration::from_millis(200));
     let scores = tuning::cross_validate(ds, &tune, spec.hyper);
     bar.finish_and_clear();
-    Ok(Some(scores?))
+    match scores {
+        Ok(scores) => Ok(Some(scores)),
+        Err(e @ (tuning::TuneError::TooFewTrials { .. } | tuning::TuneError::Folds(_))) => {
+            super::output::note(format!("note: no held-out score: {e}"));
+            Ok(None)
+        }
+        Err(e) => Err(e.into()),
+    }
 }
 
 /// The held-out folds' scores, labelled as such, and a warning for a fold on which the

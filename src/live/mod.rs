@@ -17,9 +17,9 @@ use tmo_hal::{MarkerSample, PinFrame};
 
 use crate::slip::Class;
 use crate::trial::schema;
+use crate::trial::{Trial, TrialEvent};
 
 pub mod scene;
-use crate::trial::{Trial, TrialEvent};
 
 #[derive(Debug, thiserror::Error)]
 pub enum LiveError {

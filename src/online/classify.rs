@@ -37,17 +37,20 @@ impl<'m> FrameClassifier<'m> {
     /// The class of `frame`, or `None` when it cannot be classified: a sensor's first frame,
     /// a frame whose pins do not match, or a sensor the model has no classifier for.
     pub fn classify(&mut self, frame: &PinFrame) -> Option<Class> {
-        self.classify_frame(frame).map(|c| c.class)
-    }
-
-    /// Like [`Self::classify`], with the frame's mean pin velocity beside the class.
-    pub fn classify_frame(&mut self, frame: &PinFrame) -> Option<Classified> {
         let slot = self.previous.get_mut(usize::from(frame.sensor))?;
         let previous = slot.replace(frame.clone())?;
         frame_features(&self.model.features, &previous, frame, &mut self.features).ok()?;
         let model = self.model.for_sensor(frame.sensor)?;
+        Some(model.predict(&self.features, &mut self.scratch))
+    }
+
+    /// Like [`Self::classify`], with the frame's mean pin velocity beside the class (from
+    /// the features `classify` just computed: replays, which need only the class, do not
+    /// pay for it).
+    pub fn classify_frame(&mut self, frame: &PinFrame) -> Option<Classified> {
+        let class = self.classify(frame)?;
         Some(Classified {
-            class: model.predict(&self.features, &mut self.scratch),
+            class,
             mean_velocity_px: mean_velocity_norm(&self.features),
         })
     }

@@ -228,14 +228,26 @@ mod tests {
     use crate::trial::tests::sample_trial;
     use crate::trial::write_trial;
 
-    #[test]
-    fn truncated_log_is_a_clear_error() {
+    /// The sample trial written as a log `t.mcap` in a fresh directory: the directory (kept
+    /// for as long as the test needs the file), the log's path and its bytes.
+    fn sample_log() -> (tempfile::TempDir, std::path::PathBuf, Vec<u8>) {
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("t.mcap");
         write_trial(&path, &sample_trial()).unwrap();
         let bytes = fs::read(&path).unwrap();
-        fs::write(&path, &bytes[..bytes.len() / 2]).unwrap();
-        let err = read_trial(&path).unwrap_err().to_string();
+        (dir, path, bytes)
+    }
+
+    /// What reading `bytes` as the log at `path` says: it must be refused.
+    fn refusal(path: &Path, bytes: &[u8]) -> String {
+        fs::write(path, bytes).unwrap();
+        read_trial(path).unwrap_err().to_string()
+    }
+
+    #[test]
+    fn truncated_log_is_a_clear_error() {
+        let (_dir, path, bytes) = sample_log();
+        let err = refusal(&path, &bytes[..bytes.len() / 2]);
         assert!(err.contains("t.mcap"), "{err}");
     }
 
@@ -261,10 +273,7 @@ mod tests {
 
     #[test]
     fn a_record_in_a_chunk_that_claims_a_huge_length_is_refused_before_it_is_read() {
-        let dir = tempfile::tempdir().unwrap();
-        let path = dir.path().join("t.mcap");
-        write_trial(&path, &sample_trial()).unwrap();
-        let mut bytes = fs::read(&path).unwrap();
+        let (_dir, path, mut bytes) = sample_log();
         let body = first_chunk_body(&bytes);
         let compressed = first_chunk_records(&bytes);
         let mut records = zstd::decode_all(&bytes[compressed.clone()]).unwrap();
@@ -281,24 +290,19 @@ mod tests {
         bytes[compressed.clone()].fill(0);
         bytes[compressed.start..compressed.start + recompressed.len()]
             .copy_from_slice(&recompressed);
-        fs::write(&path, &bytes).unwrap();
-        let err = read_trial(&path).unwrap_err().to_string();
+        let err = refusal(&path, &bytes);
         assert!(err.contains("t.mcap") && err.contains("exceeds"), "{err}");
     }
 
     #[test]
     fn a_metadata_index_past_the_end_is_refused() {
-        let dir = tempfile::tempdir().unwrap();
-        let path = dir.path().join("t.mcap");
-        write_trial(&path, &sample_trial()).unwrap();
-        let mut bytes = fs::read(&path).unwrap();
+        let (_dir, path, mut bytes) = sample_log();
         // the summary's index of `tmo.trial`: offset, length, then the name (u32 length first)
         let name = b"\x09\x00\x00\x00tmo.trial";
         let at = bytes.windows(name.len()).rposition(|w| w == name).unwrap();
         for offset in [u64::MAX - 3, bytes.len() as u64] {
             bytes[at - 16..at - 8].copy_from_slice(&offset.to_le_bytes());
-            fs::write(&path, &bytes).unwrap();
-            let err = read_trial(&path).unwrap_err().to_string();
+            let err = refusal(&path, &bytes);
             assert!(
                 err.contains("t.mcap") && err.contains("past the file's end"),
                 "{err}"
@@ -308,31 +312,23 @@ mod tests {
 
     #[test]
     fn one_changed_byte_in_a_chunk_is_refused() {
-        let dir = tempfile::tempdir().unwrap();
-        let path = dir.path().join("t.mcap");
-        write_trial(&path, &sample_trial()).unwrap();
-        let clean = fs::read(&path).unwrap();
+        let (_dir, path, clean) = sample_log();
         let records = first_chunk_records(&clean);
         for at in [records.start + records.len() / 2, records.end - 10] {
             let mut bytes = clean.clone();
             bytes[at] ^= 0x10;
-            fs::write(&path, &bytes).unwrap();
-            let err = read_trial(&path).unwrap_err().to_string();
+            let err = refusal(&path, &bytes);
             assert!(err.contains("t.mcap"), "{err}");
         }
     }
 
     #[test]
     fn a_chunk_that_claims_a_huge_size_is_refused_before_it_is_read() {
-        let dir = tempfile::tempdir().unwrap();
-        let path = dir.path().join("t.mcap");
-        write_trial(&path, &sample_trial()).unwrap();
-        let mut bytes = fs::read(&path).unwrap();
+        let (_dir, path, mut bytes) = sample_log();
         // the uncompressed size sits 16 bytes into the first chunk's body
         let size_at = first_chunk_body(&bytes) + 16;
         bytes[size_at..size_at + 8].copy_from_slice(&(1u64 << 50).to_le_bytes());
-        fs::write(&path, &bytes).unwrap();
-        let err = read_trial(&path).unwrap_err().to_string();
+        let err = refusal(&path, &bytes);
         assert!(
             err.contains("t.mcap") && err.contains("uncompressed"),
             "{err}"
