@@ -68,6 +68,9 @@ pub struct Devices<C, H, A, M, S> {
     pub sensors: Vec<S>,
     /// Where each tick's new frames, markers and events are also sent as they arrive.
     pub live: Option<crate::live::LivePublisher>,
+    /// How often the runners record the hand's and arm's state (see `runner::state`);
+    /// `None` where the devices have no state of their own to report (replay).
+    pub state_period_s: Option<f64>,
 }
 
 /// The simulated rig's devices.
@@ -89,6 +92,7 @@ impl SimDevices {
             markers: rig.marker_tracker(),
             sensors: rig.tactile_sensors(),
             live: None,
+            state_period_s: Some(crate::runner::state::STATE_PERIOD_S),
         }
     }
 }

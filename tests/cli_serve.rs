@@ -208,6 +208,45 @@ fn hand_release_and_rice_pour_run_on_the_real_backend_against_the_served_simulat
             .iter()
             .find(|e| e.topic == "/phase" && e.data["phase"] == "contact");
         assert!(contact.is_some(), "trial {k} found contact");
+        // the hand's and arm's state as the real devices report it, with its schemas, and
+        // none while the detector waited for slip
+        let topics =
+            common::logs::check_log_schemas(&d.join(format!("release/trial-0000{k}.mcap")));
+        assert!(
+            topics.contains("/state/hand") && topics.contains("/state/arm"),
+            "{topics:?}"
+        );
+        let detector_at = |what: &str| {
+            trial
+                .events
+                .iter()
+                .find(|e| e.topic == "/detector" && e.data["event"] == what)
+                .map(|e| e.time_s)
+        };
+        let armed = detector_at("armed").expect("armed");
+        let waited_until = detector_at("reaction").unwrap_or(f64::INFINITY);
+        let states: Vec<_> = trial
+            .events
+            .iter()
+            .filter(|e| e.topic == "/state/hand")
+            .collect();
+        assert!(states.len() > 5, "{} state samples", states.len());
+        for s in &states {
+            assert!(
+                s.time_s < armed || s.time_s >= waited_until,
+                "a state sample at {} while waiting for slip ({armed}..{waited_until})",
+                s.time_s
+            );
+            let positions = s.data["positions"].as_array().unwrap();
+            assert_eq!(positions.len(), 4);
+            assert!(
+                positions
+                    .iter()
+                    .all(|p| (-0.05..=1.05).contains(&p.as_f64().unwrap())),
+                "{}",
+                s.data
+            );
+        }
     }
 
     std::fs::write(

@@ -28,7 +28,7 @@ pub enum LiveError {
 }
 
 /// The channels the runners write (three fingertips at most).
-const ANNOUNCED_TOPICS: [&str; 10] = [
+const ANNOUNCED_TOPICS: [&str; 12] = [
     "/tactile/0",
     "/tactile/1",
     "/tactile/2",
@@ -36,6 +36,8 @@ const ANNOUNCED_TOPICS: [&str; 10] = [
     "/phase",
     "/command/hand",
     "/command/arm",
+    "/state/hand",
+    "/state/arm",
     "/classifier",
     "/detector",
     "/fault",

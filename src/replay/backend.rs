@@ -189,6 +189,7 @@ pub fn replay_devices(trial: &Trial, start_s: f64) -> (ReplayDevices, CommandLog
         },
         sensors,
         live: None,
+        state_period_s: None,
     };
     (devices, log)
 }

@@ -174,7 +174,7 @@ where
             }
             _ => {}
         }
-        let (first_new, now) = dev.tick(&mut rec, &events)?;
+        let (first_new, now) = dev.tick(&mut rec, &mut events, phase == Phase::Releasing)?;
         if let Some(a) = approach.as_mut() {
             a.observe(&rec.frames[first_new..]);
         }
@@ -299,6 +299,15 @@ mod tests {
     /// Runs a release with sensors that start slipping at the given times; returns the
     /// record and every target the hand was sent.
     fn run(scripts: [Script; 3], strategy: &str) -> (RunRecord, Vec<HandPositions>) {
+        run_sampling_state(scripts, strategy, None)
+    }
+
+    /// [`run`] with the devices' state sampled every `state_period_s`.
+    fn run_sampling_state(
+        scripts: [Script; 3],
+        strategy: &str,
+        state_period_s: Option<f64>,
+    ) -> (RunRecord, Vec<HandPositions>) {
         let clock = SharedClock::default();
         let sent = Arc::new(Mutex::new(Vec::new()));
         let mut hand = MockHand::new();
@@ -315,6 +324,12 @@ mod tests {
             .times(1)
             .returning(|_, _| Ok(()));
         arm.expect_stop().times(1).returning(|| Ok(()));
+        arm.expect_tcp_pose().returning(|| {
+            Ok(tmo_hal::Pose {
+                position_mm: [1.0, 2.0, 3.0],
+                rotation_rad: [0.0, 0.0, 0.5],
+            })
+        });
         let mut markers = MockMarkers::new();
         markers.expect_next_sample().returning(|| Ok(None));
         let sensors = (0..3)
@@ -327,6 +342,7 @@ mod tests {
             markers,
             sensors,
             live: None,
+            state_period_s,
         };
         let model = threshold_model();
         let online = Online {
@@ -386,6 +402,63 @@ mod tests {
         // nothing is sent after the regrasp: the hand holds the new grasp
         assert_eq!(regrasps(&targets[targets.len() - 1..]), 1);
         assert!(record.ended_s >= reaction.time_s + 0.2);
+    }
+
+    #[test]
+    fn state_is_sampled_at_its_period_but_never_while_the_detector_waits_for_slip() {
+        let (record, _) = run_sampling_state(
+            [slips_from(1.0), slips_from(1.1), slips_from(99.0)],
+            "2x2",
+            Some(0.05),
+        );
+        let (armed, reacted) = (record.armed_s.unwrap(), record.reaction.unwrap().time_s);
+        let times = |topic: &str| -> Vec<f64> {
+            record
+                .events
+                .iter()
+                .filter(|e| e.topic == topic)
+                .map(|e| e.time_s)
+                .collect()
+        };
+        let hand = times("/state/hand");
+        assert_eq!(hand, times("/state/arm"), "hand and arm sampled together");
+        assert!(
+            hand.iter().all(|&t| t < armed || t >= reacted),
+            "sampled while waiting for slip: {hand:?}"
+        );
+        // every 50 ms (or the tick after) from the start to the arming at 0.6 s, and again
+        // over the 0.2 s observed after the reaction
+        let before = hand.iter().filter(|&&t| t < armed).count();
+        assert!(
+            (11..=12).contains(&before),
+            "{before} before arming: {hand:?}"
+        );
+        assert!(
+            hand.iter().filter(|&&t| t >= reacted).count() >= 3,
+            "{hand:?}"
+        );
+        for pair in hand.windows(2) {
+            assert!(pair[1] - pair[0] >= 0.05 - 1e-9, "{hand:?}");
+        }
+        let first = record
+            .events
+            .iter()
+            .find(|e| e.topic == "/state/arm")
+            .unwrap();
+        assert_eq!(
+            first.data["position_mm"],
+            serde_json::json!([1.0, 2.0, 3.0])
+        );
+        let hand_sample = record
+            .events
+            .iter()
+            .find(|e| e.topic == "/state/hand")
+            .unwrap();
+        assert_eq!(
+            hand_sample.data["positions"],
+            serde_json::json!([CLOSURE, CLOSURE, CLOSURE, 0.0])
+        );
+        assert!(hand_sample.data.get("torque_limit").is_none(), "none set");
     }
 
     #[test]
@@ -508,6 +581,7 @@ mod tests {
             markers,
             sensors,
             live: None,
+            state_period_s: None,
         };
         let p = ReleaseParams {
             contact: Some(ContactGrasp {

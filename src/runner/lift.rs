@@ -118,7 +118,7 @@ where
         armed: bool,
         stop: &AtomicBool,
     ) -> Result<(Verdict, f64, usize), ScenarioError> {
-        let (first_new, now) = self.dev.tick(&mut self.rec, &self.events)?;
+        let (first_new, now) = self.dev.tick(&mut self.rec, &mut self.events, armed)?;
         let v = self.monitor.feed(
             &self.rec.frames[first_new..],
             now,
@@ -406,6 +406,7 @@ mod tests {
             markers,
             sensors,
             live: None,
+            state_period_s: None,
         };
         let model = threshold_model();
         let online = Online {

@@ -18,6 +18,7 @@ pub mod safety;
 pub mod score;
 pub mod sim_trial;
 pub mod staging;
+pub mod state;
 
 use serde_json::json;
 use tmo_hal::{Arm, Clock, Hand, MarkerTracker, TactileSensor};
@@ -81,16 +82,26 @@ where
     M: MarkerTracker,
     S: TactileSensor,
 {
-    /// One control tick: sends what the last tick recorded and decided (`events` so far) to
-    /// the live view if there is one, waits, then collects what arrived. Returns the index
-    /// in `rec.frames` of the first new frame, and the time.
+    /// One control tick: records the hand's and arm's state if a sample is due (see
+    /// [`state`]; never while `waiting_for_slip`), sends what the last tick recorded and
+    /// decided (`events` so far) to the live view if there is one, waits, then collects what
+    /// arrived. Returns the index in `rec.frames` of the first new frame, and the time.
     fn tick(
         &mut self,
         rec: &mut Recording,
-        events: &[TrialEvent],
+        events: &mut Vec<TrialEvent>,
+        waiting_for_slip: bool,
     ) -> Result<(usize, f64), ScenarioError> {
+        let now = self.clock.now_s();
+        if let Some(period) = self.state_period_s {
+            if state::state_due(events, now, period, waiting_for_slip) {
+                let positions = self.hand.present_positions().map_err(device("hand"))?;
+                let pose = self.arm.tcp_pose().map_err(device("arm"))?;
+                let sample = state::state_events(now, positions, pose, events);
+                events.extend(sample);
+            }
+        }
         if let Some(live) = &mut self.live {
-            let now = self.clock.now_s();
             live.publish(now, &rec.frames, &rec.arrivals_s, &rec.markers, events);
         }
         control_wait(&mut self.clock);

@@ -68,7 +68,9 @@ where
         if now - t0 >= p.max_duration_s || reaction.is_some_and(|r| now >= r.time_s + p.observe_s) {
             break;
         }
-        let (first_new, now) = dev.tick(&mut rec, &events)?;
+        // armed from the tick on which the settling time ends
+        let waiting = reaction.is_none() && now + super::TICK_S - t0 >= SETTLE_S;
+        let (first_new, now) = dev.tick(&mut rec, &mut events, waiting)?;
         let armed = reaction.is_none() && now - t0 >= SETTLE_S;
         match monitor.feed(&rec.frames[first_new..], now, armed, stop, &mut events) {
             Verdict::Continue => {}

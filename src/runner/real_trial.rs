@@ -131,6 +131,7 @@ pub fn open_real(hw: HardwareFile, limits: SafetyLimits) -> Result<RealRig, Batc
         markers,
         sensors,
         live: None,
+        state_period_s: Some(super::state::STATE_PERIOD_S),
     };
     Ok(RealRig { hw, devices })
 }

@@ -125,7 +125,8 @@ where
     let mut events = Vec::new();
     let (mut reaction, mut fault) = (None, None);
     while dev.clock.now_s() < p.end_s {
-        let (first_new, now) = dev.tick(&mut rec, &events)?;
+        let waiting = p.window.armed(dev.clock.now_s());
+        let (first_new, now) = dev.tick(&mut rec, &mut events, waiting)?;
         let armed = p.window.armed(now);
         match monitor.feed(&rec.frames[first_new..], now, armed, stop, &mut events) {
             Verdict::Continue => {}

@@ -84,7 +84,7 @@ where
                     break Err(f);
                 }
             }
-            let (first_new, now) = dev.tick(&mut rec, &events)?;
+            let (first_new, now) = dev.tick(&mut rec, &mut events, false)?;
             approach.observe(&rec.frames[first_new..]);
             if let Verdict::Abort(f) =
                 monitor.feed(&rec.frames[first_new..], now, false, stop, &mut events)
@@ -96,7 +96,7 @@ where
             Ok(at) => {
                 // the pour begins once the operator has let go
                 while dev.clock.now_s() < at + LET_GO_S {
-                    let (first_new, now) = dev.tick(&mut rec, &events)?;
+                    let (first_new, now) = dev.tick(&mut rec, &mut events, false)?;
                     if let Verdict::Abort(f) =
                         monitor.feed(&rec.frames[first_new..], now, false, stop, &mut events)
                     {
@@ -117,7 +117,9 @@ where
     // a grasp that failed leaves nothing to pour into
     let pouring = fault.is_none();
     while pouring && dev.clock.now_s() - pour_t0 < p.duration_s {
-        let (first_new, now) = dev.tick(&mut rec, &events)?;
+        // armed from the tick on which the settling time ends
+        let waiting = dev.clock.now_s() + super::TICK_S - pour_t0 >= SETTLE_S;
+        let (first_new, now) = dev.tick(&mut rec, &mut events, waiting)?;
         let armed = now - pour_t0 >= SETTLE_S;
         match monitor.feed(&rec.frames[first_new..], now, armed, stop, &mut events) {
             Verdict::Continue => {}

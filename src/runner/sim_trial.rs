@@ -61,6 +61,7 @@ fn safe_sim_devices(
         markers: rig.marker_tracker(),
         sensors: rig.tactile_sensors(),
         live: None,
+        state_period_s: Some(super::state::STATE_PERIOD_S),
     }
 }
 

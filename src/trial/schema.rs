@@ -94,6 +94,32 @@ pub fn event_channel_schema(topic: &str) -> (&'static str, String) {
                 r#"{"type":"object","properties":{"fault":{"type":"string","enum":["silent_sensor","stale_frames","interrupted","no_contact"]},"sensor":{"type":"integer","minimum":0},"last_frame_s":{"type":"number"},"repeats":{"type":"integer","minimum":0},"deformation_px":{"type":"number"}},"required":["fault"],"additionalProperties":false}"#,
             ),
         ),
+        "/state/hand" => (
+            "tmo.HandState",
+            event_schema(
+                "tmo.HandState",
+                "The hand's servos as they report themselves (not sampled while the detector waits for slip)",
+                &format!(
+                    r#"{{"type":"object","properties":{{"positions":{},"torque_limit":{{"type":"number","minimum":0,"maximum":1,"description":"the torque limit in force, fraction of the servos' maximum (the last commanded; absent: none set this trial)"}}}},"required":["positions"],"additionalProperties":false}}"#,
+                    vec(
+                        4,
+                        "present positions, 0 open .. 1 closed: three fingers, thumb rotation"
+                    )
+                ),
+            ),
+        ),
+        "/state/arm" => (
+            "tmo.ArmState",
+            event_schema(
+                "tmo.ArmState",
+                "The arm's tool centre point as the arm reports it (not sampled while the detector waits for slip)",
+                &format!(
+                    r#"{{"type":"object","properties":{{"position_mm":{},"rotation_rad":{}}},"required":["position_mm","rotation_rad"],"additionalProperties":false}}"#,
+                    vec(3, "position in the arm's base frame, mm"),
+                    vec(3, "rotation vector, rad")
+                ),
+            ),
+        ),
         "/label" => (
             "tmo.SlipLabel",
             event_schema(
