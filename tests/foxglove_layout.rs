@@ -112,7 +112,8 @@ fn every_panel_is_configured_and_reads_fields_tmo_writes() {
             );
         }
     }
-    // the pins of all three fingertips, the classifier, the heights and the commands
+    // the pins of all three fingertips, the classifier, the heights, the commands and the
+    // hand's and arm's state
     for topic in [
         "/tactile/0",
         "/tactile/1",
@@ -120,6 +121,8 @@ fn every_panel_is_configured_and_reads_fields_tmo_writes() {
         "/classifier",
         "/marker",
         "/command/hand",
+        "/state/hand",
+        "/state/arm",
     ] {
         assert!(
             paths.iter().any(|p| p.starts_with(topic)),
@@ -134,6 +137,8 @@ fn every_panel_is_configured_and_reads_fields_tmo_writes() {
 fn the_path_check_refuses_what_is_not_written() {
     assert!(check_path("/classifier{data.sensor==0}.data.slip").is_ok());
     assert!(check_path("/tactile/2.x").is_ok());
+    assert!(check_path("/state/hand.data.positions[2]").is_ok());
+    assert!(check_path("/state/arm.data.pose").is_err());
     assert!(check_path("/classifier.data.speed").is_err());
     assert!(check_path("/classifier{data.finger==0}.data.slip").is_err());
     assert!(check_path("/camera.x").is_err());
