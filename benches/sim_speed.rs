@@ -49,6 +49,7 @@ fn main() {
             markers: r.marker_tracker(),
             sensors: r.tactile_sensors(),
             live: None,
+            state_period_s: None,
         };
         let t0 = Instant::now();
         let rec = devices.run(script, simulated_s, |_| {}).unwrap();

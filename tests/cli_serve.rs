@@ -458,3 +458,50 @@ fn an_operator_at_a_terminal_sets_each_trial_up() {
     );
     assert!(!d.join("pour2/trial-00000.mcap").exists());
 }
+
+/// `tmo sim serve --live` (loopback, port 0: the address tmo prints): a viewer receives the
+/// served rig's pin frames as its camera sends them, and the hand's and arm's state.
+#[test]
+fn a_live_viewer_sees_the_served_rig() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let hw = Path::new(env!("CARGO_MANIFEST_DIR")).join("hardware/tmo.toml");
+    let mut child = Command::new(env!("CARGO_BIN_EXE_tmo"))
+        .current_dir(d)
+        .args(["sim", "serve", "--hardware"])
+        .arg(&hw)
+        .args([
+            "--out",
+            "served.toml",
+            "--for",
+            "60",
+            "--live",
+            "127.0.0.1:0",
+        ])
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let received = common::live::receive(
+        &mut child,
+        &[
+            ("/tactile/0", "tmo.PinFrame"),
+            ("/state/hand", "tmo.HandState"),
+            ("/state/arm", "tmo.ArmState"),
+        ],
+        5,
+    );
+    child.kill().unwrap();
+    child.wait().unwrap();
+    let seqs: Vec<u64> = received["/tactile/0"]
+        .iter()
+        .map(|f| f["seq"].as_u64().unwrap())
+        .collect();
+    assert!(seqs.windows(2).all(|w| w[0] < w[1]), "{seqs:?}");
+    for s in &received["/state/hand"] {
+        assert_eq!(s["data"]["positions"].as_array().unwrap().len(), 4, "{s}");
+    }
+    for s in &received["/state/arm"] {
+        assert_eq!(s["data"]["position_mm"].as_array().unwrap().len(), 3, "{s}");
+    }
+}

@@ -66,7 +66,7 @@ fn a_reset_sets_the_next_world_up_behind_the_same_devices() {
             cameras,
             ..Default::default()
         };
-        serve_controlled(&rig, &mut devices, Some(&mut control), &flag).unwrap();
+        serve_controlled(&rig, &mut devices, Some(&mut control), None, &flag).unwrap();
         control.resets
     });
     let (path, addr) = rx.recv().unwrap();

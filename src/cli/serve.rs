@@ -45,6 +45,11 @@ pub struct ServeArgs {
     /// Stop after this many seconds (default: until Ctrl-C).
     #[arg(long = "for", value_parser = serve_seconds)]
     for_s: Option<f64>,
+    /// Show the served rig live over the Foxglove WebSocket protocol at ADDR (default
+    /// 127.0.0.1:8765; port 0 picks a free one): its pins, markers and the hand's and
+    /// arm's state, as its devices send them.
+    #[arg(long, value_name = "ADDR", num_args = 0..=1, default_missing_value = "127.0.0.1:8765")]
+    live: Option<std::net::SocketAddr>,
 }
 
 #[derive(Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
@@ -216,7 +221,25 @@ pub fn serve_cmd(args: ServeArgs) -> Result<()> {
             flag.store(true, Ordering::Relaxed);
         });
     }
-    serve_controlled(&rig, &mut devices, Some(&mut control), &stop)?;
+    let mut live = match args.live {
+        Some(addr) => {
+            let view = tmo::live::LiveView::start(addr)?;
+            eprintln!(
+                "live view at {}: in Foxglove, Open connection > Foxglove WebSocket > {}",
+                view.url(),
+                view.url()
+            );
+            let started_unix_ns = std::time::SystemTime::now()
+                .duration_since(std::time::UNIX_EPOCH)
+                .map_or(0, |d| d.as_nanos() as u64);
+            Some(tmo::live::served::ServedRigView::new(view, started_unix_ns))
+        }
+        None => None,
+    };
+    let tap = live
+        .as_mut()
+        .map(|v| v as &mut dyn tmo_hal::sim::serve_jevois::ServeTap);
+    serve_controlled(&rig, &mut devices, Some(&mut control), tap, &stop)?;
     let ur = devices.ur.map(|u| u.stats).unwrap_or_default();
     let sent: u64 = devices.cameras.iter().map(|c| c.sent_lines).sum();
     println!(

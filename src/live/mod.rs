@@ -20,6 +20,7 @@ use crate::trial::schema;
 use crate::trial::{Trial, TrialEvent};
 
 pub mod scene;
+pub mod served;
 
 #[derive(Debug, thiserror::Error)]
 pub enum LiveError {
@@ -179,6 +180,28 @@ impl LiveView {
         Some(channel)
     }
 
+    /// A pin frame on `/tactile/<sensor>` and, coloured by `class`, in the pin scene.
+    fn send_frame(&self, f: &PinFrame, class: Option<Class>, log_time_ns: u64) {
+        let body = serde_json::to_vec(&schema::PinFrameOut::from(f)).expect("frames serialise");
+        self.publish(&format!("/tactile/{}", f.sensor), &body, log_time_ns);
+        self.inner.scene.log_with_meta(
+            &scene::pin_scene(f, class),
+            foxglove::PartialMetadata {
+                log_time: Some(log_time_ns),
+            },
+        );
+    }
+
+    fn send_marker(&self, m: &MarkerSample, log_time_ns: u64) {
+        let body = serde_json::to_vec(m).expect("samples serialise");
+        self.publish("/marker", &body, log_time_ns);
+    }
+
+    fn send_event(&self, e: &TrialEvent, log_time_ns: u64) {
+        let body = serde_json::to_vec(e).expect("events serialise");
+        self.publish(&e.topic, &body, log_time_ns);
+    }
+
     fn publish(&self, topic: &str, message: &[u8], log_time_ns: u64) {
         if let Some(c) = self.channel(topic) {
             c.log_with_meta(
@@ -249,25 +272,16 @@ impl LivePublisher {
             .iter()
             .zip(arrivals_s.get(self.frames..).unwrap_or_default())
         {
-            let body = serde_json::to_vec(&schema::PinFrameOut::from(f)).expect("frames serialise");
-            let at = self.at(*arrived);
-            self.view
-                .publish(&format!("/tactile/{}", f.sensor), &body, at);
             let class = self.classes.get(usize::from(f.sensor)).copied().flatten();
-            self.view.inner.scene.log_with_meta(
-                &scene::pin_scene(f, class),
-                foxglove::PartialMetadata { log_time: Some(at) },
-            );
+            self.view.send_frame(f, class, self.at(*arrived));
         }
         self.frames = frames.len();
         for m in markers.get(self.markers..).unwrap_or_default() {
-            let body = serde_json::to_vec(m).expect("samples serialise");
-            self.view.publish("/marker", &body, self.at(m.time_s));
+            self.view.send_marker(m, self.at(m.time_s));
         }
         self.markers = markers.len();
         for e in events.get(self.events..).unwrap_or_default() {
-            let body = serde_json::to_vec(e).expect("events serialise");
-            self.view.publish(&e.topic, &body, self.at(e.time_s));
+            self.view.send_event(e, self.at(e.time_s));
         }
         self.events = events.len();
         if let Some((wall0, trial0)) = &mut self.pace {

@@ -1,5 +1,6 @@
 //! A plain client of the Foxglove WebSocket protocol, for tests of `--live`.
 
+use std::collections::BTreeMap;
 use std::io::{BufRead, BufReader};
 use std::process::Child;
 
@@ -9,10 +10,28 @@ use tungstenite::Message;
 /// Reads the live view's address from the first line `child` (a `tmo ... --live
 /// 127.0.0.1:0`, its stderr piped) says, connects, subscribes to the thumb's pin channel
 /// `/tactile/0` and returns the sequence numbers of the first `n` frames it receives (the
-/// pin scene `/tactile/scene` must be advertised beside it). Each
-/// frame is checked: wall-clock log time, schema `tmo.PinFrame`, sensor 0, 30 pins. A
-/// stream that stalls fails the test with what tmo said instead of hanging it.
+/// pin scene `/tactile/scene` must be advertised beside it). Each frame is checked:
+/// wall-clock log time, schema `tmo.PinFrame`, sensor 0, 30 pins.
 pub fn pin_frames(child: &mut Child, n: usize) -> Vec<u64> {
+    let received = receive(child, &[("/tactile/0", "tmo.PinFrame")], n);
+    received["/tactile/0"]
+        .iter()
+        .map(|v| {
+            assert_eq!(v["sensor"], 0);
+            assert_eq!(v["x"].as_array().unwrap().len(), 30);
+            v["seq"].as_u64().unwrap()
+        })
+        .collect()
+}
+
+/// Like [`pin_frames`], for any channels: subscribes to each `(topic, schema name)` as it is
+/// advertised and returns the first `n` messages of each, in order. A stream that stalls
+/// fails the test with what tmo said instead of hanging it.
+pub fn receive(
+    child: &mut Child,
+    topics: &[(&str, &str)],
+    n: usize,
+) -> BTreeMap<String, Vec<serde_json::Value>> {
     let mut said = String::new();
     BufReader::new(child.stderr.as_mut().unwrap())
         .read_line(&mut said)
@@ -32,13 +51,20 @@ pub fn pin_frames(child: &mut Child, n: usize) -> Vec<u64> {
         s.set_read_timeout(Some(std::time::Duration::from_secs(30)))
             .unwrap();
     }
-    let mut channel = None;
-    let mut frames = Vec::new();
+    let mut received: BTreeMap<String, Vec<serde_json::Value>> = BTreeMap::new();
+    let mut subscribed = false;
     let started = std::time::Instant::now();
-    while frames.len() < n {
+    while topics
+        .iter()
+        .any(|(t, _)| received.get(*t).map_or(0, |m| m.len()) < n)
+    {
         assert!(
             started.elapsed().as_secs() < 60,
-            "no frames within a minute"
+            "not every channel sent within a minute: {:?}",
+            received
+                .iter()
+                .map(|(t, m)| (t, m.len()))
+                .collect::<Vec<_>>()
         );
         let message = match ws.read() {
             Ok(m) => m,
@@ -46,13 +72,13 @@ pub fn pin_frames(child: &mut Child, n: usize) -> Vec<u64> {
                 let _ = child.kill();
                 let mut rest = String::new();
                 let _ = std::io::Read::read_to_string(child.stderr.as_mut().unwrap(), &mut rest);
-                panic!("{e} after {} frames; tmo said: {said}{rest}", frames.len());
+                panic!("{e} after {received:?}; tmo said: {said}{rest}");
             }
         };
         match message {
             Message::Text(text) => {
                 let v: serde_json::Value = serde_json::from_str(&text).unwrap();
-                if v["op"] != "advertise" || channel.is_some() {
+                if v["op"] != "advertise" || subscribed {
                     continue;
                 }
                 let channels = v["channels"].as_array().unwrap();
@@ -63,29 +89,34 @@ pub fn pin_frames(child: &mut Child, n: usize) -> Vec<u64> {
                     Some(serde_json::json!("foxglove.SceneUpdate")),
                     "{channels:?}"
                 );
-                if let Some(c) = channels.iter().find(|c| c["topic"] == "/tactile/0") {
-                    assert_eq!(c["schemaName"], "tmo.PinFrame");
-                    channel = c["id"].as_u64();
-                    let subscribe = serde_json::json!({"op": "subscribe",
-                        "subscriptions": [{"id": 7, "channelId": channel}]});
-                    ws.send(Message::text(subscribe.to_string())).unwrap();
+                let mut subscriptions = Vec::new();
+                for (k, (topic, schema)) in topics.iter().enumerate() {
+                    let c = channels
+                        .iter()
+                        .find(|c| c["topic"] == *topic)
+                        .unwrap_or_else(|| panic!("{topic} is not advertised: {channels:?}"));
+                    assert_eq!(c["schemaName"], *schema, "{topic}");
+                    subscriptions.push(serde_json::json!({"id": k + 1, "channelId": c["id"]}));
                 }
+                let subscribe =
+                    serde_json::json!({"op": "subscribe", "subscriptions": subscriptions});
+                ws.send(Message::text(subscribe.to_string())).unwrap();
+                subscribed = true;
             }
             // opcode 1 (message data), subscription id, log time (ns), the message
             Message::Binary(b) if b.first() == Some(&1) => {
-                assert_eq!(u32::from_le_bytes(b[1..5].try_into().unwrap()), 7);
+                let id = u32::from_le_bytes(b[1..5].try_into().unwrap()) as usize;
+                let (topic, _) = topics[id - 1];
                 let log_time = u64::from_le_bytes(b[5..13].try_into().unwrap());
                 assert!(
                     log_time > 1_700_000_000_000_000_000,
                     "wall-clock time: {log_time}"
                 );
                 let v: serde_json::Value = serde_json::from_slice(&b[13..]).unwrap();
-                assert_eq!(v["sensor"], 0);
-                assert_eq!(v["x"].as_array().unwrap().len(), 30);
-                frames.push(v["seq"].as_u64().unwrap());
+                received.entry(topic.to_string()).or_default().push(v);
             }
             _ => {}
         }
     }
-    frames
+    received
 }

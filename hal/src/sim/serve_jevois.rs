@@ -16,7 +16,8 @@ use super::serve_dynamixel::PtyServoBus;
 use super::serve_ur::UrEmulator;
 use super::{SimConfig, SimMarkerTracker, SimRig, SimTactileSensor};
 use crate::real::jevois::{format_detail3, format_fine2};
-use crate::{Clock, MarkerTracker, TactileSensor};
+use crate::types::{HandPositions, MarkerSample, PinFrame, Pose};
+use crate::{Arm, Clock, Hand, MarkerTracker, TactileSensor};
 
 /// One fingertip camera on a pseudo-terminal: clients open [`PtyCamera::path`] as they
 /// would `/dev/ttyACM0`.
@@ -95,7 +96,8 @@ impl PtyCamera {
     }
 
     /// Sends every frame the simulated sensor produced since the last call.
-    pub fn step(&mut self) -> std::io::Result<()> {
+    /// Sends the frames the sensor has made since the last step; `sent` sees each.
+    pub fn step(&mut self, mut sent: impl FnMut(&PinFrame)) -> std::io::Result<()> {
         while let Ok(Some(f)) = self.sensor.next_frame() {
             let line = format_fine2(None, &self.id, &f.pins);
             send_line(
@@ -104,6 +106,7 @@ impl PtyCamera {
                 &mut self.sent_lines,
                 &mut self.dropped_lines,
             )?;
+            sent(&f);
         }
         Ok(())
     }
@@ -146,8 +149,10 @@ impl PtyMarkerCamera {
         self.markers = markers;
     }
 
-    pub fn step(&mut self) -> std::io::Result<()> {
+    /// Sends the samples the tracker has made since the last step; `sent` sees each.
+    pub fn step(&mut self, mut sent: impl FnMut(&MarkerSample)) -> std::io::Result<()> {
         while let Ok(Some(m)) = self.markers.next_sample() {
+            sent(&m);
             for (id, height) in [(&self.object_id, m.object_mm), (&self.hand_id, m.hand_mm)] {
                 let line = format_detail3(
                     id,
@@ -178,8 +183,24 @@ pub struct ServedDevices {
 
 /// Runs the rig in real time until `stop` is set, serving its devices.
 pub fn serve(rig: &SimRig, devices: &mut ServedDevices, stop: &AtomicBool) -> std::io::Result<()> {
-    serve_controlled(rig, devices, None, stop)
+    serve_controlled(rig, devices, None, None, stop)
 }
+
+/// Sees what the served rig does as it is served: a live view of `tmo sim serve`. Times
+/// are on the served clock, s since serving began (it runs on across resets, as a real
+/// rig's does); the messages' own times are on the current world's clock.
+pub trait ServeTap {
+    /// A fingertip frame, as its camera sends it.
+    fn frame(&mut self, served_s: f64, frame: &PinFrame);
+    /// A marker sample, as the marker camera sends it.
+    fn marker(&mut self, served_s: f64, sample: &MarkerSample);
+    /// The hand's present positions and the arm's tool centre point, every
+    /// [`TAP_STATE_PERIOD_S`].
+    fn state(&mut self, served_s: f64, world_s: f64, hand: HandPositions, tcp: Pose);
+}
+
+/// Served time between the tap's state samples, s.
+pub const TAP_STATE_PERIOD_S: f64 = 0.05;
 
 /// Builds the world a reset asks for, if the served devices fit it.
 fn reset_world(config: SimConfig, devices: &ServedDevices) -> Result<SimRig, String> {
@@ -201,8 +222,10 @@ pub fn serve_controlled(
     rig: &SimRig,
     devices: &mut ServedDevices,
     mut control: Option<&mut ControlPort>,
+    mut tap: Option<&mut dyn ServeTap>,
     stop: &AtomicBool,
 ) -> std::io::Result<()> {
+    let mut next_state_s = 0.0;
     let mut replaced: Option<SimRig> = None;
     let mut clock = rig.clock();
     let mut arm = rig.arm();
@@ -239,13 +262,31 @@ pub fn serve_controlled(
             ur.step(now, &mut arm)?;
         }
         for c in devices.cameras.iter_mut() {
-            c.step()?;
+            c.step(|f| {
+                if let Some(t) = tap.as_deref_mut() {
+                    t.frame(now, f);
+                }
+            })?;
         }
         if let Some(m) = devices.markers.as_mut() {
-            m.step()?;
+            m.step(|sample| {
+                if let Some(t) = tap.as_deref_mut() {
+                    t.marker(now, sample);
+                }
+            })?;
         }
         if let Some(b) = devices.bus.as_mut() {
             b.step()?;
+        }
+        if let Some(t) = tap.as_deref_mut() {
+            if now >= next_state_s {
+                next_state_s = now + TAP_STATE_PERIOD_S;
+                let world = replaced.as_ref().unwrap_or(rig);
+                // the simulated devices' reads cannot fail
+                if let (Ok(hand), Ok(tcp)) = (world.hand().present_positions(), arm.tcp_pose()) {
+                    t.state(now, clock.now_s(), hand, tcp);
+                }
+            }
         }
         std::thread::sleep(Duration::from_micros(500));
     }
