@@ -19,7 +19,7 @@ use tmo_hal::{MarkerSample, PinFrame};
 mod read;
 pub mod schema;
 
-pub use read::{read_trial, MAX_PIN_COORDINATE_PX};
+pub use read::{read_trial, read_trial_for_scoring, MAX_PIN_COORDINATE_PX};
 
 /// Version of the log layout; readers refuse newer ones and read every older one.
 /// 2: pins as `x[]`, `y[]`; typed event schemas; zstd chunks; wall-clock log times.
@@ -299,6 +299,9 @@ pub fn write_trial(path: &Path, trial: &Trial) -> Result<(), TrialError> {
             // uncompressed bytes in 11.1 s, where the default level 3 wrote 40 % in 12.4 s
             // and level 9 37 % in 17.0 s (format 1, uncompressed: 10.3 s).
             .compression_level(1)
+            // On the calling thread: batches already run a trial per core, and zstd's own
+            // workers (by default one per core, a pool per log) only contended with them.
+            .compression_threads(0)
             .create(BufWriter::new(file))
             .map_err(mcap_write_err(path))?;
         let base = time_base_ns(&trial.meta);

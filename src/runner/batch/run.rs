@@ -25,7 +25,7 @@ use crate::runner::score::{self, CalibrationRow, GMinTable, LiftRow, OutcomeRow}
 use crate::runner::sim_trial::run_sim_trial;
 use crate::runner::staging::Staging;
 use crate::slip::model::ModelFile;
-use crate::trial::{read_trial, sha256_hex, write_trial, Trial};
+use crate::trial::{read_trial, read_trial_for_scoring, sha256_hex, write_trial, Trial};
 
 /// Where and how a batch runs.
 pub struct BatchRequest<'a> {
@@ -416,7 +416,7 @@ fn score_kept(
     spec: &crate::outcome::CatchSpec,
     g_min: Option<&GMinTable>,
 ) -> Result<Scored, BatchError> {
-    let trial = read_trial(path)?;
+    let trial = read_trial_for_scoring(path)?;
     let m = &trial.meta;
     let foreign = if m.trial_id != t.trial_id {
         Some(format!("it is {}", m.trial_id))
