@@ -440,20 +440,12 @@ mod tests {
         for pair in hand.windows(2) {
             assert!(pair[1] - pair[0] >= 0.05 - 1e-9, "{hand:?}");
         }
-        let first = record
-            .events
-            .iter()
-            .find(|e| e.topic == "/state/arm")
-            .unwrap();
+        let first = |topic: &str| record.events.iter().find(|e| e.topic == topic).unwrap();
         assert_eq!(
-            first.data["position_mm"],
+            first("/state/arm").data["position_mm"],
             serde_json::json!([1.0, 2.0, 3.0])
         );
-        let hand_sample = record
-            .events
-            .iter()
-            .find(|e| e.topic == "/state/hand")
-            .unwrap();
+        let hand_sample = first("/state/hand");
         assert_eq!(
             hand_sample.data["positions"],
             serde_json::json!([CLOSURE, CLOSURE, CLOSURE, 0.0])
