@@ -605,17 +605,31 @@ impl Solver {
         let (n, c) = (self.n, self.c);
         for batch in nonzero.chunks(ROWS_PER_PASS) {
             let rows = self.q.compute_rows(batch, 0..n);
-            for (&j, row) in batch.iter().zip(&rows) {
-                let a = self.alpha[j];
-                for (g, q) in self.gradient.iter_mut().zip(row) {
-                    *g += a * f64::from(*q);
-                }
-                if self.status[j] == Bound::Upper {
-                    for (gb, q) in self.gradient_bar.iter_mut().zip(row) {
-                        *gb += c * f64::from(*q);
+            let alpha: Vec<f64> = batch.iter().map(|&j| self.alpha[j]).collect();
+            let at_upper: Vec<bool> = batch
+                .iter()
+                .map(|&j| self.status[j] == Bound::Upper)
+                .collect();
+            // Each entry sums the batch's rows in order, whichever thread runs it.
+            const PIECE: usize = 4096;
+            self.gradient
+                .par_chunks_mut(PIECE)
+                .zip(self.gradient_bar.par_chunks_mut(PIECE))
+                .enumerate()
+                .for_each(|(p, (gradient, gradient_bar))| {
+                    let at = p * PIECE;
+                    for ((a, upper), row) in alpha.iter().zip(&at_upper).zip(&rows) {
+                        let row = &row[at..at + gradient.len()];
+                        for (g, q) in gradient.iter_mut().zip(row) {
+                            *g += a * f64::from(*q);
+                        }
+                        if *upper {
+                            for (gb, q) in gradient_bar.iter_mut().zip(row) {
+                                *gb += c * f64::from(*q);
+                            }
+                        }
                     }
-                }
-            }
+                });
         }
     }
 
@@ -691,7 +705,10 @@ pub fn solve(
         s.start_from(start);
     }
     let mut iterations = 0;
-    let mut counter = n.min(1000) + 1;
+    // From a start, shrink before the first step: the start is near the optimum, so most
+    // bounded variables can go at once instead of after 1,000 steps over every row
+    // (measured on a sweep chain's cell of 151k rows: 12.1 -> 10.0 s, same support vectors).
+    let mut counter = if start.is_some() { 1 } else { n.min(1000) + 1 };
     let mut hit_iteration_limit = false;
     loop {
         if iterations >= options.max_iterations {
