@@ -25,11 +25,14 @@ def main(path, cache_mb=4000):
     y = (df.label == "slip").to_numpy().astype(int)
     print(f"scikit-learn SVC rbf, C = {C}, gamma = {GAMMA}, tol 1e-3, cache {cache_mb} MB, {len(df)} rows")
     model = scaler = None
-    for n in [2000, 5000, 10000, 20000]:
+    for n in [2000, 5000, 10000, 20000, len(df)]:
         t0 = time.perf_counter()
         scaler = StandardScaler().fit(x[:n])
         model = SVC(kernel="rbf", C=C, gamma=GAMMA, tol=1e-3, cache_size=cache_mb).fit(scaler.transform(x[:n]), y[:n])
         print(f"  fit {n:>6} rows: {time.perf_counter() - t0:>7.3f} s  ({model.n_support_.sum()} support vectors)")
+        if n == 20000:  # per-frame prediction is timed on the 20k-row model, as the bench does
+            predictor = (scaler, model)
+    scaler, model = predictor
     rows = x[-5000:]
     times = []
     for i in range(20000):
