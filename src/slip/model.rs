@@ -4,6 +4,7 @@
 
 use std::path::Path;
 
+use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use super::dataset::{Dataset, LabelSpec, Scope};
@@ -251,10 +252,14 @@ impl SensorModel {
     }
 
     pub fn predict(&self, features: &[f32], scratch: &mut Vec<f32>) -> Class {
-        let d = self.decision(features, scratch);
+        self.class_of(self.decision(features, scratch))
+    }
+
+    /// The class a decision value means.
+    fn class_of(&self, decision: f64) -> Class {
         let slip = match self.classifier {
-            Classifier::Threshold(_) => d >= 0.0,
-            _ => d > 0.0,
+            Classifier::Threshold(_) => decision >= 0.0,
+            _ => decision > 0.0,
         };
         if slip {
             Class::Slip
@@ -263,12 +268,27 @@ impl SensorModel {
         }
     }
 
+    /// [`Self::predict`] of each of `data`'s rows `rows`, in parallel pieces: a sweep's
+    /// last cells and a model's scoring no longer leave a core idle (147k rows against
+    /// 5.5k support vectors: 2.9 s one at a time, 1.46 s on 2 cores). Batching the RBF
+    /// sums over several rows per block of support vectors was measured too: 0.93 of the
+    /// time on one thread, not kept.
+    pub fn predict_rows(&self, data: &Dataset, rows: &[usize]) -> Vec<Class> {
+        const PIECE: usize = 512;
+        rows.par_chunks(PIECE)
+            .flat_map_iter(|piece| {
+                let mut scratch = Vec::new();
+                piece
+                    .iter()
+                    .map(|&i| self.predict(data.row(i), &mut scratch))
+                    .collect::<Vec<_>>()
+            })
+            .collect()
+    }
+
     pub fn score(&self, data: &Dataset) -> Scores {
-        let mut scratch = Vec::new();
-        let predicted: Vec<Class> = (0..data.len())
-            .map(|i| self.predict(data.row(i), &mut scratch))
-            .collect();
-        Confusion::from_pairs(&data.y, &predicted).scores()
+        let rows: Vec<usize> = (0..data.len()).collect();
+        Confusion::from_pairs(&data.y, &self.predict_rows(data, &rows)).scores()
     }
 
     /// Call after deserialising.
@@ -761,22 +781,30 @@ pub fn score_models(
     data: &Dataset,
 ) -> Result<(Scores, Vec<(u8, Scores)>), u8> {
     let pick = |sensor: u8| match scope {
-        Scope::Global => models.first(),
-        Scope::Local => models.iter().find(|m| m.sensor == Some(sensor)),
+        Scope::Global => (!models.is_empty()).then_some(0),
+        Scope::Local => models.iter().position(|m| m.sensor == Some(sensor)),
     };
-    let mut scratch = Vec::new();
-    let mut overall = Confusion::default();
-    let mut per_sensor: Vec<(u8, Confusion)> = Vec::new();
+    // Each model predicts its rows together (see SensorModel::predict_rows).
+    let mut rows_of_model: Vec<Vec<usize>> = vec![Vec::new(); models.len()];
     for i in 0..data.len() {
         let sensor = data.sensor[i];
-        let m = pick(sensor).ok_or(sensor)?;
-        let p = m.predict(data.row(i), &mut scratch);
-        overall.add(data.y[i], p);
+        rows_of_model[pick(sensor).ok_or(sensor)?].push(i);
+    }
+    let mut predicted = vec![Class::Static; data.len()];
+    for (m, rows) in models.iter().zip(&rows_of_model) {
+        for (&i, p) in rows.iter().zip(m.predict_rows(data, rows)) {
+            predicted[i] = p;
+        }
+    }
+    let mut overall = Confusion::default();
+    let mut per_sensor: Vec<(u8, Confusion)> = Vec::new();
+    for ((&sensor, &truth), &p) in data.sensor.iter().zip(&data.y).zip(&predicted) {
+        overall.add(truth, p);
         match per_sensor.iter_mut().find(|(s, _)| *s == sensor) {
-            Some((_, c)) => c.add(data.y[i], p),
+            Some((_, c)) => c.add(truth, p),
             None => {
                 let mut c = Confusion::default();
-                c.add(data.y[i], p);
+                c.add(truth, p);
                 per_sensor.push((sensor, c));
             }
         }
@@ -1013,6 +1041,29 @@ mod tests {
         assert_eq!(bare[0].training_scores, Scores::default());
         // the same fit all the same
         assert_eq!(bare[0].classifier, file.models[0].classifier);
+    }
+
+    #[test]
+    fn rows_predicted_together_are_the_rows_predicted_one_at_a_time() {
+        let data = data();
+        // every row but a few, in an order of their own: pieces and remainders of every size
+        let rows: Vec<usize> = (0..data.len()).rev().filter(|i| i % 7 != 3).collect();
+        for kind in [
+            ClassifierKind::SvmRbf,
+            ClassifierKind::SvmLinear,
+            ClassifierKind::Logreg,
+            ClassifierKind::Threshold,
+        ] {
+            let file = ModelFile::train(&data, &spec(kind), Vec::new(), None).unwrap();
+            let model = &file.models[0];
+            let mut scratch = Vec::new();
+            let one_at_a_time: Vec<Class> = rows
+                .iter()
+                .map(|&i| model.predict(data.row(i), &mut scratch))
+                .collect();
+            assert_eq!(model.predict_rows(&data, &rows), one_at_a_time, "{kind:?}");
+            assert!(one_at_a_time.contains(&Class::Slip), "{kind:?}");
+        }
     }
 
     #[test]
