@@ -109,8 +109,8 @@ impl QMatrix {
         q_rows(&self.rows, &self.y, self.kernel, targets, columns)
     }
 
-    fn swap(&mut self, i: usize, j: usize) {
-        self.cache.swap_index(i, j);
+    /// Swaps rows `i` and `j` of everything but the cache (see [`Solver::do_shrinking`]).
+    fn swap_uncached(&mut self, i: usize, j: usize) {
         self.rows.swap(i, j);
         self.y.swap(i, j);
         self.diagonal.swap(i, j);
@@ -306,8 +306,10 @@ impl Solver {
         };
     }
 
-    fn swap_index(&mut self, i: usize, j: usize) {
-        self.q.swap(i, j);
+    /// Swaps variables `i` and `j` everywhere but in the kernel-row cache, which the caller
+    /// updates with [`RowCache::swap_indices`] before it next reads the cache.
+    fn swap_index_uncached(&mut self, i: usize, j: usize) {
+        self.q.swap_uncached(i, j);
         self.alpha.swap(i, j);
         self.status.swap(i, j);
         self.gradient.swap(i, j);
@@ -436,13 +438,16 @@ impl Solver {
             self.reconstruct_gradient();
             self.active_size = self.n;
         }
+        // The cache learns the step's swaps together, once they are all known.
+        let mut swaps = Vec::new();
         let mut i = 0;
         while i < self.active_size {
             if self.be_shrunk(i, gmax1, gmax2) {
                 self.active_size -= 1;
                 while self.active_size > i {
                     if !self.be_shrunk(self.active_size, gmax1, gmax2) {
-                        self.swap_index(i, self.active_size);
+                        self.swap_index_uncached(i, self.active_size);
+                        swaps.push((i, self.active_size));
                         break;
                     }
                     self.active_size -= 1;
@@ -450,6 +455,7 @@ impl Solver {
             }
             i += 1;
         }
+        self.q.cache.swap_indices(&swaps);
     }
 
     fn reconstruct_gradient(&mut self) {
