@@ -5,12 +5,17 @@
 //! imbalanced task, and smartcore's SVC about 21 s for only 2,000 rows. The method needs
 //! hundreds of fits per sweep, so the RBF solver follows libsvm's algorithm (second-order
 //! working sets, LRU kernel cache, shrinking) and adds parallel kernel rows. Measured with
-//! `cargo bench --bench svm_speed` and `scripts/time_sklearn.py` on the same 20,000 rows, C
-//! and gamma (2 cores, 2026-11-23): 0.92 s on one thread against scikit-learn's 1.86 s
-//! (libsvm, one thread, its best 4000 MB cache: ratio 0.50), with the same support vectors
-//! (1,801 against 1,802); on two threads 1.05 s, as rows this short do not pay for the
-//! threads. (An earlier comparison used scikit-learn's default 200 MB cache, which thrashes
-//! at this size and made libsvm look slower than it is.)
+//! `cargo bench --bench svm_speed` and `scripts/time_sklearn.py` on the same rows, C and
+//! gamma (2 cores, 2026-11-25; scikit-learn 1.9.1 is libsvm on one thread, here with its
+//! best 4000 MB cache), with the same support vectors to within 3:
+//!
+//! | rows | tmo, 1 thread | tmo, 2 threads | scikit-learn | ratio, 1 thread |
+//! | --- | --- | --- | --- | --- |
+//! | 20,000 | 0.59 s | 0.51 s | 1.68 s | 0.35 |
+//! | 61,315 | 5.18 s | 4.55 s | 25.3 s | 0.20 |
+//!
+//! (An earlier comparison used scikit-learn's default 200 MB cache, which thrashes at
+//! these sizes and made libsvm look slower than it is.)
 //!
 //! Decision values follow scikit-learn's sign: positive means slip.
 

@@ -65,8 +65,11 @@ struct QMatrix {
 /// read the training rows fewer times, at the cost of `ROWS_PER_PASS x n` floats at once.
 const ROWS_PER_PASS: usize = 64;
 
-/// Below this many multiply-adds a kernel row is computed on one thread.
-const PARALLEL_WORK: usize = 64 * 1024;
+/// Below this many multiply-adds (a row of about 70k entries at 60 features, half a
+/// millisecond) a kernel row is computed on one thread: waking another thread for it cost
+/// more than it saved. Measured with 2 threads (`cargo bench --bench svm_speed`): at 64k
+/// multiply-adds, 20k rows fitted in 0.59 s and 61k in 4.74 s; at 4M, 0.53 s and 4.64 s.
+const PARALLEL_WORK: usize = 4 << 20;
 
 impl QMatrix {
     /// Ensures row `i` holds its first `len` entries.
@@ -165,7 +168,7 @@ pub(super) fn q_rows(
             rest = tail;
         }
     }
-    if len * rows.dim >= PARALLEL_WORK {
+    if targets.len() * len * rows.dim >= PARALLEL_WORK {
         pieces
             .par_iter_mut()
             .zip(&starts)
