@@ -205,10 +205,10 @@ impl SweepSpec {
     /// cell took 0.52 of a cold start's time (`cargo bench --bench warm_start`). The RBF
     /// SVM's start reaches the optimum within the solver's tolerance: 0.61 of the time at
     /// d 1, n_slip 12-15 in that bench, with no test prediction changed; over the README's
-    /// grid its cells took 1,041 s against 1,424 s cold, and 12 of its 150 cells' test
-    /// macro F1 moved, by at most 0.0009. (Before the start's kernel rows were computed 64
-    /// at a time and its gradient summed in parallel, the start cost about what it saved
-    /// there.) A search gives neighbouring cells different hyperparameters, so with a search
+    /// grid its cells took 1,034 s against 1,424 s cold (the whole grid 620 s against
+    /// 793 s), and 10 of its 150 cells' test macro F1 moved, by at most 0.0009. (Before the
+    /// start's kernel rows were computed 64 at a time and its gradient summed in parallel,
+    /// the start cost about what it saved there.) A search gives neighbouring cells different hyperparameters, so with a search
     /// every cell is a chain of its own. Costliest chain first. A chain runs whole in one
     /// shard and is resumed from its start, so that shards and resumed sweeps give the
     /// cells a single run gives.
