@@ -208,10 +208,10 @@ impl SweepSpec {
     /// grid its cells took 1,034 s against 1,424 s cold (the whole grid 620 s against
     /// 793 s), and 10 of its 150 cells' test macro F1 moved, by at most 0.0009. (Before the
     /// start's kernel rows were computed 64 at a time and its gradient summed in parallel,
-    /// the start cost about what it saved there.) A search gives neighbouring cells different hyperparameters, so with a search
-    /// every cell is a chain of its own. Costliest chain first. A chain runs whole in one
-    /// shard and is resumed from its start, so that shards and resumed sweeps give the
-    /// cells a single run gives.
+    /// the start cost about what it saved there.) A search gives neighbouring cells
+    /// different hyperparameters, so with a search every cell is a chain of its own.
+    /// Costliest chain first. A chain runs whole in one shard and is resumed from its
+    /// start, so that shards and resumed sweeps give the cells a single run gives.
     pub fn chains(&self) -> Vec<Vec<Cell>> {
         let cells = self.cells();
         let chained = |c: &Cell| {

@@ -181,6 +181,23 @@ pub(super) fn q_rows(
     bufs
 }
 
+/// `out[k] += sum_r coefs[r] * rows[r][k]` in parallel pieces; every entry sums the rows in
+/// their order, whichever thread runs its piece, so the result is the sequential sum's to
+/// the bit.
+fn add_scaled_rows<R: AsRef<[f32]> + Sync>(out: &mut [f64], coefs: &[f64], rows: &[R]) {
+    const PIECE: usize = 4096;
+    out.par_chunks_mut(PIECE)
+        .enumerate()
+        .for_each(|(p, piece)| {
+            let at = p * PIECE;
+            for (a, row) in coefs.iter().zip(rows) {
+                for (o, q) in piece.iter_mut().zip(&row.as_ref()[at..]) {
+                    *o += a * f64::from(*q);
+                }
+            }
+        });
+}
+
 /// `Q_ij` for `j` in `from..from + chunk.len()`: dot products by blocks of rows, then the
 /// kernel and the label signs in one pass.
 #[inline(always)]
@@ -496,19 +513,7 @@ impl Solver {
             for batch in free_rows.chunks(ROWS_PER_PASS) {
                 let rows = self.q.compute_rows(batch, active..n);
                 let coefs: Vec<f64> = batch.iter().map(|&i| self.alpha[i]).collect();
-                // Each gradient entry sums the batch's rows in order, whichever thread runs it.
-                const PIECE: usize = 4096;
-                self.gradient[active..]
-                    .par_chunks_mut(PIECE)
-                    .enumerate()
-                    .for_each(|(p, gradient)| {
-                        let at = p * PIECE;
-                        for (a, qi) in coefs.iter().zip(&rows) {
-                            for (g, q) in gradient.iter_mut().zip(&qi[at..]) {
-                                *g += a * f64::from(*q);
-                            }
-                        }
-                    });
+                add_scaled_rows(&mut self.gradient[active..], &coefs, &rows);
             }
         }
     }
@@ -615,30 +620,14 @@ impl Solver {
         for batch in nonzero.chunks(ROWS_PER_PASS) {
             let rows = self.q.compute_rows(batch, 0..n);
             let alpha: Vec<f64> = batch.iter().map(|&j| self.alpha[j]).collect();
-            let at_upper: Vec<bool> = batch
+            add_scaled_rows(&mut self.gradient, &alpha, &rows);
+            let upper: Vec<&[f32]> = batch
                 .iter()
-                .map(|&j| self.status[j] == Bound::Upper)
+                .zip(&rows)
+                .filter(|(&j, _)| self.status[j] == Bound::Upper)
+                .map(|(_, row)| row.as_slice())
                 .collect();
-            // Each entry sums the batch's rows in order, whichever thread runs it.
-            const PIECE: usize = 4096;
-            self.gradient
-                .par_chunks_mut(PIECE)
-                .zip(self.gradient_bar.par_chunks_mut(PIECE))
-                .enumerate()
-                .for_each(|(p, (gradient, gradient_bar))| {
-                    let at = p * PIECE;
-                    for ((a, upper), row) in alpha.iter().zip(&at_upper).zip(&rows) {
-                        let row = &row[at..at + gradient.len()];
-                        for (g, q) in gradient.iter_mut().zip(row) {
-                            *g += a * f64::from(*q);
-                        }
-                        if *upper {
-                            for (gb, q) in gradient_bar.iter_mut().zip(row) {
-                                *gb += c * f64::from(*q);
-                            }
-                        }
-                    }
-                });
+            add_scaled_rows(&mut self.gradient_bar, &vec![c; upper.len()], &upper);
         }
     }
 
