@@ -340,4 +340,46 @@ fn a_sweep_fills_its_grid_and_resumes_after_an_interruption() {
 
     let err = fails(&sweep(&["--n-slip", "0:x"]));
     assert!(err.contains("--n-slip"), "{err}");
+
+    // A searched sweep's resume refits the finished cells at the points their rows record
+    // (read back to the bit), so the rest start as they did in one run.
+    let search = [
+        "--search",
+        "bayes",
+        "--iters",
+        "3",
+        "--folds",
+        "2",
+        "--out",
+        "s/sweep.csv",
+    ];
+    let searched = |extra: &[&str]| {
+        let mut args = vec![
+            "sweep",
+            "trials",
+            "--classifiers",
+            "logreg",
+            "--downsample",
+            "1.0",
+            "--n-slip",
+            "3:5",
+        ];
+        args.extend_from_slice(&search);
+        args.extend_from_slice(extra);
+        tmo(d, &args)
+    };
+    ok(&searched(&[]));
+    let full = std::fs::read_to_string(d.join("s/sweep.csv")).unwrap();
+    let partial: Vec<&str> = full.lines().take(3).collect();
+    std::fs::write(d.join("s/sweep.csv.partial"), partial.join("\n") + "\n").unwrap();
+    std::fs::remove_file(d.join("s/sweep.csv")).unwrap();
+    let stdout = ok(&searched(&["--resume"]));
+    assert!(
+        stdout.contains("1 cells to run (2 already done)"),
+        "{stdout}"
+    );
+    assert_eq!(
+        strip_seconds(&std::fs::read_to_string(d.join("s/sweep.csv")).unwrap()),
+        strip_seconds(&full)
+    );
 }

@@ -6,7 +6,7 @@
 //! ([`Dataset::with_n_slip`]); cells run in chains ([`SweepSpec::chains`]), the chains in
 //! parallel, the costliest first.
 
-use std::collections::HashSet;
+use std::collections::HashMap;
 use std::sync::atomic::Ordering;
 
 use rayon::prelude::*;
@@ -317,7 +317,20 @@ pub fn sort_rows(rows: &mut [SweepRow], classifiers: &[String]) {
     });
 }
 
-/// Trains and scores one cell.
+impl SweepRow {
+    /// The hyperparameters the row's cell was fitted with (the defaults where its classifier
+    /// has none). A CSV keeps them to the bit: they are written in Rust's shortest form that
+    /// reads back as the same number.
+    pub fn hyperparameters(&self) -> Hyperparameters {
+        let default = Hyperparameters::default();
+        Hyperparameters {
+            c: self.c.unwrap_or(default.c),
+            gamma: self.gamma.unwrap_or(default.gamma),
+            max_iterations: None,
+        }
+    }
+}
+
 /// A cell's models, fitted on its training rows.
 struct FittedCell {
     models: Vec<SensorModel>,
@@ -328,18 +341,21 @@ struct FittedCell {
 }
 
 /// Fits one cell's models, each started from `starts` (the previous cell's solutions in its
-/// chain; empty for a cold start); returns them with their own solutions.
+/// chain; empty for a cold start); returns them with their own solutions. `searched`: the
+/// hyperparameters an earlier run's search chose for the cell, which are not searched again.
 fn fit_cell(
     train: &Dataset,
     spec: &SweepSpec,
     cell: Cell,
     starts: &[Option<WarmStart>],
+    searched: Option<Hyperparameters>,
 ) -> Result<(FittedCell, Vec<Option<WarmStart>>), SweepError> {
     let train = train
         .with_n_slip(cell.n_slip)
         .ok_or(SweepError::NotFromTrials)?;
     let (hyper, cv_macro_f1) = match (spec.hyper, cell.classifier) {
         (HyperChoice::Fixed(h), _) => (h, None),
+        (HyperChoice::Search { .. }, _) if searched.is_some() => (searched.expect("matched"), None),
         // T is picked from the training rows; there is nothing to search
         (HyperChoice::Search { .. }, ClassifierKind::Threshold) => {
             (Hyperparameters::default(), None)
@@ -447,16 +463,17 @@ pub fn run_sweep(
         test,
         spec,
         &spec.chains(),
-        &HashSet::new(),
+        &HashMap::new(),
         None,
         on_done,
     )
 }
 
 /// Runs `chains` in parallel, each chain's cells in order, and returns the rows of the cells
-/// not in `finished`. A finished cell before an unfinished one in its chain is fitted again
-/// (not scored), so the cells after it start where a run without the interruption started
-/// them. Starts no more cells once `stop` is set (cells in flight finish and reach
+/// not in `finished` (each finished cell with the hyperparameters it was fitted with). A
+/// finished cell before an unfinished one in its chain is fitted again at those (not searched
+/// again, nor scored), so the cells after it start where a run without the interruption
+/// started them. Starts no more cells once `stop` is set (cells in flight finish and reach
 /// `on_done`); then it returns [`SweepError::Stopped`]. The first failing cell stops the
 /// sweep; rows already passed to `on_done` stay valid.
 pub fn run_chains_until(
@@ -464,14 +481,14 @@ pub fn run_chains_until(
     test: &Dataset,
     spec: &SweepSpec,
     chains: &[Vec<Cell>],
-    finished: &HashSet<CellKey>,
+    finished: &HashMap<CellKey, Hyperparameters>,
     stop: Option<&std::sync::atomic::AtomicBool>,
     on_done: impl Fn(&SweepRow) + Sync,
 ) -> Result<Vec<SweepRow>, SweepError> {
     spec.check()?;
     let run_chain = |chain: &[Cell]| -> Result<Vec<SweepRow>, SweepError> {
         let mut rows = Vec::new();
-        let Some(last) = chain.iter().rposition(|c| !finished.contains(&c.key())) else {
+        let Some(last) = chain.iter().rposition(|c| !finished.contains_key(&c.key())) else {
             return Ok(rows);
         };
         let mut starts = Vec::new();
@@ -480,9 +497,10 @@ pub fn run_chains_until(
                 return Err(SweepError::Stopped);
             }
             let started = Instant::now();
-            let (fitted, next) = fit_cell(train, spec, cell, &starts)?;
+            let searched = finished.get(&cell.key()).copied();
+            let (fitted, next) = fit_cell(train, spec, cell, &starts, searched)?;
             starts = next;
-            if !finished.contains(&cell.key()) {
+            if searched.is_none() {
                 let row = score_cell(&fitted, test, spec, cell, started)?;
                 on_done(&row);
                 rows.push(row);
@@ -757,6 +775,58 @@ mod tests {
             }
         }
         ds
+    }
+
+    #[test]
+    fn a_resumed_search_sweep_refits_finished_cells_at_their_recorded_point_unsearched() {
+        let (train, test) = (toy(4), toy(2));
+        let spec = SweepSpec {
+            classifiers: vec![ClassifierKind::SvmRbf],
+            downsample: vec![0.5],
+            n_slip: vec![2, 4, 6],
+            scope: Scope::Global,
+            hyper: HyperChoice::Search {
+                iterations: 3,
+                folds: 2,
+                ranges: tuning::SearchRanges::default(),
+                max_fit_rows: None,
+            },
+            seed: 5,
+        };
+        let strip = |mut rows: Vec<SweepRow>| {
+            rows.iter_mut().for_each(|r| r.seconds = 0.0);
+            sort_rows(&mut rows, &["svm-rbf".into()]);
+            rows
+        };
+        let whole = strip(run_sweep(&train, &test, &spec, |_| {}).unwrap());
+        assert_eq!(whole.len(), 3);
+        // the first two cells finished before an interruption
+        let finished: HashMap<_, _> = whole[..2]
+            .iter()
+            .map(|r| (r.key(), r.hyperparameters()))
+            .collect();
+        let rest = run_chains_until(
+            &train,
+            &test,
+            &spec,
+            &spec.chains(),
+            &finished,
+            None,
+            |_| {},
+        );
+        assert_eq!(strip(rest.unwrap()), whole[2..]);
+        // a finished cell is fitted at its recorded point, with no search
+        let odd = Hyperparameters {
+            c: 0.37,
+            gamma: 0.29,
+            max_iterations: None,
+        };
+        let cell = spec.chains()[0][0];
+        let (fitted, _) = fit_cell(&train, &spec, cell, &[], Some(odd)).unwrap();
+        assert_eq!((fitted.hyper, fitted.cv_macro_f1), (odd, None));
+        let (searched, _) = fit_cell(&train, &spec, cell, &[], None).unwrap();
+        assert_eq!(Some(searched.hyper.c), whole[0].c);
+        assert!(searched.cv_macro_f1.is_some());
     }
 
     #[test]

@@ -5,7 +5,7 @@
 //! test trials, as the caller describes them): a resume with anything else is refused, so
 //! cells of two different sweeps never share a file.
 
-use std::collections::HashSet;
+use std::collections::{HashMap, HashSet};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::AtomicBool;
 use std::sync::Mutex;
@@ -217,7 +217,10 @@ pub fn run_to_file(
         }
         Vec::new()
     };
-    let finished: HashSet<_> = done.iter().map(SweepRow::key).collect();
+    let finished: HashMap<_, _> = done
+        .iter()
+        .map(|r| (r.key(), r.hyperparameters()))
+        .collect();
     // A shard runs whole chains, so that its cells start as a single run starts them.
     let chains = match target.shard {
         Some(shard) => shard.select(spec.chains()),
@@ -226,7 +229,7 @@ pub fn run_to_file(
     let cells: Vec<_> = chains
         .iter()
         .flatten()
-        .filter(|c| !finished.contains(&c.key()))
+        .filter(|c| !finished.contains_key(&c.key()))
         .copied()
         .collect();
     if let Some(dir) = out.parent().filter(|d| !d.as_os_str().is_empty()) {
@@ -293,7 +296,7 @@ pub fn merge(
     parts: Vec<(PathBuf, Vec<SweepRow>)>,
 ) -> Result<Vec<SweepRow>, SweepFileError> {
     let grid: HashSet<_> = spec.cells().iter().map(|c| c.key()).collect();
-    let mut seen: std::collections::HashMap<_, PathBuf> = std::collections::HashMap::new();
+    let mut seen: HashMap<_, PathBuf> = HashMap::new();
     let mut rows = Vec::new();
     let name = |k: &(String, usize, String)| format!("{} n_slip {} d {}", k.0, k.1, k.2);
     for (path, part) in parts {
