@@ -19,6 +19,78 @@ use super::Class;
 /// terms in f64, each good to about 1e-16).
 const OBJECTIVE_RESOLUTION: f64 = 1e-13;
 
+/// Rows whose terms are added into the Hessian together (see
+/// [`add_weighted_outer_products`]).
+const HESSIAN_BLOCK: usize = 8;
+
+/// Adds `sum_r hx_r x_r^T` over the first `rows` rows of a block to the lower triangle of the
+/// `m x m` matrix `hess` (`hx` and `x` hold `m` values a row). Each entry takes its rows' terms
+/// one after another, in row order, as adding the rows one at a time does, so the sums are the
+/// same to the bit; but an entry is loaded and stored once a block instead of once a row, which
+/// bounded the one-row loop. Measured on the README's training rows at d 1 (151k rows of 60
+/// features, 9 Newton steps, one thread): a fit took 1.98 s one row at a time, 0.86 s in
+/// blocks of 8 and 0.68 s with 4-wide vectors, with the same weights to the bit (blocks of
+/// 4, 16 and 32 rows were no faster).
+fn add_weighted_outer_products(hess: &mut [f64], m: usize, hx: &[f64], x: &[f64], rows: usize) {
+    #[cfg(target_arch = "x86_64")]
+    {
+        if std::arch::is_x86_feature_detected!("avx2") {
+            // SAFETY: the CPU has the feature the function is compiled for.
+            return unsafe { add_weighted_outer_products_avx2(hess, m, hx, x, rows) };
+        }
+    }
+    add_weighted_outer_products_portable(hess, m, hx, x, rows)
+}
+
+/// [`add_weighted_outer_products`] compiled for 4-wide vectors (multiplies and adds apart, as
+/// Rust never fuses them, so the sums are the same to the bit).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+unsafe fn add_weighted_outer_products_avx2(
+    hess: &mut [f64],
+    m: usize,
+    hx: &[f64],
+    x: &[f64],
+    rows: usize,
+) {
+    add_weighted_outer_products_portable(hess, m, hx, x, rows)
+}
+
+#[inline(always)]
+fn add_weighted_outer_products_portable(
+    hess: &mut [f64],
+    m: usize,
+    hx: &[f64],
+    x: &[f64],
+    rows: usize,
+) {
+    const LANES: usize = 8;
+    for a in 0..m {
+        let entries = &mut hess[a * m..a * m + a + 1];
+        let mut chunks = entries.chunks_exact_mut(LANES);
+        let mut b = 0;
+        for chunk in &mut chunks {
+            let mut acc: [f64; LANES] = (&*chunk).try_into().expect("a chunk of LANES");
+            for r in 0..rows {
+                let coef = hx[r * m + a];
+                let xr = &x[r * m + b..r * m + b + LANES];
+                for k in 0..LANES {
+                    acc[k] += coef * xr[k];
+                }
+            }
+            chunk.copy_from_slice(&acc);
+            b += LANES;
+        }
+        for (k, entry) in chunks.into_remainder().iter_mut().enumerate() {
+            let mut acc = *entry;
+            for r in 0..rows {
+                acc += hx[r * m + a] * x[r * m + b + k];
+            }
+            *entry = acc;
+        }
+    }
+}
+
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct LogRegParams {
     pub c: f64,
@@ -138,27 +210,38 @@ impl ValidLogRegParams {
         let mut iterations = 0;
         let mut grad = vec![0.0f64; m];
         let mut hess = vec![0.0f64; m * m];
-        let mut xi = vec![0.0f64; m];
+        // A block's rows (each with a trailing 1 for the intercept) and their curvature-weighted
+        // copies, `h_r x_r`.
+        let mut block_x = vec![0.0f64; HESSIAN_BLOCK * m];
+        let mut block_hx = vec![0.0f64; HESSIAN_BLOCK * m];
         while iterations < p.max_iterations {
             grad.iter_mut().for_each(|g| *g = 0.0);
             hess.iter_mut().for_each(|h| *h = 0.0);
-            for (row, s) in x.chunks_exact(dim).zip(&signs) {
-                for (a, v) in xi.iter_mut().zip(row) {
-                    *a = f64::from(*v);
-                }
-                xi[dim] = 1.0;
-                let z: f64 = xi.iter().zip(&theta).map(|(a, w)| a * w).sum();
-                // d/dz log(1 + exp(-s z)) = -s sigma(-s z);  second derivative sigma(z)(1 - sigma(z))
-                let g = -s * sigmoid(-s * z) * p.c;
-                let sz = sigmoid(z);
-                let h = sz * (1.0 - sz) * p.c;
-                for a in 0..m {
-                    grad[a] += g * xi[a];
-                    let hx = h * xi[a];
-                    for b in 0..=a {
-                        hess[a * m + b] += hx * xi[b];
+            for (rows, signs) in x
+                .chunks(HESSIAN_BLOCK * dim)
+                .zip(signs.chunks(HESSIAN_BLOCK))
+            {
+                for (r, (row, s)) in rows.chunks_exact(dim).zip(signs).enumerate() {
+                    let xi = &mut block_x[r * m..(r + 1) * m];
+                    for (a, v) in xi.iter_mut().zip(row) {
+                        *a = f64::from(*v);
+                    }
+                    xi[dim] = 1.0;
+                    let z: f64 = xi.iter().zip(&theta).map(|(a, w)| a * w).sum();
+                    // d/dz log(1 + exp(-s z)) = -s sigma(-s z);  second derivative sigma(z)(1 - sigma(z))
+                    let g = -s * sigmoid(-s * z) * p.c;
+                    let sz = sigmoid(z);
+                    let h = sz * (1.0 - sz) * p.c;
+                    for ((ga, xa), hxa) in grad
+                        .iter_mut()
+                        .zip(xi.iter())
+                        .zip(&mut block_hx[r * m..(r + 1) * m])
+                    {
+                        *ga += g * xa;
+                        *hxa = h * xa;
                     }
                 }
+                add_weighted_outer_products(&mut hess, m, &block_hx, &block_x, signs.len());
             }
             for a in 0..dim {
                 grad[a] += theta[a];
@@ -234,6 +317,27 @@ impl LogRegModel {
 
 #[cfg(test)]
 mod tests {
+    #[test]
+    fn a_blocks_hessian_terms_add_up_as_the_rows_one_at_a_time() {
+        let m = 13; // one full chunk of 8 entries and a remainder
+        let value = |i: usize| ((i * 7919) % 1000) as f64 / 997.0 - 0.4;
+        let (x, hx): (Vec<f64>, Vec<f64>) =
+            (0..5 * m).map(|i| (value(i), value(i + 31) * 0.3)).unzip();
+        for rows in [1, 3, 5] {
+            let mut blocked: Vec<f64> = (0..m * m).map(|i| value(i + 7)).collect();
+            let mut one_at_a_time = blocked.clone();
+            add_weighted_outer_products(&mut blocked, m, &hx, &x, rows);
+            for r in 0..rows {
+                for a in 0..m {
+                    for b in 0..=a {
+                        one_at_a_time[a * m + b] += hx[r * m + a] * x[r * m + b];
+                    }
+                }
+            }
+            assert_eq!(blocked, one_at_a_time, "{rows} rows");
+        }
+    }
+
     use super::*;
 
     #[test]
