@@ -317,6 +317,8 @@ impl LogRegModel {
 
 #[cfg(test)]
 mod tests {
+    use super::*;
+
     #[test]
     fn a_blocks_hessian_terms_add_up_as_the_rows_one_at_a_time() {
         let m = 13; // one full chunk of 8 entries and a remainder
@@ -337,8 +339,6 @@ mod tests {
             assert_eq!(blocked, one_at_a_time, "{rows} rows");
         }
     }
-
-    use super::*;
 
     #[test]
     fn one_feature_optimum_has_zero_gradient() {
