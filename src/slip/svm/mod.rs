@@ -22,6 +22,7 @@
 pub mod cache;
 pub mod kernel;
 pub mod linear_ipm;
+mod q_batch;
 pub mod smo;
 
 pub use kernel::Kernel;

@@ -10,8 +10,9 @@
 //!   reconstructed before the final optimality check;
 //! - kernel rows computed in parallel when a row is long enough to pay for it, and where the
 //!   rows needed are known ahead (a warm start, a gradient reconstruction) many at a time
-//!   in one pass over the training rows: a reconstruction on 151k rows took 3.8 s one row
-//!   at a time and 1.9 s this way, with the same gradient to the bit.
+//!   in one pass over the training rows ([`super::q_batch`]): a reconstruction on 151k rows
+//!   took 3.8 s one row at a time, 1.9 s with 64 rows a pass, and about 1.0 s with their
+//!   values added to the gradient as they are computed, with the same gradient to the bit.
 //!
 //! Index loops mirror libsvm's so the two can be read side by side.
 #![allow(clippy::needless_range_loop)]
@@ -20,6 +21,7 @@ use rayon::prelude::*;
 
 use super::cache::RowCache;
 use super::kernel::{Kernel, Rows, BLOCK};
+use super::q_batch::{add_q_products, q_rows, Sum, PARALLEL_WORK, ROWS_PER_PASS};
 
 const TAU: f64 = 1e-12;
 
@@ -59,17 +61,6 @@ struct QMatrix {
     cache: RowCache,
     diagonal: Vec<f64>,
 }
-
-/// Kernel rows computed together in one pass over the training rows, where the rows
-/// needed are known ahead (a warm start's, a gradient reconstruction's): more rows a pass
-/// read the training rows fewer times, at the cost of `ROWS_PER_PASS x n` floats at once.
-const ROWS_PER_PASS: usize = 64;
-
-/// Below this many multiply-adds (a row of about 70k entries at 60 features, half a
-/// millisecond) a kernel row is computed on one thread: waking another thread for it cost
-/// more than it saved. Measured with 2 threads (`cargo bench --bench svm_speed`): at 64k
-/// multiply-adds, 20k rows fitted in 0.59 s and 61k in 4.74 s; at 4M, 0.53 s and 4.64 s.
-const PARALLEL_WORK: usize = 4 << 20;
 
 impl QMatrix {
     /// Ensures row `i` holds its first `len` entries.
@@ -112,90 +103,18 @@ impl QMatrix {
         q_rows(&self.rows, &self.y, self.kernel, targets, columns)
     }
 
+    /// Adds each sum's coefficients times rows `targets` of Q, uncached (see
+    /// [`add_q_products`]).
+    fn add_products(&self, targets: &[usize], columns: std::ops::Range<usize>, sums: &mut [Sum]) {
+        add_q_products(&self.rows, &self.y, self.kernel, targets, columns, sums)
+    }
+
     /// Swaps rows `i` and `j` of everything but the cache (see [`Solver::do_shrinking`]).
     fn swap_uncached(&mut self, i: usize, j: usize) {
         self.rows.swap(i, j);
         self.y.swap(i, j);
         self.diagonal.swap(i, j);
     }
-}
-
-/// Rows `targets` of Q `= y_i y_j K(x_i, x_j)`, their entries in `columns` each, computed together in one pass
-/// over the training rows (see [`Rows::dots_many`]) and not cached: for work that reads
-/// each row once.
-pub(super) fn q_rows(
-    rows: &Rows,
-    y: &[i8],
-    kernel: Kernel,
-    targets: &[usize],
-    columns: std::ops::Range<usize>,
-) -> Vec<Vec<f32>> {
-    let (from, len) = (columns.start, columns.len());
-    // Allocated zeroed, not cloned: a clone would write every buffer once more.
-    let mut bufs: Vec<Vec<f32>> = targets.iter().map(|_| vec![0.0f32; len]).collect();
-    let compute = |at: usize, outs: &mut [&mut [f32]]| {
-        #[cfg(target_arch = "x86_64")]
-        {
-            if std::arch::is_x86_feature_detected!("avx2")
-                && std::arch::is_x86_feature_detected!("fma")
-            {
-                // SAFETY: the CPU has the features the function is compiled for.
-                return unsafe { kernel_rows_chunk_avx2(rows, y, kernel, targets, at, outs) };
-            }
-        }
-        kernel_rows_chunk(rows, y, kernel, targets, at, outs)
-    };
-    // Pieces start on block boundaries (after a possibly partial first block); each
-    // holds every target's slice of its columns.
-    const CHUNK: usize = 8 * BLOCK;
-    let head = ((BLOCK - from % BLOCK) % BLOCK).min(len);
-    let mut starts = vec![from];
-    let mut at = from + head;
-    if head == 0 {
-        starts.clear();
-    }
-    while at < from + len {
-        starts.push(at);
-        at += CHUNK;
-    }
-    let mut pieces: Vec<Vec<&mut [f32]>> = starts.iter().map(|_| Vec::new()).collect();
-    for buf in bufs.iter_mut() {
-        let mut rest: &mut [f32] = buf;
-        for (p, &start) in starts.iter().enumerate() {
-            let end = starts.get(p + 1).copied().unwrap_or(from + len);
-            let (piece, tail) = rest.split_at_mut(end - start);
-            pieces[p].push(piece);
-            rest = tail;
-        }
-    }
-    if targets.len() * len * rows.dim >= PARALLEL_WORK {
-        pieces
-            .par_iter_mut()
-            .zip(&starts)
-            .for_each(|(outs, &at)| compute(at, outs));
-    } else {
-        for (outs, &at) in pieces.iter_mut().zip(&starts) {
-            compute(at, outs);
-        }
-    }
-    bufs
-}
-
-/// `out[k] += sum_r coefs[r] * rows[r][k]` in parallel pieces; every entry sums the rows in
-/// their order, whichever thread runs its piece, so the result is the sequential sum's to
-/// the bit.
-fn add_scaled_rows<R: AsRef<[f32]> + Sync>(out: &mut [f64], coefs: &[f64], rows: &[R]) {
-    const PIECE: usize = 4096;
-    out.par_chunks_mut(PIECE)
-        .enumerate()
-        .for_each(|(p, piece)| {
-            let at = p * PIECE;
-            for (a, row) in coefs.iter().zip(rows) {
-                for (o, q) in piece.iter_mut().zip(&row.as_ref()[at..]) {
-                    *o += a * f64::from(*q);
-                }
-            }
-        });
 }
 
 /// `Q_ij` for `j` in `from..from + chunk.len()`: dot products by blocks of rows, then the
@@ -215,40 +134,6 @@ fn kernel_row_chunk(
         let j = from + k;
         *v = yi * f32::from(y[j]) * kernel.from_dot(*v, ni, rows.norms[j]) as f32;
     }
-}
-
-/// [`kernel_row_chunk`] for the rows `targets`, each into its `outs` slice.
-#[inline(always)]
-fn kernel_rows_chunk(
-    rows: &Rows,
-    y: &[i8],
-    kernel: Kernel,
-    targets: &[usize],
-    from: usize,
-    outs: &mut [&mut [f32]],
-) {
-    let xs: Vec<&[f32]> = targets.iter().map(|&i| rows.row(i)).collect();
-    rows.dots_many(&xs, from, outs);
-    for (&i, out) in targets.iter().zip(outs.iter_mut()) {
-        let (ni, yi) = (rows.norms[i], f32::from(y[i]));
-        for (k, v) in out.iter_mut().enumerate() {
-            let j = from + k;
-            *v = yi * f32::from(y[j]) * kernel.from_dot(*v, ni, rows.norms[j]) as f32;
-        }
-    }
-}
-
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2,fma")]
-unsafe fn kernel_rows_chunk_avx2(
-    rows: &Rows,
-    y: &[i8],
-    kernel: Kernel,
-    targets: &[usize],
-    from: usize,
-    outs: &mut [&mut [f32]],
-) {
-    kernel_rows_chunk(rows, y, kernel, targets, from, outs)
 }
 
 /// [`kernel_row_chunk`] compiled for AVX2 and FMA (measured on a 20,000-row fit: 5.6 s
@@ -510,11 +395,15 @@ impl Solver {
             let free_rows: Vec<usize> = (0..active)
                 .filter(|&i| self.status[i] == Bound::Free)
                 .collect();
-            for batch in free_rows.chunks(ROWS_PER_PASS) {
-                let rows = self.q.compute_rows(batch, active..n);
-                let coefs: Vec<f64> = batch.iter().map(|&i| self.alpha[i]).collect();
-                add_scaled_rows(&mut self.gradient[active..], &coefs, &rows);
-            }
+            let coefs: Vec<f64> = free_rows.iter().map(|&i| self.alpha[i]).collect();
+            self.q.add_products(
+                &free_rows,
+                active..n,
+                &mut [Sum {
+                    coefs: &coefs,
+                    out: &mut self.gradient[active..],
+                }],
+            );
         }
     }
 
@@ -616,19 +505,28 @@ impl Solver {
             self.update_status(i);
         }
         let nonzero: Vec<usize> = (0..self.n).filter(|&j| self.alpha[j] > 0.0).collect();
-        let (n, c) = (self.n, self.c);
-        for batch in nonzero.chunks(ROWS_PER_PASS) {
-            let rows = self.q.compute_rows(batch, 0..n);
-            let alpha: Vec<f64> = batch.iter().map(|&j| self.alpha[j]).collect();
-            add_scaled_rows(&mut self.gradient, &alpha, &rows);
-            let upper: Vec<&[f32]> = batch
-                .iter()
-                .zip(&rows)
-                .filter(|(&j, _)| self.status[j] == Bound::Upper)
-                .map(|(_, row)| row.as_slice())
-                .collect();
-            add_scaled_rows(&mut self.gradient_bar, &vec![c; upper.len()], &upper);
-        }
+        let alpha: Vec<f64> = nonzero.iter().map(|&j| self.alpha[j]).collect();
+        let at_c: Vec<f64> = nonzero
+            .iter()
+            .map(|&j| match self.status[j] {
+                Bound::Upper => self.c,
+                _ => 0.0,
+            })
+            .collect();
+        self.q.add_products(
+            &nonzero,
+            0..self.n,
+            &mut [
+                Sum {
+                    coefs: &alpha,
+                    out: &mut self.gradient,
+                },
+                Sum {
+                    coefs: &at_c,
+                    out: &mut self.gradient_bar,
+                },
+            ],
+        );
     }
 
     fn rho(&self) -> f64 {
