@@ -169,19 +169,14 @@ impl SensorModel {
                 let x = scaler.transform(&data.x);
                 let classifier = match kind {
                     ClassifierKind::SvmRbf => {
-                        let alpha = start.and_then(|s| s.svm_alpha_for(data));
-                        let (model, alpha) = SvmParams {
+                        let dual = start.and_then(|s| s.svm_start_for(data));
+                        let (model, solved) = SvmParams {
                             max_iterations: hyper.max_iterations,
                             ..SvmParams::rbf(hyper.c, hyper.gamma)
                         }
                         .check()?
-                        .fit_from(
-                            data.dim,
-                            &x,
-                            &data.y,
-                            alpha.as_deref(),
-                        )?;
-                        next = Some(WarmStart::svm(data, &alpha));
+                        .fit_from(data.dim, &x, &data.y, dual.as_ref())?;
+                        next = Some(WarmStart::svm(data, &solved));
                         Classifier::Svm(model)
                     }
                     ClassifierKind::SvmLinear => Classifier::Svm(

@@ -11,6 +11,7 @@
 use std::collections::HashMap;
 
 use super::dataset::Dataset;
+use super::svm::DualStart;
 
 /// A training row's identity across datasets cut from the same trials.
 type RowKey = (u32, u8, u64);
@@ -22,33 +23,56 @@ fn key(data: &Dataset, i: usize) -> RowKey {
 /// A finished fit's solution, kept to start the next fit near it.
 #[derive(Debug, Clone, PartialEq)]
 pub enum WarmStart {
-    /// The RBF SVM's dual variable of every training row that has one (the rest are zero).
-    Svm { alpha: HashMap<RowKey, f64> },
+    /// The RBF SVM's dual variable of every training row that has one (the rest are zero),
+    /// and every row's margin `y f(x)`, which lets a large fit begin with the rows near the
+    /// margin.
+    Svm { rows: HashMap<RowKey, SvmRow> },
     /// The logistic regression's weights, then its intercept.
     LogReg { theta: Vec<f64> },
 }
 
+/// A training row's part of an SVM's solution.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SvmRow {
+    pub alpha: f64,
+    /// NaN where the fit did not give one.
+    pub margin: f32,
+}
+
 impl WarmStart {
-    /// Keeps the nonzero dual variables of `data`'s rows (`alpha` in `data`'s row order).
-    pub fn svm(data: &Dataset, alpha: &[f64]) -> Self {
-        let alpha = alpha
-            .iter()
-            .enumerate()
-            .filter(|(_, a)| **a > 0.0)
-            .map(|(i, a)| (key(data, i), *a))
+    /// Keeps `data`'s rows' part of `solved` (in `data`'s row order).
+    pub fn svm(data: &Dataset, solved: &DualStart) -> Self {
+        let margin = |i: usize| solved.margin.get(i).map_or(f32::NAN, |&m| m as f32);
+        let rows = (0..data.len())
+            .map(|i| {
+                let alpha = solved.alpha.get(i).copied().unwrap_or(0.0);
+                let row = SvmRow {
+                    alpha,
+                    margin: margin(i),
+                };
+                (key(data, i), row)
+            })
+            .filter(|(_, row)| row.alpha > 0.0 || !row.margin.is_nan())
             .collect();
-        WarmStart::Svm { alpha }
+        WarmStart::Svm { rows }
     }
 
-    /// The dual variables for `data`'s rows: the kept value of a row seen before, zero for
-    /// a new one. `None` for a logistic regression's start.
-    pub fn svm_alpha_for(&self, data: &Dataset) -> Option<Vec<f64>> {
+    /// The start for `data`'s rows: a row seen before keeps its dual variable and margin,
+    /// a new one starts at zero with an unknown (NaN) margin. `None` for a logistic
+    /// regression's start.
+    pub fn svm_start_for(&self, data: &Dataset) -> Option<DualStart> {
         match self {
-            WarmStart::Svm { alpha } => Some(
-                (0..data.len())
-                    .map(|i| alpha.get(&key(data, i)).copied().unwrap_or(0.0))
-                    .collect(),
-            ),
+            WarmStart::Svm { rows } => {
+                let row = |i: usize| rows.get(&key(data, i));
+                Some(DualStart {
+                    alpha: (0..data.len())
+                        .map(|i| row(i).map_or(0.0, |r| r.alpha))
+                        .collect(),
+                    margin: (0..data.len())
+                        .map(|i| row(i).map_or(f64::NAN, |r| f64::from(r.margin)))
+                        .collect(),
+                })
+            }
             WarmStart::LogReg { .. } => None,
         }
     }
@@ -84,12 +108,25 @@ mod tests {
     }
 
     #[test]
-    fn a_rows_dual_variable_follows_the_row_and_new_rows_start_at_zero() {
+    fn a_rows_dual_variable_and_margin_follow_the_row_and_new_rows_start_at_zero() {
         let before = rows(&[(0, 0, 1), (0, 1, 1), (1, 0, 7)]);
-        let start = WarmStart::svm(&before, &[0.5, 0.0, 2.0]);
+        let solved = DualStart {
+            alpha: vec![0.5, 0.0, 2.0],
+            margin: vec![0.75, 1.5, 1.0],
+        };
+        let start = WarmStart::svm(&before, &solved);
         // Reordered, one row dropped, one new row.
         let after = rows(&[(1, 0, 7), (1, 2, 9), (0, 0, 1)]);
-        assert_eq!(start.svm_alpha_for(&after), Some(vec![2.0, 0.0, 0.5]));
+        let got = start.svm_start_for(&after).unwrap();
+        assert_eq!(got.alpha, vec![2.0, 0.0, 0.5]);
+        assert_eq!(got.margin[0], 1.0);
+        assert!(got.margin[1].is_nan(), "a new row's margin is unknown");
+        assert_eq!(got.margin[2], 0.75);
         assert_eq!(start.logreg_theta(), None);
+        // Without margins, only the dual variables are kept.
+        let start = WarmStart::svm(&before, &DualStart::from_alpha(solved.alpha.clone()));
+        let got = start.svm_start_for(&after).unwrap();
+        assert_eq!(got.alpha, vec![2.0, 0.0, 0.5]);
+        assert!(got.margin.iter().all(|m| m.is_nan()));
     }
 }

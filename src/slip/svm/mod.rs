@@ -23,6 +23,7 @@ pub mod cache;
 pub mod kernel;
 pub mod linear_ipm;
 mod q_batch;
+pub mod screening;
 pub mod smo;
 
 pub use kernel::Kernel;
@@ -110,6 +111,26 @@ pub enum SvmError {
     Shape { got: usize, dim: usize },
 }
 
+/// A fit's solution, to start a neighbouring fit from (see [`ValidSvmParams::fit_from`]).
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct DualStart {
+    /// Each row's dual variable.
+    pub alpha: Vec<f64>,
+    /// Each row's margin `y f(x)` at that solution, NaN where unknown; or empty. Lets a
+    /// large fit begin with the rows near the margin (see [`screening`]).
+    pub margin: Vec<f64>,
+}
+
+impl DualStart {
+    /// A start from dual variables alone.
+    pub fn from_alpha(alpha: Vec<f64>) -> Self {
+        Self {
+            alpha,
+            margin: Vec::new(),
+        }
+    }
+}
+
 /// A trained SVM.
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct SvmModel {
@@ -153,16 +174,16 @@ impl ValidSvmParams {
         self.fit_from(dim, x, y, None).map(|(model, _)| model)
     }
 
-    /// [`Self::fit`] starting from `start` (one dual variable per row, e.g. a neighbouring
-    /// fit's [`Self::fit_from`] output mapped onto these rows; RBF only, the linear solver
-    /// starts from its own centre), returning every row's dual variable beside the model.
+    /// [`Self::fit`] starting from `start` (e.g. a neighbouring fit's [`Self::fit_from`]
+    /// output mapped onto these rows; RBF only, the linear solver starts from its own
+    /// centre), returning this fit's solution beside the model.
     pub fn fit_from(
         &self,
         dim: usize,
         x: &[f32],
         y: &[Class],
-        start: Option<&[f64]>,
-    ) -> Result<(SvmModel, Vec<f64>), SvmError> {
+        start: Option<&DualStart>,
+    ) -> Result<(SvmModel, DualStart), SvmError> {
         let p = &self.0;
         if dim == 0 || x.len() != dim * y.len() {
             return Err(SvmError::Shape { got: x.len(), dim });
@@ -179,16 +200,19 @@ impl ValidSvmParams {
             .map(|c| if *c == Class::Slip { 1 } else { -1 })
             .collect();
         let n = y.len();
-        let solution = match p.kernel {
+        let (solution, margin) = match p.kernel {
             // An interior-point method: SMO's step count grows with C on a linear kernel
             // (see `linear_ipm`). Its iterations are Newton steps.
-            Kernel::Linear => linear_ipm::solve(
-                dim,
-                x,
-                &signs,
-                p.c,
-                p.tolerance,
-                p.max_iterations.unwrap_or(LINEAR_MAX_ITERATIONS),
+            Kernel::Linear => (
+                linear_ipm::solve(
+                    dim,
+                    x,
+                    &signs,
+                    p.c,
+                    p.tolerance,
+                    p.max_iterations.unwrap_or(LINEAR_MAX_ITERATIONS),
+                ),
+                Vec::new(),
             ),
             Kernel::Rbf { .. } => {
                 let options = smo::SolverOptions {
@@ -200,7 +224,7 @@ impl ValidSvmParams {
                         .max_iterations
                         .unwrap_or_else(|| (100 * n).max(10_000_000)),
                 };
-                smo::solve(dim, x.to_vec(), signs.clone(), p.kernel, &options, start)
+                screening::solve(dim, x.to_vec(), signs.clone(), p.kernel, &options, start)
             }
         };
         let mut support_vectors = Vec::new();
@@ -234,7 +258,11 @@ impl ValidSvmParams {
             blocks: Vec::new(),
         };
         model.prepare();
-        Ok((model, solution.alpha))
+        let solved = DualStart {
+            alpha: solution.alpha,
+            margin,
+        };
+        Ok((model, solved))
     }
 }
 
@@ -454,18 +482,19 @@ mod tests {
         let params = SvmParams::rbf(2.0, 0.5).check().unwrap();
         // the neighbour: the same rows but the last 60, as a sweep's previous n_slip cell
         let n0 = 840;
-        let (_, alpha0) = params.fit_from(2, &x[..2 * n0], &y[..n0], None).unwrap();
-        let mut start = alpha0.clone();
+        let (_, solved0) = params.fit_from(2, &x[..2 * n0], &y[..n0], None).unwrap();
+        let mut start = solved0.alpha.clone();
         start.resize(900, 0.0);
+        let start = DualStart::from_alpha(start);
         let cold = params.fit(2, &x, &y).unwrap();
-        let (warm, alpha) = params.fit_from(2, &x, &y, Some(&start)).unwrap();
+        let (warm, solved) = params.fit_from(2, &x, &y, Some(&start)).unwrap();
         assert!(
             warm.iterations < cold.iterations,
             "{} vs {}",
             warm.iterations,
             cold.iterations
         );
-        assert_eq!(alpha.len(), 900);
+        assert_eq!(solved.alpha.len(), 900);
         // both within the stopping tolerance of the one optimum: same decisions to ~1e-3
         for i in 0..900 {
             let xi = &x[2 * i..2 * i + 2];
@@ -473,7 +502,7 @@ mod tests {
             assert!((a - b).abs() < 1e-2, "row {i}: {a} vs {b}");
         }
         // started from its own optimum, a fit has nothing left to do
-        let (again, _) = params.fit_from(2, &x, &y, Some(&alpha)).unwrap();
+        let (again, _) = params.fit_from(2, &x, &y, Some(&solved)).unwrap();
         assert_eq!(again.iterations, 0);
     }
 
@@ -489,7 +518,7 @@ mod tests {
         let (x, labels) = blobs(200);
         let params = SvmParams::rbf(1.0, 0.5).check().unwrap();
         let cold = params.fit(2, &x, &labels).unwrap();
-        let junk: Vec<f64> = (0..200).map(|i| (i % 7) as f64).collect();
+        let junk = DualStart::from_alpha((0..200).map(|i| (i % 7) as f64).collect());
         let (warm, _) = params.fit_from(2, &x, &labels, Some(&junk)).unwrap();
         for i in 0..200 {
             let xi = &x[2 * i..2 * i + 2];

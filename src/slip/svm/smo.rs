@@ -26,10 +26,23 @@ use super::q_batch::{add_q_products, q_rows, Sum, PARALLEL_WORK, ROWS_PER_PASS};
 const TAU: f64 = 1e-12;
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-enum Bound {
+pub(super) enum Bound {
     Lower,
     Upper,
     Free,
+}
+
+impl Bound {
+    /// Where `alpha` lies in the box `[0, C]`.
+    pub(super) fn of(alpha: f64, c: f64) -> Self {
+        if alpha >= c {
+            Bound::Upper
+        } else if alpha <= 0.0 {
+            Bound::Lower
+        } else {
+            Bound::Free
+        }
+    }
 }
 
 /// What the solver found, in the caller's row order.
@@ -202,13 +215,7 @@ impl Solver {
     }
 
     fn update_status(&mut self, i: usize) {
-        self.status[i] = if self.alpha[i] >= self.c {
-            Bound::Upper
-        } else if self.alpha[i] <= 0.0 {
-            Bound::Lower
-        } else {
-            Bound::Free
-        };
+        self.status[i] = Bound::of(self.alpha[i], self.c);
     }
 
     /// Swaps variables `i` and `j` everywhere but in the kernel-row cache, which the caller
@@ -222,32 +229,19 @@ impl Solver {
         self.order.swap(i, j);
     }
 
-    /// Second-order working-set selection; `None` when optimal within `eps`.
+    /// Each active variable's label, bound and gradient.
+    fn active_variables(&self) -> impl Iterator<Item = (i8, Bound, f64)> + '_ {
+        (0..self.active_size).map(|t| (self.q.y[t], self.status[t], self.gradient[t]))
+    }
+
     /// `m(alpha) - M(alpha)` over the active set: how far from optimal (libsvm's stopping
     /// quantity, `Gmax + Gmax2`).
     fn kkt_gap(&self) -> f64 {
-        let (mut up, mut low) = (f64::NEG_INFINITY, f64::NEG_INFINITY);
-        for t in 0..self.active_size {
-            let g = self.gradient[t];
-            if self.q.y[t] == 1 {
-                if self.status[t] != Bound::Upper {
-                    up = up.max(-g);
-                }
-                if self.status[t] != Bound::Lower {
-                    low = low.max(g);
-                }
-            } else {
-                if self.status[t] != Bound::Lower {
-                    up = up.max(g);
-                }
-                if self.status[t] != Bound::Upper {
-                    low = low.max(-g);
-                }
-            }
-        }
-        (up + low).max(0.0)
+        let (m, big_m) = violation_extremes(self.active_variables());
+        (m - big_m).max(0.0)
     }
 
+    /// Second-order working-set selection; `None` when optimal within `eps`.
     fn select_working_set(&mut self) -> Option<(usize, usize)> {
         let mut gmax = f64::NEG_INFINITY;
         let mut gmax2 = f64::NEG_INFINITY;
@@ -530,24 +524,56 @@ impl Solver {
     }
 
     fn rho(&self) -> f64 {
-        let (mut ub, mut lb, mut sum_free, mut free) =
-            (f64::INFINITY, f64::NEG_INFINITY, 0.0, 0usize);
-        for i in 0..self.active_size {
-            let yg = self.y(i) * self.gradient[i];
-            match (self.status[i], self.q.y[i] == 1) {
-                (Bound::Upper, false) | (Bound::Lower, true) => ub = ub.min(yg),
-                (Bound::Upper, true) | (Bound::Lower, false) => lb = lb.max(yg),
-                (Bound::Free, _) => {
-                    free += 1;
-                    sum_free += yg;
-                }
+        rho_of(self.active_variables())
+    }
+}
+
+/// libsvm's `m(alpha)`, the largest `-y_t G_t` over the variables that may move up
+/// (`I_up`), and `M(alpha)`, the smallest over those that may move down (`I_low`), of the
+/// variables given as (label, bound, gradient). The dual is optimal within `eps` when
+/// `m - M < eps`.
+pub(super) fn violation_extremes(variables: impl Iterator<Item = (i8, Bound, f64)>) -> (f64, f64) {
+    let (mut up, mut low) = (f64::NEG_INFINITY, f64::NEG_INFINITY);
+    for (y, status, g) in variables {
+        if y == 1 {
+            if status != Bound::Upper {
+                up = up.max(-g);
+            }
+            if status != Bound::Lower {
+                low = low.max(g);
+            }
+        } else {
+            if status != Bound::Lower {
+                up = up.max(g);
+            }
+            if status != Bound::Upper {
+                low = low.max(-g);
             }
         }
-        if free > 0 {
-            sum_free / free as f64
-        } else {
-            (ub + lb) / 2.0
+    }
+    (up, -low)
+}
+
+/// The offset `rho` of the decision function at an optimum, as libsvm computes it from the
+/// variables given as (label, bound, gradient): the mean `y_t G_t` of the free variables, or
+/// the middle of the bounds the others set when none is free.
+pub(super) fn rho_of(variables: impl Iterator<Item = (i8, Bound, f64)>) -> f64 {
+    let (mut ub, mut lb, mut sum_free, mut free) = (f64::INFINITY, f64::NEG_INFINITY, 0.0, 0usize);
+    for (y, status, g) in variables {
+        let yg = f64::from(y) * g;
+        match (status, y == 1) {
+            (Bound::Upper, false) | (Bound::Lower, true) => ub = ub.min(yg),
+            (Bound::Upper, true) | (Bound::Lower, false) => lb = lb.max(yg),
+            (Bound::Free, _) => {
+                free += 1;
+                sum_free += yg;
+            }
         }
+    }
+    if free > 0 {
+        sum_free / free as f64
+    } else {
+        (ub + lb) / 2.0
     }
 }
 
@@ -595,6 +621,18 @@ pub fn solve(
     options: &SolverOptions,
     start: Option<&[f64]>,
 ) -> Solution {
+    solve_with_gradient(dim, x, y, kernel, options, start).0
+}
+
+/// [`solve`], and the gradient `G` at the solution, in the caller's row order.
+pub(super) fn solve_with_gradient(
+    dim: usize,
+    x: Vec<f32>,
+    y: Vec<i8>,
+    kernel: Kernel,
+    options: &SolverOptions,
+    start: Option<&[f64]>,
+) -> (Solution, Vec<f64>) {
     let mut s = Solver::new(dim, x, y, kernel, options);
     let n = s.n;
     if let Some(start) = start {
@@ -639,17 +677,19 @@ pub fn solve(
     }
     let kkt_gap = s.kkt_gap();
     let rho = s.rho();
-    let mut alpha = vec![0.0; n];
+    let (mut alpha, mut gradient) = (vec![0.0; n], vec![0.0; n]);
     for (pos, &orig) in s.order.iter().enumerate() {
         alpha[orig] = s.alpha[pos];
+        gradient[orig] = s.gradient[pos];
     }
-    Solution {
+    let solution = Solution {
         alpha,
         rho,
         iterations,
         hit_iteration_limit,
         kkt_gap,
-    }
+    };
+    (solution, gradient)
 }
 
 #[cfg(test)]
