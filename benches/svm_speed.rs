@@ -1,5 +1,6 @@
 //! SVM fit time for 2k, 5k, 10k, 20k and all (61k) rows of 60-dimensional simulator
-//! features, and per-frame prediction latency of the 20k-row model. Run with `cargo bench --bench svm_speed`.
+//! features, per-frame prediction latency of the 20k-row model, and its scoring of every
+//! row one at a time against several at a time (as a test set or held-out fold is scored). Run with `cargo bench --bench svm_speed`.
 //!
 //! The rows are written to `target/bench/svm_rows.csv` first (shuffled, seeded), so
 //! `python3 scripts/time_sklearn.py target/bench/svm_rows.csv` times scikit-learn's SVC on
@@ -113,5 +114,27 @@ fn main() {
         percentile(&times, 0.99),
         slips,
         times.len()
+    );
+    // Scoring every row on one thread, one row at a time and several at a time.
+    let all = scaler.transform(&ds.x);
+    let (alone, alone_s) = one_thread.install(|| {
+        let t0 = Instant::now();
+        let d: Vec<f64> = all
+            .chunks_exact(ds.dim)
+            .map(|x| model.decision(x))
+            .collect();
+        (d, t0.elapsed().as_secs_f64())
+    });
+    let (together, together_s) = one_thread.install(|| {
+        let t0 = Instant::now();
+        let mut d = vec![0.0; ds.len()];
+        model.decisions(&all, &mut d);
+        (d, t0.elapsed().as_secs_f64())
+    });
+    assert_eq!(alone, together, "the same decision values either way");
+    println!(
+        "  score {} rows on 1 thread: {alone_s:.3} s one at a time, {together_s:.3} s several at a time (ratio {:.2}, same values)",
+        ds.len(),
+        together_s / alone_s
     );
 }

@@ -265,20 +265,39 @@ impl SensorModel {
 
     /// [`Self::predict`] of each of `data`'s rows `rows`, in parallel pieces: a sweep's
     /// last cells and a model's scoring no longer leave a core idle (147k rows against
-    /// 5.5k support vectors: 2.9 s one at a time, 1.46 s on 2 cores). Batching the RBF
-    /// sums over several rows per block of support vectors was measured too: 0.93 of the
-    /// time on one thread, not kept.
+    /// 5.5k support vectors: 2.9 s one at a time, 1.46 s on 2 cores). An RBF SVM sums a
+    /// piece's rows several at a time ([`SvmModel::decisions`]), with the same values.
     pub fn predict_rows(&self, data: &Dataset, rows: &[usize]) -> Vec<Class> {
         const PIECE: usize = 512;
         rows.par_chunks(PIECE)
             .flat_map_iter(|piece| {
                 let mut scratch = Vec::new();
-                piece
-                    .iter()
-                    .map(|&i| self.predict(data.row(i), &mut scratch))
-                    .collect::<Vec<_>>()
+                match &self.classifier {
+                    Classifier::Svm(m) => {
+                        let x = self.scaled_rows(data, piece);
+                        let mut decisions = vec![0.0; piece.len()];
+                        m.decisions(&x, &mut decisions);
+                        decisions.into_iter().map(|d| self.class_of(d)).collect()
+                    }
+                    _ => piece
+                        .iter()
+                        .map(|&i| self.predict(data.row(i), &mut scratch))
+                        .collect::<Vec<_>>(),
+                }
             })
             .collect()
+    }
+
+    /// `data`'s rows `rows`, scaled as [`Self::decision`] scales them, row-major.
+    fn scaled_rows(&self, data: &Dataset, rows: &[usize]) -> Vec<f32> {
+        let mut x = Vec::with_capacity(rows.len() * data.dim);
+        for &i in rows {
+            x.extend_from_slice(data.row(i));
+        }
+        match &self.scaler {
+            Some(s) => s.transform(&x),
+            None => x,
+        }
     }
 
     pub fn score(&self, data: &Dataset) -> Scores {

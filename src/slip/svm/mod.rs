@@ -22,14 +22,16 @@
 pub mod cache;
 pub mod kernel;
 pub mod linear_ipm;
+mod predict;
 mod q_batch;
 pub mod screening;
+mod select;
 pub mod smo;
 
 pub use kernel::Kernel;
 
 use super::Class;
-use kernel::dot;
+use kernel::{dot, BLOCK};
 
 /// Hyperparameters as given; [`SvmParams::check`] turns them into [`ValidSvmParams`].
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -153,13 +155,10 @@ pub struct SvmModel {
     norms: Vec<f32>,
     #[serde(skip)]
     coef32: Vec<f32>,
-    /// Support vectors in blocks of [`BLOCK`], each stored feature-major (see `decision`).
+    /// Support vectors in blocks of [`BLOCK`], each stored feature-major (see [`predict`]).
     #[serde(skip)]
     blocks: Vec<f32>,
 }
-
-/// Support vectors per block in prediction.
-const BLOCK: usize = 64;
 
 /// Default limit on the linear solver's Newton steps.
 pub const LINEAR_MAX_ITERATIONS: usize = 200;
@@ -300,16 +299,31 @@ impl SvmModel {
         let Kernel::Rbf { gamma } = self.kernel else {
             unreachable!("linear models predict through their weights")
         };
-        #[cfg(target_arch = "x86_64")]
-        {
-            if std::arch::is_x86_feature_detected!("avx2")
-                && std::arch::is_x86_feature_detected!("fma")
-            {
-                // SAFETY: the CPU has the features the function is compiled for.
-                return unsafe { rbf_sum_avx2(self, gamma as f32, x) } - self.rho;
+        predict::rbf_sum(self, gamma as f32, x) - self.rho
+    }
+
+    /// [`Self::decision`] of each row of `xs` (row-major, `dim` wide) into `out`, the same
+    /// values one row at a time gives, faster for many rows.
+    pub fn decisions(&self, xs: &[f32], out: &mut [f64]) {
+        assert_eq!(
+            xs.len(),
+            self.dim * out.len(),
+            "one output per {}-wide row",
+            self.dim
+        );
+        match (&self.weights, self.kernel) {
+            (None, Kernel::Rbf { gamma }) => {
+                predict::rbf_sums(self, gamma as f32, xs, out);
+                for d in out.iter_mut() {
+                    *d -= self.rho;
+                }
+            }
+            _ => {
+                for (x, d) in xs.chunks_exact(self.dim).zip(out.iter_mut()) {
+                    *d = self.decision(x);
+                }
             }
         }
-        rbf_sum(self, gamma as f32, x) - self.rho
     }
 
     pub fn predict(&self, x: &[f32]) -> Class {
@@ -319,43 +333,6 @@ impl SvmModel {
             Class::Static
         }
     }
-}
-
-/// `sum_i coef_i exp(-gamma |sv_i - x|^2)` over blocks of support vectors stored
-/// feature-major, so the inner loop runs over 64 support vectors at once with no horizontal
-/// sums (with the branch-free exponential and AVX2: 80 us -> 18 us median for 6,277 support
-/// vectors; row-major dot products spent most of their time reducing each short sum).
-#[inline(always)]
-fn rbf_sum(m: &SvmModel, gamma: f32, x: &[f32]) -> f64 {
-    let nx = dot(x, x);
-    // Per-lane running sums: a single scalar sum would keep the loop from vectorising.
-    let mut total = [0.0f32; BLOCK];
-    for ((block, coefs), norms) in m
-        .blocks
-        .chunks_exact(BLOCK * m.dim)
-        .zip(m.coef32.chunks_exact(BLOCK))
-        .zip(m.norms.chunks_exact(BLOCK))
-    {
-        let mut acc = [0.0f32; BLOCK];
-        for (j, xj) in x.iter().enumerate() {
-            let col = &block[j * BLOCK..(j + 1) * BLOCK];
-            for k in 0..BLOCK {
-                acc[k] += col[k] * xj;
-            }
-        }
-        for k in 0..BLOCK {
-            let d2 = (norms[k] + nx - 2.0 * acc[k]).max(0.0);
-            total[k] += coefs[k] * kernel::exp_nonpositive(-gamma * d2);
-        }
-    }
-    total.iter().map(|v| f64::from(*v)).sum()
-}
-
-/// [`rbf_sum`] compiled for AVX2 and FMA, chosen at run time when the CPU has them.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2,fma")]
-unsafe fn rbf_sum_avx2(m: &SvmModel, gamma: f32, x: &[f32]) -> f64 {
-    rbf_sum(m, gamma, x)
 }
 
 #[cfg(test)]

@@ -22,14 +22,18 @@ use rayon::prelude::*;
 use super::cache::RowCache;
 use super::kernel::{Kernel, Rows, BLOCK};
 use super::q_batch::{add_q_products, q_rows, Sum, PARALLEL_WORK, ROWS_PER_PASS};
+use super::select;
 
 const TAU: f64 = 1e-12;
 
+/// Where a dual variable lies in its box. One byte each, with these values, so that the
+/// working-set selection's vector code reads them directly (see [`super::select`]).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[repr(u8)]
 pub(super) enum Bound {
-    Lower,
-    Upper,
-    Free,
+    Lower = 0,
+    Upper = 1,
+    Free = 2,
 }
 
 impl Bound {
@@ -243,60 +247,28 @@ impl Solver {
 
     /// Second-order working-set selection; `None` when optimal within `eps`.
     fn select_working_set(&mut self) -> Option<(usize, usize)> {
-        let mut gmax = f64::NEG_INFINITY;
-        let mut gmax2 = f64::NEG_INFINITY;
-        let mut gmax_idx = None;
-        for t in 0..self.active_size {
-            if self.q.y[t] == 1 {
-                if self.status[t] != Bound::Upper && -self.gradient[t] >= gmax {
-                    gmax = -self.gradient[t];
-                    gmax_idx = Some(t);
-                }
-            } else if self.status[t] != Bound::Lower && self.gradient[t] >= gmax {
-                gmax = self.gradient[t];
-                gmax_idx = Some(t);
-            }
-        }
-        let i = gmax_idx?;
         let active = self.active_size;
+        let (i, gmax) = select::max_violating_up(
+            &self.q.y[..active],
+            &self.status[..active],
+            &self.gradient[..active],
+        )?;
         self.q.fill(i, active);
-        let qi = self.q.cache.row(i);
-        let yi = self.y(i);
-        let qd_i = self.q.diagonal[i];
-        let mut gmin_idx = None;
-        let mut obj_diff_min = f64::INFINITY;
-        for j in 0..active {
-            let (grad_diff, quad) = if self.q.y[j] == 1 {
-                if self.status[j] == Bound::Lower {
-                    continue;
-                }
-                gmax2 = gmax2.max(self.gradient[j]);
-                (
-                    gmax + self.gradient[j],
-                    qd_i + self.q.diagonal[j] - 2.0 * yi * f64::from(qi[j]),
-                )
-            } else {
-                if self.status[j] == Bound::Upper {
-                    continue;
-                }
-                gmax2 = gmax2.max(-self.gradient[j]);
-                (
-                    gmax - self.gradient[j],
-                    qd_i + self.q.diagonal[j] + 2.0 * yi * f64::from(qi[j]),
-                )
-            };
-            if grad_diff > 0.0 {
-                let obj_diff = -(grad_diff * grad_diff) / if quad > 0.0 { quad } else { TAU };
-                if obj_diff <= obj_diff_min {
-                    gmin_idx = Some(j);
-                    obj_diff_min = obj_diff;
-                }
-            }
-        }
-        if gmax + gmax2 < self.eps {
+        let partner = select::best_partner(
+            &self.q.y[..active],
+            &self.status[..active],
+            &self.gradient[..active],
+            &self.q.diagonal[..active],
+            &self.q.cache.row(i)[..active],
+            gmax,
+            self.y(i),
+            self.q.diagonal[i],
+            TAU,
+        );
+        if gmax + partner.gmax2 < self.eps {
             return None;
         }
-        gmin_idx.map(|j| (i, j))
+        partner.j.map(|j| (i, j))
     }
 
     fn be_shrunk(&self, i: usize, gmax1: f64, gmax2: f64) -> bool {
