@@ -268,24 +268,19 @@ fn a_sweep_fills_its_grid_and_resumes_after_an_interruption() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     collect(d, "8", "trials", "5");
-    let sweep = |extra: &[&str]| {
-        let mut args = vec![
-            "sweep",
-            "trials",
-            "--classifiers",
-            "logreg,threshold",
-            "--downsample",
-            "0.5,1.0",
-            "--n-slip",
-            "3:5",
-            "--C",
-            "1",
-            "--out",
-            "out/sweep.csv",
-        ];
-        args.extend_from_slice(extra);
-        tmo(d, &args)
-    };
+    let fixed = [
+        "--classifiers",
+        "logreg,threshold",
+        "--downsample",
+        "0.5,1.0",
+        "--n-slip",
+        "3:5",
+        "--C",
+        "1",
+        "--out",
+        "out/sweep.csv",
+    ];
+    let sweep = |extra: &[&str]| sweep_trials(d, &fixed, extra);
     let stdout = ok(&sweep(&[]));
     assert!(stdout.contains("12 cells to run"), "{stdout}");
     let csv_path = d.join("out/sweep.csv");
@@ -344,6 +339,12 @@ fn a_sweep_fills_its_grid_and_resumes_after_an_interruption() {
     // A searched sweep's resume refits the finished cells at the points their rows record
     // (read back to the bit), so the rest start as they did in one run.
     let search = [
+        "--classifiers",
+        "logreg",
+        "--downsample",
+        "1.0",
+        "--n-slip",
+        "3:5",
         "--search",
         "bayes",
         "--iters",
@@ -353,21 +354,7 @@ fn a_sweep_fills_its_grid_and_resumes_after_an_interruption() {
         "--out",
         "s/sweep.csv",
     ];
-    let searched = |extra: &[&str]| {
-        let mut args = vec![
-            "sweep",
-            "trials",
-            "--classifiers",
-            "logreg",
-            "--downsample",
-            "1.0",
-            "--n-slip",
-            "3:5",
-        ];
-        args.extend_from_slice(&search);
-        args.extend_from_slice(extra);
-        tmo(d, &args)
-    };
+    let searched = |extra: &[&str]| sweep_trials(d, &search, extra);
     ok(&searched(&[]));
     let full = std::fs::read_to_string(d.join("s/sweep.csv")).unwrap();
     let partial: Vec<&str> = full.lines().take(3).collect();
@@ -382,4 +369,28 @@ fn a_sweep_fills_its_grid_and_resumes_after_an_interruption() {
         strip_seconds(&std::fs::read_to_string(d.join("s/sweep.csv")).unwrap()),
         strip_seconds(&full)
     );
+
+    // Held-out folds scored on down-sampled rows: a resume of the every-row sweep with
+    // them is refused, and a run of its own names them in its provenance.
+    std::fs::write(d.join("s/sweep.csv.partial"), partial.join("\n") + "\n").unwrap();
+    std::fs::remove_file(d.join("s/sweep.csv")).unwrap();
+    let err = fails(&searched(&["--resume", "--held-out-rows", "downsampled"]));
+    assert!(
+        err.contains("different sweep") && err.contains("Downsampled"),
+        "{err}"
+    );
+    std::fs::remove_file(d.join("s/sweep.csv.partial")).unwrap();
+    ok(&searched(&["--held-out-rows", "downsampled"]));
+    let provenance = std::fs::read_to_string(d.join("s/sweep.json")).unwrap();
+    assert!(provenance.contains("down-sampled by d"), "{provenance}");
+    let err = fails(&searched(&["--held-out-rows", "some"]));
+    assert!(err.contains("--held-out-rows"), "{err}");
+}
+
+/// `tmo sweep trials` with the grid's arguments, then `extra`.
+fn sweep_trials(d: &Path, grid: &[&str], extra: &[&str]) -> std::process::Output {
+    let mut args = vec!["sweep", "trials"];
+    args.extend_from_slice(grid);
+    args.extend_from_slice(extra);
+    tmo(d, &args)
 }

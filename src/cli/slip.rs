@@ -101,10 +101,15 @@ pub struct TrainArgs {
     #[arg(long, value_name = "LOW:HIGH", default_value = "0.0001:10", value_parser = tuning::parse_range)]
     gamma_range: [f64; 2],
     /// Fit each of the search's models on at most this many rows (a fold's training rows
-    /// sampled, each class alike; held-out folds are still scored on every row, and the
-    /// final model uses all rows). Default: every row.
+    /// sampled, each class alike; held-out folds are scored as --held-out-rows says, and
+    /// the final model uses all rows). Default: every row.
     #[arg(long, value_name = "ROWS", value_parser = tmo::slip::tuning::parse_search_rows)]
     search_rows: Option<usize>,
+    /// The rows of each held-out fold the search scores: every row (as the test trials are
+    /// scored), or the static rows down-sampled by d like the training folds (as
+    /// scikit-learn's BayesSearchCV scores a training set down-sampled before the search).
+    #[arg(long, value_enum, value_name = "ROWS", default_value = "every")]
+    held_out_rows: tmo::slip::tuning::HeldOutRows,
     /// Cap on the SVM solver's iterations: SMO pair steps for svm-rbf (default libsvm's,
     /// max(100 x rows, 10,000,000)), Newton steps for svm-linear (default 200).
     #[arg(long)]
@@ -339,6 +344,7 @@ pub fn train(args: TrainArgs) -> Result<()> {
                     gamma: args.gamma_range,
                 },
                 max_fit_rows: args.search_rows,
+                held_out: args.held_out_rows,
             };
             // A search takes minutes: each evaluation shows as it finishes.
             let bar = super::output::counting_bar("search", "evaluations");
@@ -471,6 +477,8 @@ fn cross_validate_fixed(
             gamma: args.gamma_range,
         },
         max_fit_rows: None,
+        // What the model will meet: every row of unseen trials.
+        held_out: tuning::HeldOutRows::Every,
     };
     let bar = super::output::progress_bar("cross-validating by trial {spinner} {elapsed}");
     bar.enable_steady_tick(std::time::Duration::from_millis(200));

@@ -75,10 +75,15 @@ pub struct SweepArgs {
     #[arg(long, value_name = "LOW:HIGH", default_value = "0.0001:10", value_parser = tmo::slip::tuning::parse_range)]
     gamma_range: [f64; 2],
     /// Fit each of a search's models on at most this many rows (a fold's training rows
-    /// sampled, each class alike; held-out folds are still scored on every row, and each
-    /// cell's model uses all its rows). Default: every row.
+    /// sampled, each class alike; held-out folds are scored as --held-out-rows says, and
+    /// each cell's model uses all its rows). Default: every row.
     #[arg(long, value_name = "ROWS", value_parser = tmo::slip::tuning::parse_search_rows)]
     search_rows: Option<usize>,
+    /// The rows of each held-out fold each search scores: every row (as the test trials are
+    /// scored), or the static rows down-sampled by d like the training folds (as
+    /// scikit-learn's BayesSearchCV scores a training set down-sampled before the search).
+    #[arg(long, value_enum, value_name = "ROWS", default_value = "every")]
+    held_out_rows: tmo::slip::tuning::HeldOutRows,
     /// Fall below the held height that marks slip onset, mm.
     #[arg(long, default_value_t = 1.0)]
     onset_threshold_mm: f64,
@@ -187,6 +192,7 @@ pub fn sweep(args: SweepArgs) -> Result<()> {
                 gamma: args.gamma_range,
             },
             max_fit_rows: args.search_rows,
+            held_out: args.held_out_rows,
         },
     };
     let spec = SweepSpec {
@@ -380,10 +386,12 @@ pub fn sweep(args: SweepArgs) -> Result<()> {
                 folds,
                 ranges,
                 max_fit_rows,
+                held_out,
             } => format!(
-                "Bayesian search per cell: {iterations} evaluations, {folds}-fold CV by trial, C in [{}, {}], gamma in [{}, {}] (log-uniform){}",
+                "Bayesian search per cell: {iterations} evaluations, {folds}-fold CV by trial, C in [{}, {}], gamma in [{}, {}] (log-uniform){}, {}",
                 ranges.c[0], ranges.c[1], ranges.gamma[0], ranges.gamma[1],
-                max_fit_rows.map_or(String::new(), |n| format!(", fits on at most {n} rows"))
+                max_fit_rows.map_or(String::new(), |n| format!(", fits on at most {n} rows")),
+                held_out.describe()
             ),
         },
         seed: args.seed,

@@ -470,6 +470,7 @@ fn rail_sweep(ctx: &Context, c: &Counts, dir: &Path) -> Result<bool, ReproduceEr
                 folds,
                 ranges: Default::default(),
                 max_fit_rows: None,
+                held_out: Default::default(),
             },
             None => HyperChoice::Fixed(Hyperparameters {
                 c: SWEEP_C,
@@ -540,6 +541,7 @@ fn rail_model(ctx: &Context, c: &Counts, dir: &Path) -> Result<(), ReproduceErro
                 folds: c.search_folds,
                 ranges: Default::default(),
                 max_fit_rows: None,
+                held_out: Default::default(),
             };
             let (h, record) =
                 tuning::search(&ds, &spec).map_err(|e| ReproduceError::step(step, e))?;

@@ -29,6 +29,7 @@ pub enum HyperChoice {
         folds: usize,
         ranges: tuning::SearchRanges,
         max_fit_rows: Option<usize>,
+        held_out: tuning::HeldOutRows,
     },
 }
 
@@ -366,6 +367,7 @@ fn fit_cell(
                 folds,
                 ranges,
                 max_fit_rows,
+                held_out,
             },
             kind,
         ) => {
@@ -378,6 +380,7 @@ fn fit_cell(
                 folds,
                 ranges,
                 max_fit_rows,
+                held_out,
             };
             let (h, record) = tuning::search(&train, &tune)
                 .map_err(|source| SweepError::Tune { cell, source })?;
@@ -661,6 +664,7 @@ mod tests {
             folds: 2,
             ranges: tuning::SearchRanges::default(),
             max_fit_rows: None,
+            held_out: tuning::HeldOutRows::Every,
         };
         assert_eq!(spec.chains(), chains);
         spec.classifiers.push(ClassifierKind::Threshold);
@@ -701,6 +705,7 @@ mod tests {
             folds: 3,
             ranges: tuning::SearchRanges::default(),
             max_fit_rows: Some(4000),
+            held_out: tuning::HeldOutRows::Every,
         };
         // 36 fits of 4000 rows on top of the final fit; the threshold has nothing to search
         let searched = rbf(&spec, 1.0);
@@ -790,6 +795,7 @@ mod tests {
                 folds: 2,
                 ranges: tuning::SearchRanges::default(),
                 max_fit_rows: None,
+                held_out: tuning::HeldOutRows::Every,
             },
             seed: 5,
         };

@@ -38,10 +38,33 @@ pub struct TuneSpec {
     pub folds: usize,
     pub ranges: SearchRanges,
     /// At most this many rows (after down-sampling) in each of the search's fits: a fold's
-    /// training rows are sampled, each class alike, down to it. The held-out fold is still
-    /// scored on every row, and the cell's final model is fitted on all its rows. `None`:
+    /// training rows are sampled, each class alike, down to it. The held-out fold is scored
+    /// as `held_out` says, and the cell's final model is fitted on all its rows. `None`:
     /// every row.
     pub max_fit_rows: Option<usize>,
+    pub held_out: HeldOutRows,
+}
+
+/// The rows of a held-out fold that a search scores its models on.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, clap::ValueEnum)]
+pub enum HeldOutRows {
+    /// Every row, as the test trials are scored.
+    #[default]
+    Every,
+    /// The static rows down-sampled by the cell's `d` (every slip row kept), as
+    /// scikit-learn's `BayesSearchCV` scores folds of a training set that was down-sampled
+    /// before the search; faster at small `d`.
+    Downsampled,
+}
+
+impl HeldOutRows {
+    /// How a search record and a sweep's provenance name it.
+    pub fn describe(self) -> &'static str {
+        match self {
+            HeldOutRows::Every => "held-out folds scored on every row",
+            HeldOutRows::Downsampled => "held-out folds' static rows down-sampled by d",
+        }
+    }
 }
 
 #[derive(Debug, thiserror::Error)]
@@ -61,7 +84,7 @@ pub enum TuneError {
 }
 
 /// Mean macro F1 over `folds` folds of whole trials: train (static rows down-sampled) on the
-/// rest, score every row of the fold.
+/// rest, score the fold (see [`cross_validate`]).
 pub fn cross_validated_f1(
     data: &Dataset,
     spec: &TuneSpec,
@@ -71,8 +94,8 @@ pub fn cross_validated_f1(
     Ok(folds.iter().map(|s| s.macro_f1).sum::<f64>() / folds.len() as f64)
 }
 
-/// Each of `folds` folds of whole trials scored (every row) by a model trained (static rows
-/// down-sampled) on the rest. A fold whose sensor the training folds never saw (a local
+/// Each of `folds` folds of whole trials scored (every row, or as `spec.held_out` says) by a
+/// model trained (static rows down-sampled) on the rest. A fold whose sensor the training folds never saw (a local
 /// model set lacking it) scores as all wrong.
 pub fn cross_validate(
     data: &Dataset,
@@ -117,6 +140,12 @@ pub fn cross_validate(
                 None => train,
             };
             let test = data.filter(|i| fold_of(data.trial[i]) == fold);
+            let test = match spec.held_out {
+                HeldOutRows::Every => test,
+                HeldOutRows::Downsampled => {
+                    test.downsample_static(spec.downsample, spec.seed ^ 0x7e57)
+                }
+            };
             let models = train_models(
                 &train,
                 spec.kind,
@@ -189,12 +218,12 @@ pub fn search_reporting(
     }
     let b = best(&history).expect("at least one evaluation");
     let record = SearchRecord {
-        method: match spec.max_fit_rows {
-            None => "bayes (GP Matern 5/2, expected improvement)".into(),
-            Some(cap) => {
-                format!("bayes (GP Matern 5/2, expected improvement), fits on at most {cap} rows")
-            }
-        },
+        method: format!(
+            "bayes (GP Matern 5/2, expected improvement){}, {}",
+            spec.max_fit_rows
+                .map_or(String::new(), |cap| format!(", fits on at most {cap} rows")),
+            spec.held_out.describe()
+        ),
         folds: spec.folds,
         parameters: ranges.iter().map(|r| r.name.to_string()).collect(),
         ranges: ranges.iter().map(|r| [r.low, r.high]).collect(),
@@ -262,6 +291,7 @@ mod tests {
             folds,
             ranges: SearchRanges::default(),
             max_fit_rows: None,
+            held_out: HeldOutRows::Every,
         }
     }
 
@@ -330,6 +360,7 @@ mod tests {
         let full = cross_validated_f1(&data, &spec(ClassifierKind::Logreg, 1, 3), hyper).unwrap();
         let capped = TuneSpec {
             max_fit_rows: Some(60),
+            held_out: HeldOutRows::Every,
             ..spec(ClassifierKind::Logreg, 1, 3)
         };
         let few = cross_validated_f1(&data, &capped, hyper).unwrap();
@@ -350,6 +381,53 @@ mod tests {
         );
         assert_eq!(parse_search_rows("4000"), Ok(4000));
         assert!(parse_search_rows("10").unwrap_err().contains("at least 50"));
+    }
+
+    #[test]
+    fn held_out_folds_are_scored_on_every_row_or_down_sampled_by_d() {
+        let data = blobs();
+        let hyper = Hyperparameters {
+            c: 1.0,
+            gamma: 0.0,
+            max_iterations: None,
+        };
+        let rows_scored = |held_out| -> (u64, u64) {
+            let spec = TuneSpec {
+                downsample: 0.25,
+                held_out,
+                ..spec(ClassifierKind::Logreg, 1, 3)
+            };
+            cross_validate(&data, &spec, hyper)
+                .unwrap()
+                .iter()
+                .map(|s| {
+                    let c = s.confusion;
+                    (c.true_slip + c.false_static, c.true_static + c.false_slip)
+                })
+                .fold((0, 0), |(a, b), (s, t)| (a + s, b + t))
+        };
+        // 90 slip and 270 static rows in all; each row is in one held-out fold.
+        assert_eq!(rows_scored(HeldOutRows::Every), (90, 270));
+        let (slip, stat) = rows_scored(HeldOutRows::Downsampled);
+        assert_eq!(slip, 90, "every slip row");
+        assert!(
+            (66..=69).contains(&stat),
+            "a quarter of each fold's static rows: {stat}"
+        );
+        let (_, record) = search(
+            &data,
+            &TuneSpec {
+                iterations: 2,
+                held_out: HeldOutRows::Downsampled,
+                ..spec(ClassifierKind::Logreg, 2, 3)
+            },
+        )
+        .unwrap();
+        assert!(
+            record.method.contains("down-sampled by d"),
+            "{}",
+            record.method
+        );
     }
 
     #[test]
