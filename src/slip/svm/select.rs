@@ -250,7 +250,8 @@ fn finish_partner(
     }
 }
 
-/// [`max_violating_up_lanes`] compiled for AVX2.
+/// [`max_violating_up_lanes`] in AVX2 intrinsics, four variables a step (as
+/// [`best_partner_avx2`]).
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
 unsafe fn max_violating_up_avx2(
@@ -258,7 +259,67 @@ unsafe fn max_violating_up_avx2(
     status: &[Bound],
     gradient: &[f64],
 ) -> Option<(usize, f64)> {
-    max_violating_up_lanes(y, status, gradient)
+    use std::arch::x86_64::*;
+    let n = gradient.len();
+    assert!(y.len() >= n && status.len() >= n);
+    let (one, half) = (_mm256_set1_pd(1.0), _mm256_set1_pd(0.5));
+    let mut best = _mm256_set1_pd(f64::NEG_INFINITY);
+    let mut at = _mm256_set1_pd(-1.0);
+    let mut index = _mm256_setr_pd(0.0, 1.0, 2.0, 3.0);
+    let step = _mm256_set1_pd(LANES as f64);
+    let whole = n / LANES * LANES;
+    for base in (0..whole).step_by(LANES) {
+        let yf = widen(y.as_ptr().add(base) as *const u8);
+        let st = widen(status.as_ptr().add(base) as *const u8);
+        // A slip variable may move up unless at its upper bound (1), a static one unless at
+        // its lower bound (0): the excluded bound is (1 + y) / 2.
+        let excluded = _mm256_mul_pd(_mm256_add_pd(one, yf), half);
+        let up = _mm256_cmp_pd::<_CMP_NEQ_OQ>(st, excluded);
+        // -y G, exactly: multiplying by -1 or 1 only sets the sign.
+        let value = _mm256_mul_pd(
+            _mm256_xor_pd(yf, _mm256_set1_pd(-0.0)),
+            _mm256_loadu_pd(gradient.as_ptr().add(base)),
+        );
+        let take = _mm256_and_pd(up, _mm256_cmp_pd::<_CMP_GE_OQ>(value, best));
+        best = _mm256_blendv_pd(best, value, take);
+        at = _mm256_blendv_pd(at, index, take);
+        index = _mm256_add_pd(index, step);
+    }
+    let (mut best_l, mut at_l) = ([0.0; LANES], [0.0; LANES]);
+    _mm256_storeu_pd(best_l.as_mut_ptr(), best);
+    _mm256_storeu_pd(at_l.as_mut_ptr(), at);
+    let mut found: Option<(usize, f64)> = None;
+    for l in 0..LANES {
+        if at_l[l] < 0.0 {
+            continue;
+        }
+        let (t_l, v_l) = (at_l[l] as usize, best_l[l]);
+        found = match found {
+            Some((t, v)) if v > v_l || (v == v_l && t > t_l) => Some((t, v)),
+            _ => Some((t_l, v_l)),
+        };
+    }
+    for t in whole..n {
+        let (up, v) = if y[t] == 1 {
+            (status[t] != Bound::Upper, -gradient[t])
+        } else {
+            (status[t] != Bound::Lower, gradient[t])
+        };
+        if up && found.is_none_or(|(_, best)| v >= best) {
+            found = Some((t, v));
+        }
+    }
+    found
+}
+
+/// Four bytes from `p` as four f64.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+#[inline]
+unsafe fn widen(p: *const u8) -> std::arch::x86_64::__m256d {
+    use std::arch::x86_64::*;
+    let word = (p as *const i32).read_unaligned();
+    _mm256_cvtepi32_pd(_mm_cvtepi8_epi32(_mm_cvtsi32_si128(word)))
 }
 
 /// [`best_partner_lanes`] in AVX2 intrinsics, four variables a step: the same operations
@@ -281,11 +342,6 @@ unsafe fn best_partner_avx2(
     use std::arch::x86_64::*;
     let n = gradient.len();
     assert!(y.len() >= n && status.len() >= n && diagonal.len() >= n && q_i.len() >= n);
-    // Four bytes from `p` as four f64.
-    let widen = |p: *const u8| {
-        let word = (p as *const i32).read_unaligned();
-        _mm256_cvtepi32_pd(_mm_cvtepi8_epi32(_mm_cvtsi32_si128(word)))
-    };
     let sign = _mm256_set1_pd(-0.0);
     let (one, half) = (_mm256_set1_pd(1.0), _mm256_set1_pd(0.5));
     let (gmax_v, qd_i_v, tau_v, zero) = (

@@ -435,12 +435,13 @@ impl Solver {
         self.alpha[i] = ai;
         self.alpha[j] = aj;
         let (dai, daj) = (ai - old_ai, aj - old_aj);
-        {
-            let (qi, qj) = (self.q.cache.row(i), self.q.cache.row(j));
-            for k in 0..active {
-                self.gradient[k] += f64::from(qi[k]) * dai + f64::from(qj[k]) * daj;
-            }
-        }
+        add_two_rows(
+            &mut self.gradient[..active],
+            &self.q.cache.row(i)[..active],
+            dai,
+            &self.q.cache.row(j)[..active],
+            daj,
+        );
         for k in [i, j] {
             let was_upper = self.status[k] == Bound::Upper;
             self.update_status(k);
@@ -498,6 +499,31 @@ impl Solver {
     fn rho(&self) -> f64 {
         rho_of(self.active_variables())
     }
+}
+
+/// `gradient[k] += q_i[k] a_i + q_j[k] a_j`: an SMO step's change of the gradient, the same
+/// operations in the same order on every CPU, four at a time with AVX2 (the loop was a
+/// tenth of a search sweep's time on SSE2's two).
+fn add_two_rows(gradient: &mut [f64], q_i: &[f32], a_i: f64, q_j: &[f32], a_j: f64) {
+    #[inline(always)]
+    fn add(gradient: &mut [f64], q_i: &[f32], a_i: f64, q_j: &[f32], a_j: f64) {
+        for ((g, qi), qj) in gradient.iter_mut().zip(q_i).zip(q_j) {
+            *g += f64::from(*qi) * a_i + f64::from(*qj) * a_j;
+        }
+    }
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    unsafe fn add_avx2(gradient: &mut [f64], q_i: &[f32], a_i: f64, q_j: &[f32], a_j: f64) {
+        add(gradient, q_i, a_i, q_j, a_j)
+    }
+    #[cfg(target_arch = "x86_64")]
+    {
+        if std::arch::is_x86_feature_detected!("avx2") {
+            // SAFETY: the CPU has the feature the function is compiled for.
+            return unsafe { add_avx2(gradient, q_i, a_i, q_j, a_j) };
+        }
+    }
+    add(gradient, q_i, a_i, q_j, a_j)
 }
 
 /// libsvm's `m(alpha)`, the largest `-y_t G_t` over the variables that may move up
