@@ -1,11 +1,11 @@
-//! libsvm's second-order working-set selection (WSS 3 of Fan, Chen and Lin, 2005) as two
-//! passes that each keep four independent running extremes, so that the compiler can keep
-//! them in vector registers instead of following one branchy scalar chain.
+//! libsvm's second-order working-set selection (WSS 3 of Fan, Chen and Lin, 2005), four
+//! variables a step with AVX2 where the CPU has it, one at a time elsewhere.
 //!
 //! Why: on a search's fits (4,000 rows, large C, hundreds of thousands of SMO steps) the
-//! selection was a quarter of a Bayesian sweep's time. Ties go to the last index, as in
-//! the one-at-a-time loop: each lane keeps its last extreme, and lanes combine by value,
-//! then by the larger index; the selected pair is the same.
+//! one-at-a-time loops were a third of a Bayesian sweep's time. The vector passes keep four
+//! lanes of running extremes and their indices; ties go to the last index, as in the
+//! one-at-a-time loop, since each lane keeps its last extreme and lanes combine by value,
+//! then by the larger index. So the selected pair is the same, to the bit.
 
 use super::smo::Bound;
 
@@ -26,232 +26,235 @@ pub(super) fn max_violating_up(
             return unsafe { max_violating_up_avx2(y, status, gradient) };
         }
     }
-    max_violating_up_lanes(y, status, gradient)
+    scan_up(y, status, gradient, 0, None)
 }
 
-/// The partner `j` of `i` (from `I_low`) that most decreases the objective, by the
-/// second-order rule, with `M(alpha)`'s negation `gmax2` (the largest `y_t G_t` over
-/// `I_low`). `q_i` is row `i` of Q, `diagonal` Q's diagonal, `gmax` the value
-/// [`max_violating_up`] returned, `y_i` and `qd_i` those of `i`; `tau` replaces a
-/// non-positive curvature.
+/// What [`best_partner`] found: the partner `j`, if any, and `M(alpha)`'s negation `gmax2`
+/// (the largest `y_t G_t` over `I_low`).
 pub(super) struct Partner {
     pub j: Option<usize>,
     pub gmax2: f64,
 }
 
-#[allow(clippy::too_many_arguments)]
+/// The row `i` of the working pair and what choosing its partner needs: row `i` of Q, the
+/// value `gmax` [`max_violating_up`] returned, `y_i`, `Q_ii`, and `tau`, which replaces a
+/// non-positive curvature.
+pub(super) struct First<'a> {
+    pub q_i: &'a [f32],
+    pub gmax: f64,
+    pub y_i: f64,
+    pub qd_i: f64,
+    pub tau: f64,
+}
+
+/// The partner `j` of `i` (from `I_low`) that most decreases the objective, by the
+/// second-order rule.
 pub(super) fn best_partner(
     y: &[i8],
     status: &[Bound],
     gradient: &[f64],
     diagonal: &[f64],
-    q_i: &[f32],
-    gmax: f64,
-    y_i: f64,
-    qd_i: f64,
-    tau: f64,
+    first: &First,
 ) -> Partner {
     #[cfg(target_arch = "x86_64")]
     {
         if std::arch::is_x86_feature_detected!("avx2") {
             // SAFETY: the CPU has the feature the function is compiled for.
-            return unsafe {
-                best_partner_avx2(y, status, gradient, diagonal, q_i, gmax, y_i, qd_i, tau)
-            };
+            return unsafe { best_partner_avx2(y, status, gradient, diagonal, first) };
         }
     }
-    best_partner_lanes(y, status, gradient, diagonal, q_i, gmax, y_i, qd_i, tau)
+    scan_partner(
+        y,
+        status,
+        gradient,
+        diagonal,
+        first,
+        0,
+        None,
+        f64::NEG_INFINITY,
+    )
 }
 
+/// Variable `t`'s value `-y_t G_t` if it may move up.
 #[inline(always)]
-fn max_violating_up_lanes(y: &[i8], status: &[Bound], gradient: &[f64]) -> Option<(usize, f64)> {
-    let n = gradient.len();
-    let (y, status) = (&y[..n], &status[..n]);
-    let mut best = [f64::NEG_INFINITY; LANES];
-    let mut at = [usize::MAX; LANES];
-    // One variable's candidacy: its value, or nothing when it may not move up.
-    let value = |t: usize| {
-        let (up, v) = if y[t] == 1 {
-            (status[t] != Bound::Upper, -gradient[t])
-        } else {
-            (status[t] != Bound::Lower, gradient[t])
-        };
-        (up, v)
-    };
-    let whole = n / LANES * LANES;
-    for base in (0..whole).step_by(LANES) {
-        for l in 0..LANES {
-            let t = base + l;
-            let (up, v) = value(t);
-            let take = up & (v >= best[l]);
-            best[l] = if take { v } else { best[l] };
-            at[l] = if take { t } else { at[l] };
-        }
+fn up_value(y: i8, status: Bound, gradient: f64) -> Option<f64> {
+    if y == 1 {
+        (status != Bound::Upper).then_some(-gradient)
+    } else {
+        (status != Bound::Lower).then_some(gradient)
     }
-    let mut found: Option<(usize, f64)> = None;
-    for l in 0..LANES {
-        if at[l] == usize::MAX {
-            continue;
-        }
-        found = match found {
-            Some((t, v)) if v > best[l] || (v == best[l] && t > at[l]) => Some((t, v)),
-            _ => Some((at[l], best[l])),
-        };
-    }
-    for t in whole..n {
-        let (up, v) = value(t);
-        if up && found.is_none_or(|(_, best)| v >= best) {
-            found = Some((t, v));
+}
+
+/// [`max_violating_up`] over the variables from `from` on, one at a time, continuing from
+/// `found` (the best of those before).
+fn scan_up(
+    y: &[i8],
+    status: &[Bound],
+    gradient: &[f64],
+    from: usize,
+    mut found: Option<(usize, f64)>,
+) -> Option<(usize, f64)> {
+    for t in from..gradient.len() {
+        if let Some(v) = up_value(y[t], status[t], gradient[t]) {
+            if found.is_none_or(|(_, best)| v >= best) {
+                found = Some((t, v));
+            }
         }
     }
     found
 }
 
-#[allow(clippy::too_many_arguments)]
+/// Variable `t`'s part in [`best_partner`] if it may move down: its `y_t G_t`, and the
+/// objective's decrease were it the partner, when the gradient difference is positive.
 #[inline(always)]
-fn best_partner_lanes(
-    y: &[i8],
-    status: &[Bound],
-    gradient: &[f64],
-    diagonal: &[f64],
-    q_i: &[f32],
-    gmax: f64,
-    y_i: f64,
-    qd_i: f64,
-    tau: f64,
-) -> Partner {
-    let n = gradient.len();
-    let (y, status, diagonal, q_i) = (&y[..n], &status[..n], &diagonal[..n], &q_i[..n]);
-    let mut gmax2 = [f64::NEG_INFINITY; LANES];
-    let mut best = [f64::INFINITY; LANES];
-    let mut at = [None; LANES];
-    let whole = n / LANES * LANES;
-    for base in (0..whole).step_by(LANES) {
-        for l in 0..LANES {
-            let t = base + l;
-            let (low, yg, improves, obj) = partner_candidate(
-                y[t],
-                status[t],
-                gradient[t],
-                diagonal[t],
-                q_i[t],
-                gmax,
-                y_i,
-                qd_i,
-                tau,
-            );
-            if low && yg > gmax2[l] {
-                gmax2[l] = yg;
-            }
-            if low && improves && obj <= best[l] {
-                best[l] = obj;
-                at[l] = Some(t);
-            }
-        }
-    }
-    let lanes = Lanes { best, at, gmax2 };
-    finish_partner(
-        lanes, y, status, gradient, diagonal, q_i, gmax, y_i, qd_i, tau, whole,
-    )
-}
-
-/// One variable's part in [`best_partner`]: whether it may move down, its `y_t G_t`,
-/// whether the gradient difference is positive, and the objective's decrease were it the
-/// partner.
-#[allow(clippy::too_many_arguments)]
-#[inline(always)]
-fn partner_candidate(
+fn partner_value(
     y: i8,
     status: Bound,
     gradient: f64,
     diagonal: f64,
     q: f32,
-    gmax: f64,
-    y_i: f64,
-    qd_i: f64,
-    tau: f64,
-) -> (bool, f64, bool, f64) {
-    let curvature = 2.0 * y_i * f64::from(q);
+    first: &First,
+) -> Option<(f64, Option<f64>)> {
+    let curvature = 2.0 * first.y_i * f64::from(q);
     let (low, yg, quad) = if y == 1 {
         (
             status != Bound::Lower,
             gradient,
-            qd_i + diagonal - curvature,
+            first.qd_i + diagonal - curvature,
         )
     } else {
         (
             status != Bound::Upper,
             -gradient,
-            qd_i + diagonal + curvature,
+            first.qd_i + diagonal + curvature,
         )
     };
-    let grad_diff = gmax + yg;
-    let obj = -(grad_diff * grad_diff) / if quad > 0.0 { quad } else { tau };
-    (low, yg, grad_diff > 0.0, obj)
+    let grad_diff = first.gmax + yg;
+    let quad = if quad > 0.0 { quad } else { first.tau };
+    low.then(|| {
+        (
+            yg,
+            (grad_diff > 0.0).then(|| -(grad_diff * grad_diff) / quad),
+        )
+    })
 }
 
-/// Each lane's running extremes over the variables before `whole` (every fourth from the
-/// lane's own): the partner's objective and index, and the largest `y_t G_t` of `I_low`.
-struct Lanes {
-    best: [f64; LANES],
-    at: [Option<usize>; LANES],
-    gmax2: [f64; LANES],
-}
-
-/// [`best_partner`] from its lanes and the variables from `whole` on, one at a time: lanes
-/// combine by objective, then by the larger index, as the one-at-a-time loop's last tie.
+/// [`best_partner`] over the variables from `from` on, one at a time, continuing from
+/// `found` and `gmax2` (those of the variables before).
 #[allow(clippy::too_many_arguments)]
-#[inline(always)]
-fn finish_partner(
-    lanes: Lanes,
+fn scan_partner(
     y: &[i8],
     status: &[Bound],
     gradient: &[f64],
     diagonal: &[f64],
-    q_i: &[f32],
-    gmax: f64,
-    y_i: f64,
-    qd_i: f64,
-    tau: f64,
-    whole: usize,
+    first: &First,
+    from: usize,
+    mut found: Option<(usize, f64)>,
+    mut gmax2: f64,
 ) -> Partner {
-    let mut j: Option<(usize, f64)> = None;
-    let mut m2 = f64::NEG_INFINITY;
-    for l in 0..LANES {
-        m2 = m2.max(lanes.gmax2[l]);
-        let Some(at) = lanes.at[l] else { continue };
-        j = match j {
-            Some((t, v)) if v < lanes.best[l] || (v == lanes.best[l] && t > at) => Some((t, v)),
-            _ => Some((at, lanes.best[l])),
-        };
-    }
-    for t in whole..gradient.len() {
-        let (low, yg, improves, obj) = partner_candidate(
+    for t in from..gradient.len() {
+        let part = partner_value(
             y[t],
             status[t],
             gradient[t],
             diagonal[t],
-            q_i[t],
-            gmax,
-            y_i,
-            qd_i,
-            tau,
+            first.q_i[t],
+            first,
         );
-        if low {
-            m2 = m2.max(yg);
-            if improves && j.is_none_or(|(_, best)| obj <= best) {
-                j = Some((t, obj));
+        if let Some((yg, objective)) = part {
+            gmax2 = gmax2.max(yg);
+            if let Some(obj) = objective {
+                if found.is_none_or(|(_, best)| obj <= best) {
+                    found = Some((t, obj));
+                }
             }
         }
     }
     Partner {
-        j: j.map(|(t, _)| t),
-        gmax2: m2,
+        j: found.map(|(t, _)| t),
+        gmax2,
     }
 }
 
-/// [`max_violating_up_lanes`] in AVX2 intrinsics, four variables a step (as
-/// [`best_partner_avx2`]).
+/// The best of the lanes' extremes: by `better` value, then by the larger index.
+fn combine(
+    lanes: [Option<(usize, f64)>; LANES],
+    better: impl Fn(f64, f64) -> bool,
+) -> Option<(usize, f64)> {
+    lanes.into_iter().flatten().reduce(|(t, v), (t_l, v_l)| {
+        if better(v, v_l) || (v == v_l && t > t_l) {
+            (t, v)
+        } else {
+            (t_l, v_l)
+        }
+    })
+}
+
+#[cfg(target_arch = "x86_64")]
+mod avx2 {
+    use std::arch::x86_64::*;
+
+    use super::LANES;
+
+    /// Four lanes of running extremes with the index each was taken at, in AVX registers.
+    /// Indices are kept as f64 (exact far beyond any row count); -1 for none yet.
+    pub(super) struct Extremes {
+        best: __m256d,
+        at: __m256d,
+        index: __m256d,
+    }
+
+    impl Extremes {
+        #[target_feature(enable = "avx2")]
+        #[inline]
+        pub(super) fn new(start: f64) -> Self {
+            Self {
+                best: _mm256_set1_pd(start),
+                at: _mm256_set1_pd(-1.0),
+                index: _mm256_setr_pd(0.0, 1.0, 2.0, 3.0),
+            }
+        }
+
+        pub(super) fn best(&self) -> __m256d {
+            self.best
+        }
+
+        /// Takes `value` in the lanes `take` sets, then moves on to the next four.
+        #[target_feature(enable = "avx2")]
+        #[inline]
+        pub(super) fn offer(&mut self, value: __m256d, take: __m256d) {
+            self.best = _mm256_blendv_pd(self.best, value, take);
+            self.at = _mm256_blendv_pd(self.at, self.index, take);
+            self.index = _mm256_add_pd(self.index, _mm256_set1_pd(LANES as f64));
+        }
+
+        /// Each lane's extreme and its index, if it took any.
+        #[target_feature(enable = "avx2")]
+        #[inline]
+        pub(super) fn lanes(&self) -> [Option<(usize, f64)>; LANES] {
+            let (mut best, mut at) = ([0.0; LANES], [0.0; LANES]);
+            // SAFETY: each array holds the four values stored.
+            unsafe {
+                _mm256_storeu_pd(best.as_mut_ptr(), self.best);
+                _mm256_storeu_pd(at.as_mut_ptr(), self.at);
+            }
+            std::array::from_fn(|l| (at[l] >= 0.0).then(|| (at[l] as usize, best[l])))
+        }
+    }
+
+    /// Four bytes from `p` as four f64.
+    ///
+    /// # Safety
+    /// `p` must point to four readable bytes.
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    pub(super) unsafe fn widen(p: *const u8) -> __m256d {
+        let word = (p as *const i32).read_unaligned();
+        _mm256_cvtepi32_pd(_mm_cvtepi8_epi32(_mm_cvtsi32_si128(word)))
+    }
+}
+
+/// [`max_violating_up`] four variables a step.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
 unsafe fn max_violating_up_avx2(
@@ -259,14 +262,16 @@ unsafe fn max_violating_up_avx2(
     status: &[Bound],
     gradient: &[f64],
 ) -> Option<(usize, f64)> {
+    use avx2::{widen, Extremes};
     use std::arch::x86_64::*;
     let n = gradient.len();
     assert!(y.len() >= n && status.len() >= n);
-    let (one, half) = (_mm256_set1_pd(1.0), _mm256_set1_pd(0.5));
-    let mut best = _mm256_set1_pd(f64::NEG_INFINITY);
-    let mut at = _mm256_set1_pd(-1.0);
-    let mut index = _mm256_setr_pd(0.0, 1.0, 2.0, 3.0);
-    let step = _mm256_set1_pd(LANES as f64);
+    let (one, half, sign) = (
+        _mm256_set1_pd(1.0),
+        _mm256_set1_pd(0.5),
+        _mm256_set1_pd(-0.0),
+    );
+    let mut extremes = Extremes::new(f64::NEG_INFINITY);
     let whole = n / LANES * LANES;
     for base in (0..whole).step_by(LANES) {
         let yf = widen(y.as_ptr().add(base) as *const u8);
@@ -277,55 +282,18 @@ unsafe fn max_violating_up_avx2(
         let up = _mm256_cmp_pd::<_CMP_NEQ_OQ>(st, excluded);
         // -y G, exactly: multiplying by -1 or 1 only sets the sign.
         let value = _mm256_mul_pd(
-            _mm256_xor_pd(yf, _mm256_set1_pd(-0.0)),
+            _mm256_xor_pd(yf, sign),
             _mm256_loadu_pd(gradient.as_ptr().add(base)),
         );
-        let take = _mm256_and_pd(up, _mm256_cmp_pd::<_CMP_GE_OQ>(value, best));
-        best = _mm256_blendv_pd(best, value, take);
-        at = _mm256_blendv_pd(at, index, take);
-        index = _mm256_add_pd(index, step);
+        let take = _mm256_and_pd(up, _mm256_cmp_pd::<_CMP_GE_OQ>(value, extremes.best()));
+        extremes.offer(value, take);
     }
-    let (mut best_l, mut at_l) = ([0.0; LANES], [0.0; LANES]);
-    _mm256_storeu_pd(best_l.as_mut_ptr(), best);
-    _mm256_storeu_pd(at_l.as_mut_ptr(), at);
-    let mut found: Option<(usize, f64)> = None;
-    for l in 0..LANES {
-        if at_l[l] < 0.0 {
-            continue;
-        }
-        let (t_l, v_l) = (at_l[l] as usize, best_l[l]);
-        found = match found {
-            Some((t, v)) if v > v_l || (v == v_l && t > t_l) => Some((t, v)),
-            _ => Some((t_l, v_l)),
-        };
-    }
-    for t in whole..n {
-        let (up, v) = if y[t] == 1 {
-            (status[t] != Bound::Upper, -gradient[t])
-        } else {
-            (status[t] != Bound::Lower, gradient[t])
-        };
-        if up && found.is_none_or(|(_, best)| v >= best) {
-            found = Some((t, v));
-        }
-    }
-    found
+    let found = combine(extremes.lanes(), |a, b| a > b);
+    scan_up(y, status, gradient, whole, found)
 }
 
-/// Four bytes from `p` as four f64.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-#[inline]
-unsafe fn widen(p: *const u8) -> std::arch::x86_64::__m256d {
-    use std::arch::x86_64::*;
-    let word = (p as *const i32).read_unaligned();
-    _mm256_cvtepi32_pd(_mm_cvtepi8_epi32(_mm_cvtsi32_si128(word)))
-}
-
-/// [`best_partner_lanes`] in AVX2 intrinsics, four variables a step: the same operations
-/// on the same values, so the same pair (the compiler did not vectorise the lanes' selects
-/// itself: 39 % of a search sweep's time, against 26 % for the one-at-a-time loop).
-#[allow(clippy::too_many_arguments)]
+/// [`best_partner`] four variables a step: the same operations on the same values as
+/// [`partner_value`].
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
 unsafe fn best_partner_avx2(
@@ -333,30 +301,26 @@ unsafe fn best_partner_avx2(
     status: &[Bound],
     gradient: &[f64],
     diagonal: &[f64],
-    q_i: &[f32],
-    gmax: f64,
-    y_i: f64,
-    qd_i: f64,
-    tau: f64,
+    first: &First,
 ) -> Partner {
+    use avx2::{widen, Extremes};
     use std::arch::x86_64::*;
     let n = gradient.len();
-    assert!(y.len() >= n && status.len() >= n && diagonal.len() >= n && q_i.len() >= n);
-    let sign = _mm256_set1_pd(-0.0);
-    let (one, half) = (_mm256_set1_pd(1.0), _mm256_set1_pd(0.5));
-    let (gmax_v, qd_i_v, tau_v, zero) = (
-        _mm256_set1_pd(gmax),
-        _mm256_set1_pd(qd_i),
-        _mm256_set1_pd(tau),
+    assert!(y.len() >= n && status.len() >= n && diagonal.len() >= n && first.q_i.len() >= n);
+    let (one, half, sign, zero) = (
+        _mm256_set1_pd(1.0),
+        _mm256_set1_pd(0.5),
+        _mm256_set1_pd(-0.0),
         _mm256_setzero_pd(),
     );
-    let two_y_i = _mm256_set1_pd(2.0 * y_i);
+    let (gmax, qd_i, tau) = (
+        _mm256_set1_pd(first.gmax),
+        _mm256_set1_pd(first.qd_i),
+        _mm256_set1_pd(first.tau),
+    );
+    let two_y_i = _mm256_set1_pd(2.0 * first.y_i);
     let mut gmax2 = _mm256_set1_pd(f64::NEG_INFINITY);
-    let mut best = _mm256_set1_pd(f64::INFINITY);
-    // Indices as f64 (exact far beyond any row count); -1 for none.
-    let mut at = _mm256_set1_pd(-1.0);
-    let mut index = _mm256_setr_pd(0.0, 1.0, 2.0, 3.0);
-    let step = _mm256_set1_pd(LANES as f64);
+    let mut extremes = Extremes::new(f64::INFINITY);
     let whole = n / LANES * LANES;
     for base in (0..whole).step_by(LANES) {
         let yf = widen(y.as_ptr().add(base) as *const u8);
@@ -365,44 +329,33 @@ unsafe fn best_partner_avx2(
         // at its upper bound (1): the excluded bound is (1 - y) / 2.
         let excluded = _mm256_mul_pd(_mm256_sub_pd(one, yf), half);
         let low = _mm256_cmp_pd::<_CMP_NEQ_OQ>(st, excluded);
-        let g = _mm256_loadu_pd(gradient.as_ptr().add(base));
-        let yg = _mm256_mul_pd(yf, g);
-        let q = _mm256_cvtps_pd(_mm_loadu_ps(q_i.as_ptr().add(base)));
+        let yg = _mm256_mul_pd(yf, _mm256_loadu_pd(gradient.as_ptr().add(base)));
+        let q = _mm256_cvtps_pd(_mm_loadu_ps(first.q_i.as_ptr().add(base)));
         let curvature = _mm256_mul_pd(two_y_i, q);
         let quad = _mm256_sub_pd(
-            _mm256_add_pd(qd_i_v, _mm256_loadu_pd(diagonal.as_ptr().add(base))),
+            _mm256_add_pd(qd_i, _mm256_loadu_pd(diagonal.as_ptr().add(base))),
             _mm256_mul_pd(yf, curvature),
         );
-        let grad_diff = _mm256_add_pd(gmax_v, yg);
+        let grad_diff = _mm256_add_pd(gmax, yg);
         let positive = _mm256_cmp_pd::<_CMP_GT_OQ>(quad, zero);
-        let denominator = _mm256_blendv_pd(tau_v, quad, positive);
         let obj = _mm256_div_pd(
             _mm256_xor_pd(_mm256_mul_pd(grad_diff, grad_diff), sign),
-            denominator,
+            _mm256_blendv_pd(tau, quad, positive),
         );
         let larger = _mm256_and_pd(low, _mm256_cmp_pd::<_CMP_GT_OQ>(yg, gmax2));
         gmax2 = _mm256_blendv_pd(gmax2, yg, larger);
         let improves = _mm256_cmp_pd::<_CMP_GT_OQ>(grad_diff, zero);
         let take = _mm256_and_pd(
             _mm256_and_pd(low, improves),
-            _mm256_cmp_pd::<_CMP_LE_OQ>(obj, best),
+            _mm256_cmp_pd::<_CMP_LE_OQ>(obj, extremes.best()),
         );
-        best = _mm256_blendv_pd(best, obj, take);
-        at = _mm256_blendv_pd(at, index, take);
-        index = _mm256_add_pd(index, step);
+        extremes.offer(obj, take);
     }
-    let (mut best_l, mut at_l, mut gmax2_l) = ([0.0; LANES], [0.0; LANES], [0.0; LANES]);
-    _mm256_storeu_pd(best_l.as_mut_ptr(), best);
-    _mm256_storeu_pd(at_l.as_mut_ptr(), at);
-    _mm256_storeu_pd(gmax2_l.as_mut_ptr(), gmax2);
-    let lanes = Lanes {
-        best: best_l,
-        at: std::array::from_fn(|l| (at_l[l] >= 0.0).then_some(at_l[l] as usize)),
-        gmax2: gmax2_l,
-    };
-    finish_partner(
-        lanes, y, status, gradient, diagonal, q_i, gmax, y_i, qd_i, tau, whole,
-    )
+    let mut lanes_gmax2 = [0.0; LANES];
+    _mm256_storeu_pd(lanes_gmax2.as_mut_ptr(), gmax2);
+    let gmax2 = lanes_gmax2.into_iter().fold(f64::NEG_INFINITY, f64::max);
+    let found = combine(extremes.lanes(), |a, b| a < b);
+    scan_partner(y, status, gradient, diagonal, first, whole, found, gmax2)
 }
 
 #[cfg(test)]
@@ -491,33 +444,35 @@ mod tests {
             let q_i_of = |i: usize| q[i * n..(i + 1) * n].to_vec();
             let expected = one_at_a_time(&y, &status, &gradient, &diagonal, q_i_of, 1e-12);
             let got = max_violating_up(&y, &status, &gradient).map(|(i, gmax)| {
-                let p = best_partner(
+                let q_i = q_i_of(i);
+                let first = First {
+                    q_i: &q_i,
+                    gmax,
+                    y_i: f64::from(y[i]),
+                    qd_i: diagonal[i],
+                    tau: 1e-12,
+                };
+                let p = best_partner(&y, &status, &gradient, &diagonal, &first);
+                // Also the code for CPUs without AVX2, which this one may not run otherwise.
+                let one_by_one = scan_partner(
                     &y,
                     &status,
                     &gradient,
                     &diagonal,
-                    &q_i_of(i),
-                    gmax,
-                    f64::from(y[i]),
-                    diagonal[i],
-                    1e-12,
+                    &first,
+                    0,
+                    None,
+                    f64::NEG_INFINITY,
                 );
-                let portable = best_partner_lanes(
-                    &y,
-                    &status,
-                    &gradient,
-                    &diagonal,
-                    &q_i_of(i),
-                    gmax,
-                    f64::from(y[i]),
-                    diagonal[i],
-                    1e-12,
+                assert_eq!(
+                    (one_by_one.j, one_by_one.gmax2),
+                    (p.j, p.gmax2),
+                    "case {case}"
                 );
-                assert_eq!((portable.j, portable.gmax2), (p.j, p.gmax2), "case {case}");
                 (i, p.j, gmax, p.gmax2)
             });
-            let portable = max_violating_up_lanes(&y, &status, &gradient);
-            assert_eq!(portable, got.map(|g| (g.0, g.2)));
+            let one_by_one = scan_up(&y, &status, &gradient, 0, None);
+            assert_eq!(one_by_one, got.map(|g| (g.0, g.2)));
             assert_eq!(got, expected, "case {case}, {n} variables");
         }
     }

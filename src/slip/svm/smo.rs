@@ -254,16 +254,19 @@ impl Solver {
             &self.gradient[..active],
         )?;
         self.q.fill(i, active);
+        let first = select::First {
+            q_i: &self.q.cache.row(i)[..active],
+            gmax,
+            y_i: self.y(i),
+            qd_i: self.q.diagonal[i],
+            tau: TAU,
+        };
         let partner = select::best_partner(
             &self.q.y[..active],
             &self.status[..active],
             &self.gradient[..active],
             &self.q.diagonal[..active],
-            &self.q.cache.row(i)[..active],
-            gmax,
-            self.y(i),
-            self.q.diagonal[i],
-            TAU,
+            &first,
         );
         if gmax + partner.gmax2 < self.eps {
             return None;
