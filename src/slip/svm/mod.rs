@@ -6,15 +6,19 @@
 //! hundreds of fits per sweep, so the RBF solver follows libsvm's algorithm (second-order
 //! working sets, LRU kernel cache, shrinking) and adds parallel kernel rows. Measured with
 //! `cargo bench --bench svm_speed` and `scripts/time_sklearn.py` on the same rows, C and
-//! gamma (2 cores, 2026-11-25; scikit-learn 1.9.1 is libsvm on one thread, here with its
-//! best 4000 MB cache), with the same support vectors to within 3:
+//! gamma (2 cores, 2026-11-25, run back to back; scikit-learn 1.9.1 is libsvm on one
+//! thread, here with its best 4000 MB cache), with the same support vectors to within 3:
 //!
 //! | rows | tmo, 1 thread | tmo, 2 threads | scikit-learn | ratio, 1 thread |
 //! | --- | --- | --- | --- | --- |
-//! | 20,000 | 0.59 s | 0.51 s | 1.68 s | 0.35 |
-//! | 61,315 | 5.18 s | 4.55 s | 25.3 s | 0.20 |
+//! | 20,000 | 0.48 s | 0.44 s | 2.36 s | 0.20 |
+//! | 61,315 | 5.18 s | 4.18 s | 37.2 s | 0.14 |
 //!
-//! (An earlier comparison used scikit-learn's default 200 MB cache, which thrashes at
+//! (The machine's speed wandered that day: three more runs fitted the 61k rows in 3.7-4.1 s
+//! on one thread; an earlier pair measured scikit-learn at 1.68 s and 25.3 s, tmo at 0.59 s
+//! and 5.18 s, before the vectorised working-set selection.)
+//!
+//! (A comparison before that used scikit-learn's default 200 MB cache, which thrashes at
 //! these sizes and made libsvm look slower than it is.)
 //!
 //! Decision values follow scikit-learn's sign: positive means slip.
