@@ -290,14 +290,14 @@ impl SensorModel {
 
     /// `data`'s rows `rows`, scaled as [`Self::decision`] scales them, row-major.
     fn scaled_rows(&self, data: &Dataset, rows: &[usize]) -> Vec<f32> {
-        let mut x = Vec::with_capacity(rows.len() * data.dim);
-        for &i in rows {
-            x.extend_from_slice(data.row(i));
+        let mut x = vec![0.0; rows.len() * data.dim];
+        for (&i, out) in rows.iter().zip(x.chunks_exact_mut(data.dim)) {
+            match &self.scaler {
+                Some(s) => s.transform_into(data.row(i), out),
+                None => out.copy_from_slice(data.row(i)),
+            }
         }
-        match &self.scaler {
-            Some(s) => s.transform(&x),
-            None => x,
-        }
+        x
     }
 
     pub fn score(&self, data: &Dataset) -> Scores {

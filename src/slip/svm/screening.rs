@@ -60,8 +60,7 @@ pub fn solve(
     start: Option<&DualStart>,
 ) -> (Solution, Vec<f64>) {
     let n = y.len();
-    let hint = start.map(|s| s.margin.as_slice()).filter(|m| m.len() == n);
-    let min_rows = if hint.is_some() {
+    let min_rows = if margin_hint(start, n).is_some() {
         MIN_ROWS_WITH_HINT
     } else {
         MIN_ROWS
@@ -88,7 +87,7 @@ fn solve_screened(
     first_subset: usize,
 ) -> (Solution, Vec<f64>) {
     let n = y.len();
-    let hint = start.map(|s| s.margin.as_slice()).filter(|m| m.len() == n);
+    let hint = margin_hint(start, n);
     let c = options.c;
     let alpha = match start {
         Some(start) => feasible_start(&start.alpha, &y, c),
@@ -147,6 +146,11 @@ fn solve_screened(
         kkt_gap: (m - big_m).max(0.0),
     };
     (solution, margin)
+}
+
+/// The start's margins, when it has one for each of the `n` rows.
+fn margin_hint(start: Option<&DualStart>, n: usize) -> Option<&[f64]> {
+    start.map(|s| s.margin.as_slice()).filter(|m| m.len() == n)
 }
 
 /// Each row's margin `y_t f(x_t) = G_t + 1 - y_t rho` (at most 1 for a support vector).

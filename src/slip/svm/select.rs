@@ -194,7 +194,7 @@ fn combine(
 mod avx2 {
     use std::arch::x86_64::*;
 
-    use super::LANES;
+    use super::{Bound, LANES};
 
     /// Four lanes of running extremes with the index each was taken at, in AVX registers.
     /// Indices are kept as f64 (exact far beyond any row count); -1 for none yet.
@@ -248,9 +248,37 @@ mod avx2 {
     /// `p` must point to four readable bytes.
     #[target_feature(enable = "avx2")]
     #[inline]
-    pub(super) unsafe fn widen(p: *const u8) -> __m256d {
+    unsafe fn widen(p: *const u8) -> __m256d {
         let word = (p as *const i32).read_unaligned();
         _mm256_cvtepi32_pd(_mm_cvtepi8_epi32(_mm_cvtsi32_si128(word)))
+    }
+
+    /// The labels (as f64) of the four variables from `base`, and a mask of those that may
+    /// move up (`up`) or down: a slip variable may move up unless at its upper bound (1)
+    /// and down unless at its lower bound (0), a static one the other way round; so the
+    /// excluded bound is `(1 + y) / 2` moving up, `(1 - y) / 2` moving down.
+    ///
+    /// # Safety
+    /// `y` and `status` must hold four values from `base`.
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    pub(super) unsafe fn labels_and_freedom(
+        y: &[i8],
+        status: &[Bound],
+        base: usize,
+        up: bool,
+    ) -> (__m256d, __m256d) {
+        debug_assert!(base + LANES <= y.len().min(status.len()));
+        let yf = widen(y.as_ptr().add(base) as *const u8);
+        let st = widen(status.as_ptr().add(base) as *const u8);
+        let one = _mm256_set1_pd(1.0);
+        let towards = if up {
+            _mm256_add_pd(one, yf)
+        } else {
+            _mm256_sub_pd(one, yf)
+        };
+        let excluded = _mm256_mul_pd(towards, _mm256_set1_pd(0.5));
+        (yf, _mm256_cmp_pd::<_CMP_NEQ_OQ>(st, excluded))
     }
 }
 
@@ -262,24 +290,15 @@ unsafe fn max_violating_up_avx2(
     status: &[Bound],
     gradient: &[f64],
 ) -> Option<(usize, f64)> {
-    use avx2::{widen, Extremes};
+    use avx2::{labels_and_freedom, Extremes};
     use std::arch::x86_64::*;
     let n = gradient.len();
     assert!(y.len() >= n && status.len() >= n);
-    let (one, half, sign) = (
-        _mm256_set1_pd(1.0),
-        _mm256_set1_pd(0.5),
-        _mm256_set1_pd(-0.0),
-    );
+    let sign = _mm256_set1_pd(-0.0);
     let mut extremes = Extremes::new(f64::NEG_INFINITY);
     let whole = n / LANES * LANES;
     for base in (0..whole).step_by(LANES) {
-        let yf = widen(y.as_ptr().add(base) as *const u8);
-        let st = widen(status.as_ptr().add(base) as *const u8);
-        // A slip variable may move up unless at its upper bound (1), a static one unless at
-        // its lower bound (0): the excluded bound is (1 + y) / 2.
-        let excluded = _mm256_mul_pd(_mm256_add_pd(one, yf), half);
-        let up = _mm256_cmp_pd::<_CMP_NEQ_OQ>(st, excluded);
+        let (yf, up) = labels_and_freedom(y, status, base, true);
         // -y G, exactly: multiplying by -1 or 1 only sets the sign.
         let value = _mm256_mul_pd(
             _mm256_xor_pd(yf, sign),
@@ -303,16 +322,11 @@ unsafe fn best_partner_avx2(
     diagonal: &[f64],
     first: &First,
 ) -> Partner {
-    use avx2::{widen, Extremes};
+    use avx2::{labels_and_freedom, Extremes};
     use std::arch::x86_64::*;
     let n = gradient.len();
     assert!(y.len() >= n && status.len() >= n && diagonal.len() >= n && first.q_i.len() >= n);
-    let (one, half, sign, zero) = (
-        _mm256_set1_pd(1.0),
-        _mm256_set1_pd(0.5),
-        _mm256_set1_pd(-0.0),
-        _mm256_setzero_pd(),
-    );
+    let (sign, zero) = (_mm256_set1_pd(-0.0), _mm256_setzero_pd());
     let (gmax, qd_i, tau) = (
         _mm256_set1_pd(first.gmax),
         _mm256_set1_pd(first.qd_i),
@@ -323,12 +337,7 @@ unsafe fn best_partner_avx2(
     let mut extremes = Extremes::new(f64::INFINITY);
     let whole = n / LANES * LANES;
     for base in (0..whole).step_by(LANES) {
-        let yf = widen(y.as_ptr().add(base) as *const u8);
-        let st = widen(status.as_ptr().add(base) as *const u8);
-        // A slip variable may move down unless at its lower bound (0), a static one unless
-        // at its upper bound (1): the excluded bound is (1 - y) / 2.
-        let excluded = _mm256_mul_pd(_mm256_sub_pd(one, yf), half);
-        let low = _mm256_cmp_pd::<_CMP_NEQ_OQ>(st, excluded);
+        let (yf, low) = labels_and_freedom(y, status, base, false);
         let yg = _mm256_mul_pd(yf, _mm256_loadu_pd(gradient.as_ptr().add(base)));
         let q = _mm256_cvtps_pd(_mm_loadu_ps(first.q_i.as_ptr().add(base)));
         let curvature = _mm256_mul_pd(two_y_i, q);
