@@ -3,6 +3,7 @@
 //! its parameters, scope and sensors, training trials with hashes, training scores).
 
 use std::path::Path;
+use std::sync::atomic::{AtomicUsize, Ordering};
 
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
@@ -12,7 +13,7 @@ use super::features::FeatureSpec;
 use super::logreg::{LogRegModel, LogRegParams};
 use super::metrics::{Confusion, Scores};
 use super::scaler::Scaler;
-use super::svm::{SvmModel, SvmParams};
+use super::svm::{StaticBound, SvmModel, SvmParams};
 use super::threshold::ThresholdModel;
 use super::warm::WarmStart;
 use super::Class;
@@ -269,21 +270,59 @@ impl SensorModel {
     /// piece's rows several at a time ([`SvmModel::decisions`]), with the same values.
     pub fn predict_rows(&self, data: &Dataset, rows: &[usize]) -> Vec<Class> {
         const PIECE: usize = 512;
+        let bound = match &self.classifier {
+            Classifier::Svm(m) => m.static_bound().map(|b| (b, BoundUse::default())),
+            _ => None,
+        };
         rows.par_chunks(PIECE)
             .flat_map_iter(|piece| {
                 let mut scratch = Vec::new();
                 match &self.classifier {
                     Classifier::Svm(m) => {
                         let x = self.scaled_rows(data, piece);
-                        let mut decisions = vec![0.0; piece.len()];
-                        m.decisions(&x, &mut decisions);
-                        decisions.into_iter().map(|d| self.class_of(d)).collect()
+                        self.svm_classes(m, bound.as_ref(), x)
                     }
                     _ => piece
                         .iter()
                         .map(|&i| self.predict(data.row(i), &mut scratch))
                         .collect::<Vec<_>>(),
                 }
+            })
+            .collect()
+    }
+
+    /// The classes of scaled rows `x` by SVM `m`: rows `bound` shows surely static are
+    /// not summed over every support vector (see [`StaticBound`]; the classes are the same).
+    fn svm_classes(
+        &self,
+        m: &SvmModel,
+        bound: Option<&(StaticBound, BoundUse)>,
+        mut x: Vec<f32>,
+    ) -> Vec<Class> {
+        let n = x.len() / m.dim;
+        let sure = match bound {
+            Some((bound, used)) if used.pays() => {
+                let sure = bound.surely_static(&x);
+                used.record(n, sure.iter().filter(|s| **s).count());
+                sure
+            }
+            _ => vec![false; n],
+        };
+        // the rows left, packed to the front
+        let mut left = 0;
+        for (i, s) in sure.iter().enumerate() {
+            if !s {
+                x.copy_within(i * m.dim..(i + 1) * m.dim, left * m.dim);
+                left += 1;
+            }
+        }
+        let mut decisions = vec![0.0; left];
+        m.decisions(&x[..left * m.dim], &mut decisions);
+        let mut decided = decisions.into_iter();
+        sure.iter()
+            .map(|s| match s {
+                true => Class::Static,
+                false => self.class_of(decided.next().expect("one decision per row left")),
             })
             .collect()
     }
@@ -310,6 +349,32 @@ impl SensorModel {
         if let Classifier::Svm(m) = &mut self.classifier {
             m.prepare();
         }
+    }
+}
+
+/// How often a [`StaticBound`] has spared rows in one scoring, to stop trying it when it
+/// rarely does (its own sum then only adds work). Which pieces try it may vary between
+/// runs; the classes do not.
+#[derive(Debug, Default)]
+struct BoundUse {
+    tried: AtomicUsize,
+    spared: AtomicUsize,
+}
+
+impl BoundUse {
+    /// Rows tried before judging, and the share of them that must be spared.
+    const TRIAL_ROWS: usize = 2048;
+    const MIN_SPARED_SHARE: f64 = 0.5;
+
+    fn pays(&self) -> bool {
+        let tried = self.tried.load(Ordering::Relaxed);
+        tried < Self::TRIAL_ROWS
+            || self.spared.load(Ordering::Relaxed) as f64 >= Self::MIN_SPARED_SHARE * tried as f64
+    }
+
+    fn record(&self, tried: usize, spared: usize) {
+        self.tried.fetch_add(tried, Ordering::Relaxed);
+        self.spared.fetch_add(spared, Ordering::Relaxed);
     }
 }
 
@@ -1078,6 +1143,55 @@ mod tests {
             assert_eq!(model.predict_rows(&data, &rows), one_at_a_time, "{kind:?}");
             assert!(one_at_a_time.contains(&Class::Slip), "{kind:?}");
         }
+    }
+
+    #[test]
+    fn rows_an_svm_surely_calls_static_are_predicted_as_one_at_a_time() {
+        // a few slip rows in a static cloud, so the model's slip support vectors bound most
+        // rows (see StaticBound), and rows near the slip rows, which they do not
+        let (n, dim) = (1200, 6);
+        let mut ds = Dataset {
+            dim,
+            trial_ids: vec!["t0".into()],
+            ..Default::default()
+        };
+        let mut state = 17u64;
+        for i in 0..n {
+            let slip = i % 9 == 0;
+            for _ in 0..dim {
+                state = state
+                    .wrapping_mul(6364136223846793005)
+                    .wrapping_add(1442695040888963407);
+                let noise = ((state >> 40) as f32 / (1u64 << 24) as f32) * 2.0 - 1.0;
+                ds.x.push(2.0 * noise + if slip { 1.5 } else { 0.0 });
+            }
+            ds.y.push(if slip { Class::Slip } else { Class::Static });
+            ds.trial.push(0);
+            ds.sensor.push(0);
+            ds.seq.push(i as u64);
+            ds.time_s.push(i as f64);
+        }
+        let hyper = Hyperparameters {
+            c: 1.0,
+            gamma: 0.5,
+            max_iterations: None,
+        };
+        let model = SensorModel::fit(&ds, None, ClassifierKind::SvmRbf, hyper).unwrap();
+        let Classifier::Svm(svm) = &model.classifier else {
+            unreachable!()
+        };
+        let bound = svm.static_bound().expect("a bound for this model");
+        let rows: Vec<usize> = (0..n).collect();
+        let scaled = model.scaled_rows(&ds, &rows);
+        let sure = bound.surely_static(&scaled).iter().filter(|s| **s).count();
+        assert!(sure > n / 4 && sure < n, "{sure} of {n} rows surely static");
+        let mut scratch = Vec::new();
+        let one_at_a_time: Vec<Class> = rows
+            .iter()
+            .map(|&i| model.predict(ds.row(i), &mut scratch))
+            .collect();
+        assert_eq!(model.predict_rows(&ds, &rows), one_at_a_time);
+        assert!(one_at_a_time.contains(&Class::Slip));
     }
 
     #[test]

@@ -23,6 +23,7 @@
 //!
 //! Decision values follow scikit-learn's sign: positive means slip.
 
+mod bound;
 pub mod cache;
 pub mod kernel;
 pub mod linear_ipm;
@@ -32,6 +33,7 @@ pub mod screening;
 mod select;
 pub mod smo;
 
+pub use bound::StaticBound;
 pub use kernel::Kernel;
 
 use super::Class;
