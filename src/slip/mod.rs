@@ -3,6 +3,7 @@
 
 pub mod bayes;
 pub mod cholesky;
+pub mod cross_validation;
 pub mod dataset;
 pub mod evaluation;
 pub mod features;

@@ -935,7 +935,7 @@ pub fn train_models_from(
         .map(|fits| fits.into_iter().unzip())
 }
 
-type Fit =
+pub(crate) type Fit =
     fn(&Dataset, Option<u8>, ClassifierKind, Hyperparameters) -> Result<SensorModel, TrainError>;
 
 fn fit_models(
@@ -947,7 +947,22 @@ fn fit_models(
     seed: u64,
     fit: Fit,
 ) -> Result<Vec<SensorModel>, TrainError> {
-    training_parts(data, scope, downsample, seed)
+    fit_parts(
+        &training_parts(data, scope, downsample, seed),
+        kind,
+        hyper,
+        fit,
+    )
+}
+
+/// One model fitted by `fit` on each of `parts` (see [`training_parts`]).
+pub(crate) fn fit_parts(
+    parts: &[(Option<u8>, Dataset)],
+    kind: ClassifierKind,
+    hyper: Hyperparameters,
+    fit: Fit,
+) -> Result<Vec<SensorModel>, TrainError> {
+    parts
         .iter()
         .map(|(sensor, rows)| fit(rows, *sensor, kind, hyper))
         .collect()
@@ -955,7 +970,7 @@ fn fit_models(
 
 /// Each model's training rows: all of `data` (global) or one sensor's (local, sensors in
 /// order), static rows down-sampled to `downsample` (seeded).
-fn training_parts(
+pub(crate) fn training_parts(
     data: &Dataset,
     scope: Scope,
     downsample: f64,

@@ -1,19 +1,12 @@
 //! Hyperparameter search on training data only: Bayesian optimisation of the macro F1 of
 //! a cross-validation that splits by trial, so frames of one trial never sit on both sides.
 
-use rand::seq::SliceRandom;
-use rand::SeedableRng;
-use rand_chacha::ChaCha8Rng;
-use rayon::prelude::*;
-
 use super::bayes::{best, BayesSearch, Evaluation, LogRange, SearchError};
+use super::cross_validation::Folds;
 use super::dataset::{Dataset, Scope};
 use super::metrics::Scores;
-use super::model::{
-    score_models, train_models, ClassifierKind, Hyperparameters, SearchRecord, TrainError,
-};
+use super::model::{ClassifierKind, Hyperparameters, SearchRecord, TrainError};
 pub use super::search_range::{at_range_end, parse_range, parse_search_rows, SearchRanges};
-use super::Class;
 
 /// Default search ranges, as scikit-optimize searches would commonly set them for the
 /// paper's models.
@@ -90,76 +83,22 @@ pub fn cross_validated_f1(
     spec: &TuneSpec,
     hyper: Hyperparameters,
 ) -> Result<f64, TuneError> {
-    let folds = cross_validate(data, spec, hyper)?;
-    Ok(folds.iter().map(|s| s.macro_f1).sum::<f64>() / folds.len() as f64)
+    Ok(mean_f1(&cross_validate(data, spec, hyper)?))
+}
+
+fn mean_f1(folds: &[Scores]) -> f64 {
+    folds.iter().map(|s| s.macro_f1).sum::<f64>() / folds.len() as f64
 }
 
 /// Each of `folds` folds of whole trials scored (every row, or as `spec.held_out` says) by a
-/// model trained (static rows down-sampled) on the rest. A fold whose sensor the training folds never saw (a local
-/// model set lacking it) scores as all wrong.
+/// model trained (static rows down-sampled) on the rest. A fold whose sensor the training
+/// folds never saw (a local model set lacking it) scores as all wrong.
 pub fn cross_validate(
     data: &Dataset,
     spec: &TuneSpec,
     hyper: Hyperparameters,
 ) -> Result<Vec<Scores>, TuneError> {
-    if spec.folds < 2 {
-        return Err(TuneError::Folds(spec.folds));
-    }
-    let mut trials: Vec<u32> = data.trial.clone();
-    trials.sort_unstable();
-    trials.dedup();
-    if trials.len() < spec.folds {
-        return Err(TuneError::TooFewTrials {
-            folds: spec.folds,
-            trials: trials.len(),
-        });
-    }
-    trials.shuffle(&mut ChaCha8Rng::seed_from_u64(spec.seed ^ 0x5eed));
-    // fold of each trial index, looked up per row
-    let mut fold_by_trial = vec![0; data.trial.iter().max().map_or(0, |t| *t as usize + 1)];
-    for (position, t) in trials.iter().enumerate() {
-        fold_by_trial[*t as usize] = position % spec.folds;
-    }
-    let fold_of = |t: u32| fold_by_trial[t as usize];
-    // Folds fit in parallel: the solver's own parallel kernel rows leave a core idle
-    // during its sequential working-set steps.
-    let scores: Vec<Result<Scores, TuneError>> = (0..spec.folds)
-        .into_par_iter()
-        .map(|fold| {
-            let train = data.filter(|i| fold_of(data.trial[i]) != fold);
-            let train = match spec.max_fit_rows {
-                Some(cap) => {
-                    let (slip, stat) = (train.count(Class::Slip), train.count(Class::Static));
-                    let fitted = slip as f64 + spec.downsample.clamp(0.0, 1.0) * stat as f64;
-                    if fitted > cap as f64 {
-                        train.subsample_each_class(cap as f64 / fitted, spec.seed ^ 0xf17)
-                    } else {
-                        train
-                    }
-                }
-                None => train,
-            };
-            let test = data.filter(|i| fold_of(data.trial[i]) == fold);
-            let test = match spec.held_out {
-                HeldOutRows::Every => test,
-                HeldOutRows::Downsampled => {
-                    test.downsample_static(spec.downsample, spec.seed ^ 0x7e57)
-                }
-            };
-            let models = train_models(
-                &train,
-                spec.kind,
-                hyper,
-                spec.scope,
-                spec.downsample,
-                spec.seed,
-            )?;
-            // A local model set lacks a sensor only if the training folds never saw it.
-            Ok(score_models(&models, spec.scope, &test)
-                .map_or_else(|_| Scores::default(), |(s, _)| s))
-        })
-        .collect();
-    scores.into_iter().collect()
+    Folds::new(data, spec)?.score(spec, hyper)
 }
 
 /// Searches C (and gamma for the RBF SVM) by Bayesian optimisation; a fit that fails scores 0.
@@ -181,10 +120,9 @@ pub fn search_reporting(
         return Err(TuneError::NothingToSearch("threshold"));
     }
     let ranges = spec.ranges.for_kind(spec.kind);
-    // Checked before the search, whose failed evaluations would only score 0.
-    if spec.folds < 2 {
-        return Err(TuneError::Folds(spec.folds));
-    }
+    // Split once, before the search (whose failed evaluations would only score 0): the
+    // evaluations share the folds' rows.
+    let folds = Folds::new(data, spec)?;
     let to_hyper = |p: &[f64]| Hyperparameters {
         c: p[0],
         gamma: p.get(1).copied().unwrap_or(0.0),
@@ -200,8 +138,8 @@ pub fn search_reporting(
     let mut done = 0;
     let history: Vec<Evaluation> = search.maximise(|p| {
         let hyper = to_hyper(p);
-        let f1 = match cross_validated_f1(data, spec, hyper) {
-            Ok(f1) => f1,
+        let f1 = match folds.score(spec, hyper) {
+            Ok(scores) => mean_f1(&scores),
             Err(e) => {
                 first_error.get_or_insert(e);
                 0.0
