@@ -1165,27 +1165,18 @@ mod tests {
         // a few slip rows in a static cloud, so the model's slip support vectors bound most
         // rows (see StaticBound), and rows near the slip rows, which they do not
         let (n, dim) = (1200, 6);
-        let mut ds = Dataset {
+        let (x, y) = crate::slip::svm::noisy_classes(n, dim, 17, 9, 2.0, 1.5);
+        let ds = Dataset {
             dim,
             trial_ids: vec!["t0".into()],
+            x,
+            y,
+            trial: vec![0; n],
+            sensor: vec![0; n],
+            seq: (0..n as u64).collect(),
+            time_s: (0..n).map(|i| i as f64).collect(),
             ..Default::default()
         };
-        let mut state = 17u64;
-        for i in 0..n {
-            let slip = i % 9 == 0;
-            for _ in 0..dim {
-                state = state
-                    .wrapping_mul(6364136223846793005)
-                    .wrapping_add(1442695040888963407);
-                let noise = ((state >> 40) as f32 / (1u64 << 24) as f32) * 2.0 - 1.0;
-                ds.x.push(2.0 * noise + if slip { 1.5 } else { 0.0 });
-            }
-            ds.y.push(if slip { Class::Slip } else { Class::Static });
-            ds.trial.push(0);
-            ds.sensor.push(0);
-            ds.seq.push(i as u64);
-            ds.time_s.push(i as f64);
-        }
         let hyper = Hyperparameters {
             c: 1.0,
             gamma: 0.5,

@@ -106,32 +106,13 @@ impl StaticBound {
 #[cfg(test)]
 mod tests {
     use crate::slip::svm::SvmParams;
-    use crate::slip::Class;
 
     #[test]
     fn rows_surely_static_are_those_the_full_decision_calls_static() {
         // A few slip rows in a cloud of static ones, as in a test set: most rows are far
         // from every slip row.
         let (n, dim) = (900, 6);
-        let mut state = 17u64;
-        let mut next = || {
-            state = state
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            ((state >> 40) as f32 / (1u64 << 24) as f32) * 2.0 - 1.0
-        };
-        let y: Vec<Class> = (0..n)
-            .map(|i| {
-                if i % 9 == 0 {
-                    Class::Slip
-                } else {
-                    Class::Static
-                }
-            })
-            .collect();
-        let x: Vec<f32> = (0..n * dim)
-            .map(|k| 2.0 * next() + if y[k / dim] == Class::Slip { 1.5 } else { 0.0 })
-            .collect();
+        let (x, y) = crate::slip::svm::noisy_classes(n, dim, 17, 9, 2.0, 1.5);
         let mut checked = 0;
         for (c, gamma) in [(1.0, 0.5), (10.0, 2.0), (100.0, 0.1)] {
             let model = SvmParams::rbf(c, gamma)

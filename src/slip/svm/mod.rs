@@ -341,6 +341,43 @@ impl SvmModel {
     }
 }
 
+/// Test rows: `n` rows of `dim` features, every `slip_every`-th row slip, each feature
+/// `spread` times a seeded uniform draw in `[-1, 1)`, slip rows shifted by `shift`.
+#[cfg(test)]
+pub(crate) fn noisy_classes(
+    n: usize,
+    dim: usize,
+    seed: u64,
+    slip_every: usize,
+    spread: f32,
+    shift: f32,
+) -> (Vec<f32>, Vec<Class>) {
+    let mut state = seed;
+    let mut next = || {
+        state = state
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        ((state >> 40) as f32 / (1u64 << 24) as f32) * 2.0 - 1.0
+    };
+    let y: Vec<Class> = (0..n)
+        .map(|i| match i % slip_every {
+            0 => Class::Slip,
+            _ => Class::Static,
+        })
+        .collect();
+    let x = (0..n * dim)
+        .map(|k| {
+            spread * next()
+                + if y[k / dim] == Class::Slip {
+                    shift
+                } else {
+                    0.0
+                }
+        })
+        .collect();
+    (x, y)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -151,32 +151,13 @@ unsafe fn rbf_sums_avx2(m: &SvmModel, gamma: f32, xs: &[f32], out: &mut [f64]) {
 #[cfg(test)]
 mod tests {
     use crate::slip::svm::SvmParams;
-    use crate::slip::Class;
 
     #[test]
     fn rows_summed_together_get_the_values_each_gets_alone() {
         // 7 features (not a multiple of anything), 300 rows of two overlapping classes:
         // some hundred support vectors, so the last block is part-filled.
         let (n, dim) = (300, 7);
-        let mut state = 5u64;
-        let mut next = || {
-            state = state
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            ((state >> 40) as f32 / (1u64 << 24) as f32) * 2.0 - 1.0
-        };
-        let y: Vec<Class> = (0..n)
-            .map(|i| {
-                if i % 3 == 0 {
-                    Class::Slip
-                } else {
-                    Class::Static
-                }
-            })
-            .collect();
-        let x: Vec<f32> = (0..n * dim)
-            .map(|k| next() + if y[k / dim] == Class::Slip { 0.5 } else { 0.0 })
-            .collect();
+        let (x, y) = crate::slip::svm::noisy_classes(n, dim, 5, 3, 1.0, 0.5);
         let model = SvmParams::rbf(1.0, 0.3)
             .check()
             .unwrap()
