@@ -3,7 +3,6 @@
 //! its parameters, scope and sensors, training trials with hashes, training scores).
 
 use std::path::Path;
-use std::sync::atomic::{AtomicUsize, Ordering};
 
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
@@ -13,7 +12,7 @@ use super::features::FeatureSpec;
 use super::logreg::{LogRegModel, LogRegParams};
 use super::metrics::{Confusion, Scores};
 use super::scaler::Scaler;
-use super::svm::{StaticBound, SvmModel, SvmParams};
+use super::svm::{SvmModel, SvmParams};
 use super::threshold::ThresholdModel;
 use super::warm::WarmStart;
 use super::Class;
@@ -270,59 +269,26 @@ impl SensorModel {
     /// piece's rows several at a time ([`SvmModel::decisions`]), with the same values.
     pub fn predict_rows(&self, data: &Dataset, rows: &[usize]) -> Vec<Class> {
         const PIECE: usize = 512;
-        let bound = match &self.classifier {
-            Classifier::Svm(m) => m.static_bound().map(|b| (b, BoundUse::default())),
+        // An RBF SVM spares rows its slip support vectors show static (same classes).
+        let svm = match &self.classifier {
+            Classifier::Svm(m) => Some(m.slip_scoring()),
             _ => None,
         };
         rows.par_chunks(PIECE)
             .flat_map_iter(|piece| {
                 let mut scratch = Vec::new();
-                match &self.classifier {
-                    Classifier::Svm(m) => {
+                match &svm {
+                    Some(svm) => {
                         let x = self.scaled_rows(data, piece);
-                        self.svm_classes(m, bound.as_ref(), x)
+                        let slip = svm.slip(x).into_iter();
+                        slip.map(|s| if s { Class::Slip } else { Class::Static })
+                            .collect()
                     }
                     _ => piece
                         .iter()
                         .map(|&i| self.predict(data.row(i), &mut scratch))
                         .collect::<Vec<_>>(),
                 }
-            })
-            .collect()
-    }
-
-    /// The classes of scaled rows `x` by SVM `m`: rows `bound` shows surely static are
-    /// not summed over every support vector (see [`StaticBound`]; the classes are the same).
-    fn svm_classes(
-        &self,
-        m: &SvmModel,
-        bound: Option<&(StaticBound, BoundUse)>,
-        mut x: Vec<f32>,
-    ) -> Vec<Class> {
-        let n = x.len() / m.dim;
-        let sure = match bound {
-            Some((bound, used)) if used.pays() => {
-                let sure = bound.surely_static(&x);
-                used.record(n, sure.iter().filter(|s| **s).count());
-                sure
-            }
-            _ => vec![false; n],
-        };
-        // the rows left, packed to the front
-        let mut left = 0;
-        for (i, s) in sure.iter().enumerate() {
-            if !s {
-                x.copy_within(i * m.dim..(i + 1) * m.dim, left * m.dim);
-                left += 1;
-            }
-        }
-        let mut decisions = vec![0.0; left];
-        m.decisions(&x[..left * m.dim], &mut decisions);
-        let mut decided = decisions.into_iter();
-        sure.iter()
-            .map(|s| match s {
-                true => Class::Static,
-                false => self.class_of(decided.next().expect("one decision per row left")),
             })
             .collect()
     }
@@ -349,32 +315,6 @@ impl SensorModel {
         if let Classifier::Svm(m) = &mut self.classifier {
             m.prepare();
         }
-    }
-}
-
-/// How often a [`StaticBound`] has spared rows in one scoring, to stop trying it when it
-/// rarely does (its own sum then only adds work). Which pieces try it may vary between
-/// runs; the classes do not.
-#[derive(Debug, Default)]
-struct BoundUse {
-    tried: AtomicUsize,
-    spared: AtomicUsize,
-}
-
-impl BoundUse {
-    /// Rows tried before judging, and the share of them that must be spared.
-    const TRIAL_ROWS: usize = 2048;
-    const MIN_SPARED_SHARE: f64 = 0.5;
-
-    fn pays(&self) -> bool {
-        let tried = self.tried.load(Ordering::Relaxed);
-        tried < Self::TRIAL_ROWS
-            || self.spared.load(Ordering::Relaxed) as f64 >= Self::MIN_SPARED_SHARE * tried as f64
-    }
-
-    fn record(&self, tried: usize, spared: usize) {
-        self.tried.fetch_add(tried, Ordering::Relaxed);
-        self.spared.fetch_add(spared, Ordering::Relaxed);
     }
 }
 

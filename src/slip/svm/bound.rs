@@ -14,6 +14,8 @@
 //! which is at most `P (1 + n u)`; the computed `P` is at least `P (1 - n u)`. [`FACTOR_SLACK`]
 //! doubles the margin that leaves.
 
+use std::sync::atomic::{AtomicUsize, Ordering};
+
 use super::SvmModel;
 
 /// The margin's multiple of the worst-case rounding.
@@ -42,25 +44,30 @@ impl SvmModel {
         if positive_count == 0 || 2 * positive_count > self.dual_coef.len() {
             return None;
         }
-        let mut positive = SvmModel {
-            support_vectors: Vec::with_capacity(positive_count * self.dim),
-            dual_coef: Vec::with_capacity(positive_count),
-            norms: Vec::new(),
-            coef32: Vec::new(),
-            blocks: Vec::new(),
-            ..self.clone_header()
-        };
+        let (mut support_vectors, mut dual_coef) = (Vec::new(), Vec::new());
         for (sv, c) in self
             .support_vectors
             .chunks_exact(self.dim)
             .zip(&self.dual_coef)
         {
             if *c > 0.0 {
-                positive.support_vectors.extend_from_slice(sv);
-                positive.dual_coef.push(*c);
+                support_vectors.extend_from_slice(sv);
+                dual_coef.push(*c);
             }
         }
-        positive.rho = 0.0;
+        let mut positive = SvmModel {
+            kernel: self.kernel,
+            dim: self.dim,
+            support_vectors,
+            dual_coef,
+            rho: 0.0,
+            weights: None,
+            iterations: self.iterations,
+            unconverged_gap: self.unconverged_gap,
+            norms: Vec::new(),
+            coef32: Vec::new(),
+            blocks: Vec::new(),
+        };
         positive.prepare();
         // Terms per f32 lane (the longer of the two sums) and the 64 lanes' f64 sum.
         let lane_terms = self.coef32.len().div_ceil(super::kernel::BLOCK) as f64;
@@ -70,23 +77,6 @@ impl SvmModel {
             factor: 1.0 + FACTOR_SLACK * 2.0 * worst,
             rho: self.rho,
         })
-    }
-
-    /// The model's fields but its support vectors and what is derived from them.
-    fn clone_header(&self) -> SvmModel {
-        SvmModel {
-            kernel: self.kernel,
-            dim: self.dim,
-            support_vectors: Vec::new(),
-            dual_coef: Vec::new(),
-            rho: self.rho,
-            weights: None,
-            iterations: self.iterations,
-            unconverged_gap: self.unconverged_gap,
-            norms: Vec::new(),
-            coef32: Vec::new(),
-            blocks: Vec::new(),
-        }
     }
 }
 
@@ -100,6 +90,72 @@ impl StaticBound {
             .iter()
             .map(|p| p * self.factor + SUBNORMAL_SLACK < self.rho)
             .collect()
+    }
+}
+
+/// Whether each row's decision is positive, for scoring many rows in pieces (possibly in
+/// parallel): rows the model's [`StaticBound`] shows static are spared the full sum while
+/// the bound keeps sparing at least half the rows it is tried on (else its own sum only
+/// adds work). Which pieces try it may vary between runs; the answers do not.
+#[derive(Debug)]
+pub struct SlipScoring<'a> {
+    model: &'a SvmModel,
+    bound: Option<StaticBound>,
+    tried: AtomicUsize,
+    spared: AtomicUsize,
+}
+
+impl SvmModel {
+    pub fn slip_scoring(&self) -> SlipScoring<'_> {
+        SlipScoring {
+            model: self,
+            bound: self.static_bound(),
+            tried: AtomicUsize::new(0),
+            spared: AtomicUsize::new(0),
+        }
+    }
+}
+
+impl SlipScoring<'_> {
+    /// Rows tried before judging the bound, and the share of them it must spare.
+    const TRIAL_ROWS: usize = 2048;
+    const MIN_SPARED_SHARE: f64 = 0.5;
+
+    /// For each row of `xs` (row-major, scaled; reused as scratch), whether the model's
+    /// decision is positive, as [`SvmModel::decisions`] would say.
+    pub fn slip(&self, mut xs: Vec<f32>) -> Vec<bool> {
+        let dim = self.model.dim;
+        let n = xs.len() / dim;
+        let sure = match &self.bound {
+            Some(bound) if self.bound_pays() => {
+                let sure = bound.surely_static(&xs);
+                self.tried.fetch_add(n, Ordering::Relaxed);
+                let spared = sure.iter().filter(|s| **s).count();
+                self.spared.fetch_add(spared, Ordering::Relaxed);
+                sure
+            }
+            _ => vec![false; n],
+        };
+        // the rows left, packed to the front
+        let mut left = 0;
+        for (i, s) in sure.iter().enumerate() {
+            if !s {
+                xs.copy_within(i * dim..(i + 1) * dim, left * dim);
+                left += 1;
+            }
+        }
+        let mut decisions = vec![0.0; left];
+        self.model.decisions(&xs[..left * dim], &mut decisions);
+        let mut decided = decisions.into_iter();
+        sure.iter()
+            .map(|s| !s && decided.next().expect("one decision per row left") > 0.0)
+            .collect()
+    }
+
+    fn bound_pays(&self) -> bool {
+        let tried = self.tried.load(Ordering::Relaxed);
+        tried < Self::TRIAL_ROWS
+            || self.spared.load(Ordering::Relaxed) as f64 >= Self::MIN_SPARED_SHARE * tried as f64
     }
 }
 

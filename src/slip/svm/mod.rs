@@ -33,7 +33,7 @@ pub mod screening;
 mod select;
 pub mod smo;
 
-pub use bound::StaticBound;
+pub use bound::{SlipScoring, StaticBound};
 pub use kernel::Kernel;
 
 use super::Class;
