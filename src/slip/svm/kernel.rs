@@ -120,6 +120,13 @@ impl Rows {
         self.norms.is_empty()
     }
 
+    /// Block `b`'s rows, feature-major: feature `f` of row `b * BLOCK + k` at `f * BLOCK + k`
+    /// (rows past the end are zero).
+    #[inline]
+    pub(super) fn block(&self, b: usize) -> &[f32] {
+        &self.blocks[b * self.dim * BLOCK..(b + 1) * self.dim * BLOCK]
+    }
+
     #[inline]
     pub fn row(&self, i: usize) -> &[f32] {
         &self.x[i * self.dim..(i + 1) * self.dim]

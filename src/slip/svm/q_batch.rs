@@ -99,7 +99,8 @@ pub(super) struct Sum<'a> {
 /// The values are computed [`ROWS_PER_PASS`] targets by [`PIECE`] columns at a time into a
 /// small buffer and added at once, never stored whole: 64 rows of 151k columns would be
 /// 37 MB written and read back, and a reconstruction of the gradient at that size (4,900
-/// free rows) took 2.3 s that way.
+/// free rows) took 2.3 s that way. With AVX-512, RBF values go straight into the sums
+/// ([`fused`]).
 pub(super) fn add_q_products(
     rows: &Rows,
     y: &[i8],
@@ -107,6 +108,19 @@ pub(super) fn add_q_products(
     targets: &[usize],
     columns: Range<usize>,
     sums: &mut [Sum],
+) {
+    add_q_products_with(rows, y, kernel, targets, columns, sums, true)
+}
+
+/// [`add_q_products`], through [`fused`] only where `may_fuse` (tests check both ways).
+fn add_q_products_with(
+    rows: &Rows,
+    y: &[i8],
+    kernel: Kernel,
+    targets: &[usize],
+    columns: Range<usize>,
+    sums: &mut [Sum],
+    may_fuse: bool,
 ) {
     let starts = piece_starts(columns.clone());
     let coefs: Vec<&[f64]> = sums.iter().map(|s| s.coefs).collect();
@@ -122,10 +136,25 @@ pub(super) fn add_q_products(
             pieces[p].push(piece);
         }
     }
+    #[cfg(target_arch = "x86_64")]
+    let fused = may_fuse
+        && matches!(kernel, Kernel::Rbf { .. })
+        && coefs.len() <= 2
+        && std::arch::is_x86_feature_detected!("avx512f");
     let work = |values: &mut Vec<f32>, outs: &mut Vec<&mut [f64]>, &at: &usize| {
         let Some(len) = outs.first().map(|o| o.len()) else {
             return;
         };
+        #[cfg(target_arch = "x86_64")]
+        if fused {
+            let Kernel::Rbf { gamma } = kernel else {
+                unreachable!("checked")
+            };
+            // SAFETY: the CPU has the features the function is compiled for.
+            return unsafe {
+                fused::add_rbf_products(rows, y, gamma as f32, targets, &coefs, at, outs)
+            };
+        }
         for (b, batch) in targets.chunks(ROWS_PER_PASS).enumerate() {
             values.resize(ROWS_PER_PASS * len, 0.0);
             let mut qs: Vec<&mut [f32]> = values.chunks_mut(len).take(batch.len()).collect();
@@ -166,6 +195,10 @@ fn kernel_rows_chunk(
 ) {
     #[cfg(target_arch = "x86_64")]
     {
+        if std::arch::is_x86_feature_detected!("avx512f") {
+            // SAFETY: the CPU has the features the function is compiled for.
+            return unsafe { kernel_rows_chunk_avx512(rows, y, kernel, targets, from, outs) };
+        }
         if std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma")
         {
             // SAFETY: the CPU has the features the function is compiled for.
@@ -206,6 +239,155 @@ unsafe fn kernel_rows_chunk_avx2(
     outs: &mut [&mut [f32]],
 ) {
     kernel_rows_chunk_portable(rows, y, kernel, targets, from, outs)
+}
+
+/// [`kernel_rows_chunk_portable`] compiled for AVX-512 (the kernel pass 16 values wide).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f")]
+unsafe fn kernel_rows_chunk_avx512(
+    rows: &Rows,
+    y: &[i8],
+    kernel: Kernel,
+    targets: &[usize],
+    from: usize,
+    outs: &mut [&mut [f32]],
+) {
+    kernel_rows_chunk_portable(rows, y, kernel, targets, from, outs)
+}
+
+/// [`add_q_products`] for the RBF kernel with AVX-512, from dot products to sums without
+/// storing the kernel values: for 32 columns at a time, the sums' values stay in registers
+/// while every target passes, eight targets' dot products at a time. Why: computed apart,
+/// each value of Q was written and read back twice (the kernel pass, then the sums), and
+/// those passes took a third as long as the dot products. Each value is computed by the
+/// same operations as [`kernel_rows_chunk_portable`]'s and added in target order, skipping
+/// zero coefficients, so the sums are bit-identical.
+#[cfg(target_arch = "x86_64")]
+mod fused {
+    use std::arch::x86_64::*;
+
+    use super::super::kernel::{exp_nonpositive, Rows, BLOCK};
+
+    /// Targets whose dot products are computed together.
+    const GROUP: usize = 8;
+    /// Columns whose sums stay in registers.
+    const TILE: usize = 32;
+
+    /// `outs[s][k] += sum over t of coefs[s][t] Q(targets[t], from + k)`, at most two sums.
+    #[target_feature(enable = "avx512f")]
+    pub(super) fn add_rbf_products(
+        rows: &Rows,
+        y: &[i8],
+        gamma: f32,
+        targets: &[usize],
+        coefs: &[&[f64]],
+        from: usize,
+        outs: &mut [&mut [f64]],
+    ) {
+        match outs.len() {
+            1 => add_products::<1>(rows, y, gamma, targets, coefs, from, outs),
+            2 => add_products::<2>(rows, y, gamma, targets, coefs, from, outs),
+            _ => unreachable!("one or two sums"),
+        }
+    }
+
+    #[target_feature(enable = "avx512f")]
+    fn add_products<const S: usize>(
+        rows: &Rows,
+        y: &[i8],
+        gamma: f32,
+        targets: &[usize],
+        coefs: &[&[f64]],
+        from: usize,
+        outs: &mut [&mut [f64]],
+    ) {
+        let n = rows.len();
+        let len = outs[0].len();
+        assert!(from + len <= n && coefs.len() == S && outs.iter().all(|o| o.len() == len));
+        assert!(coefs.iter().all(|c| c.len() == targets.len()));
+        let mut done = 0;
+        while done < len {
+            let row = from + done;
+            let (b, first) = (row / BLOCK, row % BLOCK);
+            let take = (BLOCK - first).min(len - done);
+            let block = rows.block(b);
+            for t0 in (0..BLOCK).step_by(TILE) {
+                let (lo, hi) = (first.max(t0), (first + take).min(t0 + TILE));
+                if lo >= hi {
+                    continue;
+                }
+                // lane k is row b * BLOCK + t0 + k; lanes lo - t0..hi - t0 are columns
+                let lanes = lo - t0..hi - t0;
+                let out_at = done + lo - first;
+                let mut norm = [0.0f32; TILE];
+                let mut sign = [0.0f32; TILE];
+                for k in lanes.clone() {
+                    let j = b * BLOCK + t0 + k;
+                    norm[k] = rows.norms[j];
+                    sign[k] = f32::from(y[j]);
+                }
+                let mut sums = [[0.0f64; TILE]; S];
+                for s in 0..S {
+                    sums[s][lanes.clone()].copy_from_slice(&outs[s][out_at..out_at + lanes.len()]);
+                }
+                for (g, group) in targets.chunks(GROUP).enumerate() {
+                    let dots = group_dots(rows, block, t0, group);
+                    for (m, &i) in group.iter().enumerate() {
+                        let (ni, yi) = (rows.norms[i], f32::from(y[i]));
+                        let mut q = [0.0f32; TILE];
+                        for k in 0..TILE {
+                            let d2 = (ni + norm[k] - 2.0 * dots[m][k]).max(0.0);
+                            q[k] = yi * sign[k] * exp_nonpositive(-gamma * d2);
+                        }
+                        for s in 0..S {
+                            let c = coefs[s][g * GROUP + m];
+                            if c != 0.0 {
+                                for k in 0..TILE {
+                                    sums[s][k] += c * f64::from(q[k]);
+                                }
+                            }
+                        }
+                    }
+                }
+                for s in 0..S {
+                    outs[s][out_at..out_at + lanes.len()].copy_from_slice(&sums[s][lanes.clone()]);
+                }
+            }
+            done += take;
+        }
+    }
+
+    /// `dots[m][k] = row(group[m]) . row(b * BLOCK + t0 + k)` for the block's 32 rows from
+    /// `t0`; multiply then add in feature order, as [`Rows::dots`].
+    #[target_feature(enable = "avx512f")]
+    fn group_dots(rows: &Rows, block: &[f32], t0: usize, group: &[usize]) -> [[f32; TILE]; GROUP] {
+        let dim = rows.dim;
+        assert!(block.len() >= dim * BLOCK && t0 + TILE <= BLOCK && group.len() <= GROUP);
+        // a short group repeats its first target; those lanes are not read
+        let xs: [&[f32]; GROUP] = std::array::from_fn(|m| rows.row(group[m.min(group.len() - 1)]));
+        let mut dots = [[0.0f32; TILE]; GROUP];
+        // SAFETY: loads lie within `block` (feature f's 64 values from f * 64, t0 + 32 <= 64)
+        // and within the targets' rows of `dim` values; stores go to `dots`.
+        unsafe {
+            let bp = block.as_ptr().add(t0);
+            let mut lo = [_mm512_setzero_ps(); GROUP];
+            let mut hi = [_mm512_setzero_ps(); GROUP];
+            for f in 0..dim {
+                let col = bp.add(f * BLOCK);
+                let (c0, c1) = (_mm512_loadu_ps(col), _mm512_loadu_ps(col.add(16)));
+                for m in 0..GROUP {
+                    let a = _mm512_set1_ps(*xs[m].get_unchecked(f));
+                    lo[m] = _mm512_add_ps(lo[m], _mm512_mul_ps(c0, a));
+                    hi[m] = _mm512_add_ps(hi[m], _mm512_mul_ps(c1, a));
+                }
+            }
+            for m in 0..GROUP {
+                _mm512_storeu_ps(dots[m].as_mut_ptr(), lo[m]);
+                _mm512_storeu_ps(dots[m].as_mut_ptr().add(16), hi[m]);
+            }
+        }
+        dots
+    }
 }
 
 #[cfg(test)]
@@ -271,8 +453,8 @@ mod tests {
         let upper: Vec<f64> = (0..200)
             .map(|t| if t % 5 == 0 { 2.5 } else { 0.0 })
             .collect();
-        for count in [200, 10] {
-            for columns in [0..n, 3..n, 64..1700, 70..71, 130..130] {
+        for (count, may_fuse) in [(200, true), (10, true), (200, false), (10, false)] {
+            for columns in [0..n, 3..n, 64..1700, 70..71, 130..130, 33..95] {
                 let base: Vec<f64> = columns.clone().map(|k| k as f64 * 0.01 - 1.0).collect();
                 let (targets, alpha, upper) = (&targets[..count], &alpha[..count], &upper[..count]);
                 let (mut got_a, mut got_b) = (base.clone(), base.clone());
@@ -286,8 +468,16 @@ mod tests {
                         out: &mut got_b,
                     },
                 ];
-                add_q_products(&rows, &y, KERNEL, targets, columns.clone(), &mut sums);
-                let case = format!("{count} targets, columns {columns:?}");
+                add_q_products_with(
+                    &rows,
+                    &y,
+                    KERNEL,
+                    targets,
+                    columns.clone(),
+                    &mut sums,
+                    may_fuse,
+                );
+                let case = format!("{count} targets, columns {columns:?}, fused {may_fuse}");
                 let want_a = row_by_row(&rows, &y, targets, alpha, columns.clone(), &base);
                 assert_eq!(got_a, want_a, "{case}");
                 let want_b = row_by_row(&rows, &y, targets, upper, columns.clone(), &base);
