@@ -799,25 +799,42 @@ pub fn score_models(
     scope: Scope,
     data: &Dataset,
 ) -> Result<(Scores, Vec<(u8, Scores)>), u8> {
+    let rows: Vec<usize> = (0..data.len()).collect();
+    score_models_on(models, scope, data, &rows)
+}
+
+/// [`score_models`] on `data`'s rows `rows` alone (a sweep's cell scores a narrower
+/// labelling of the test set without copying it).
+pub fn score_models_on(
+    models: &[SensorModel],
+    scope: Scope,
+    data: &Dataset,
+    rows: &[usize],
+) -> Result<(Scores, Vec<(u8, Scores)>), u8> {
     let pick = |sensor: u8| match scope {
         Scope::Global => (!models.is_empty()).then_some(0),
         Scope::Local => models.iter().position(|m| m.sensor == Some(sensor)),
     };
-    // Each model predicts its rows together (see SensorModel::predict_rows).
+    // Each model predicts its rows together (see SensorModel::predict_rows); `predicted[k]`
+    // is row `rows[k]`'s class.
     let mut rows_of_model: Vec<Vec<usize>> = vec![Vec::new(); models.len()];
-    for i in 0..data.len() {
+    let mut places_of_model: Vec<Vec<usize>> = vec![Vec::new(); models.len()];
+    for (k, &i) in rows.iter().enumerate() {
         let sensor = data.sensor[i];
-        rows_of_model[pick(sensor).ok_or(sensor)?].push(i);
+        let m = pick(sensor).ok_or(sensor)?;
+        rows_of_model[m].push(i);
+        places_of_model[m].push(k);
     }
-    let mut predicted = vec![Class::Static; data.len()];
-    for (m, rows) in models.iter().zip(&rows_of_model) {
-        for (&i, p) in rows.iter().zip(m.predict_rows(data, rows)) {
-            predicted[i] = p;
+    let mut predicted = vec![Class::Static; rows.len()];
+    for ((m, model_rows), places) in models.iter().zip(&rows_of_model).zip(&places_of_model) {
+        for (&k, p) in places.iter().zip(m.predict_rows(data, model_rows)) {
+            predicted[k] = p;
         }
     }
     let mut overall = Confusion::default();
     let mut per_sensor: Vec<(u8, Confusion)> = Vec::new();
-    for ((&sensor, &truth), &p) in data.sensor.iter().zip(&data.y).zip(&predicted) {
+    for (&i, &p) in rows.iter().zip(&predicted) {
+        let (sensor, truth) = (data.sensor[i], data.y[i]);
         overall.add(truth, p);
         match per_sensor.iter_mut().find(|(s, _)| *s == sensor) {
             Some((_, c)) => c.add(truth, p),
@@ -960,6 +977,42 @@ mod tests {
     }
 
     /// A trained model of `kind` as JSON.
+    #[test]
+    fn models_scored_on_some_rows_score_as_on_a_copy_of_those_rows() {
+        let mut data = data();
+        // two sensors, so each local model predicts only its own rows
+        for (i, s) in data.sensor.iter_mut().enumerate() {
+            *s = (i % 3 == 0) as u8;
+        }
+        let rows: Vec<usize> = (0..data.len())
+            .filter(|i| i % 7 != 2 && i % 5 != 0)
+            .collect();
+        let mut keep = vec![false; data.len()];
+        for &i in &rows {
+            keep[i] = true;
+        }
+        let copy = data.filter(|i| keep[i]);
+        for scope in [Scope::Global, Scope::Local] {
+            let models = train_models(
+                &data,
+                ClassifierKind::SvmRbf,
+                Hyperparameters {
+                    c: 1.0,
+                    gamma: 0.05,
+                    max_iterations: None,
+                },
+                scope,
+                0.5,
+                3,
+            )
+            .unwrap();
+            let on_rows = score_models_on(&models, scope, &data, &rows).unwrap();
+            assert_eq!(on_rows, score_models(&models, scope, &copy).unwrap());
+            assert_ne!(on_rows, score_models(&models, scope, &data).unwrap());
+            assert_eq!(on_rows.1.len(), 2, "{scope:?}: both sensors scored");
+        }
+    }
+
     fn trained(kind: ClassifierKind) -> serde_json::Value {
         let m = ModelFile::train(&data(), &spec(kind), Vec::new(), None).unwrap();
         serde_json::to_value(&m).unwrap()

@@ -14,7 +14,7 @@ use std::time::Instant;
 
 use super::dataset::{Dataset, Scope};
 use super::model::{
-    score_models, train_models_from, ClassifierKind, Hyperparameters, SensorModel, TrainError,
+    score_models_on, train_models_from, ClassifierKind, Hyperparameters, SensorModel, TrainError,
 };
 use super::tuning::{self, TuneError, TuneSpec};
 use super::warm::WarmStart;
@@ -420,10 +420,10 @@ fn score_cell(
     cell: Cell,
     started: Instant,
 ) -> Result<SweepRow, SweepError> {
-    let test = test
-        .with_n_slip(cell.n_slip)
+    let test_rows = test
+        .rows_with_n_slip(cell.n_slip)
         .ok_or(SweepError::NotFromTrials)?;
-    let (s, _) = score_models(&fitted.models, spec.scope, &test)
+    let (s, _) = score_models_on(&fitted.models, spec.scope, test, &test_rows)
         .map_err(|sensor| SweepError::Sensor { cell, sensor })?;
     let hyper = fitted.hyper;
     let (key_classifier, _, key_d) = cell.key();
@@ -437,7 +437,7 @@ fn score_cell(
         cv_macro_f1: fitted.cv_macro_f1,
         train_rows: fitted.train_rows,
         train_slip_rows: fitted.train_slip_rows,
-        test_rows: test.len(),
+        test_rows: test_rows.len(),
         macro_f1: s.macro_f1,
         slip_precision: s.slip.precision,
         slip_recall: s.slip.recall,
