@@ -162,7 +162,10 @@ const WIDE_TILE: usize = 32;
 /// [`rbf_sums_portable`] with AVX-512: [`ROWS_PER_WIDE_TILE`] rows x [`WIDE_TILE`]
 /// support vectors of sums in 16 of the 32 registers, each loaded feature serving eight rows
 /// and each broadcast row value two registers. Why: the compiler's code for the AVX2 tile
-/// spent more instructions on bounds checks, reloads and spills than on arithmetic. Every
+/// spent more instructions on bounds checks, reloads and spills than on arithmetic
+/// (svm_speed, 61k rows against 1,758 support vectors, one thread: 0.300 s -> 0.221 s; the
+/// tile's height, 6, 8 or 12 rows, made no difference, so the tile is at the core's rate of
+/// multiplies and adds, which on this Zen 4 is the same for 256- and 512-bit vectors). Every
 /// lane takes the same terms in the same order, multiply then add, so the values are
 /// bit-identical to the other paths'.
 #[cfg(target_arch = "x86_64")]
