@@ -255,6 +255,57 @@ impl Rows {
     }
 }
 
+/// Rows of a [`wide_dots`] tile.
+#[cfg(target_arch = "x86_64")]
+pub const WIDE_ROWS: usize = 8;
+/// Block rows (columns) of a [`wide_dots`] tile: two 16-lane registers.
+#[cfg(target_arch = "x86_64")]
+pub const WIDE_COLUMNS: usize = 32;
+
+/// `dots[r][k] = xs[r] . (block row t0 + k)` for the 32 rows from `t0` of a block stored
+/// feature-major (feature `f` of its row `k` at `f * BLOCK + k`, as [`Rows`] and a model's
+/// support vectors are), with AVX-512: 8 x 32 sums in 16 of the 32 registers, each loaded
+/// block value serving eight rows and each broadcast row value two registers. Multiply then
+/// add, in feature order, as [`Rows::dots`], so the values are bit-identical to it.
+///
+/// # Safety
+///
+/// Only callable where the CPU has AVX-512F (from code compiled for it, or after checking).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f")]
+pub(super) fn wide_dots(
+    block: &[f32],
+    t0: usize,
+    xs: [&[f32]; WIDE_ROWS],
+) -> [[f32; WIDE_COLUMNS]; WIDE_ROWS] {
+    use std::arch::x86_64::*;
+    let dim = xs[0].len();
+    assert!(block.len() >= dim * BLOCK && t0 + WIDE_COLUMNS <= BLOCK);
+    assert!(xs.iter().all(|x| x.len() == dim), "rows of one width");
+    let mut dots = [[0.0f32; WIDE_COLUMNS]; WIDE_ROWS];
+    // SAFETY: loads lie within `block` (feature f's 64 values from f * 64, t0 + 32 <= 64)
+    // and within the rows of `dim` values; stores go to `dots`.
+    unsafe {
+        let bp = block.as_ptr().add(t0);
+        let mut lo = [_mm512_setzero_ps(); WIDE_ROWS];
+        let mut hi = [_mm512_setzero_ps(); WIDE_ROWS];
+        for f in 0..dim {
+            let col = bp.add(f * BLOCK);
+            let (c0, c1) = (_mm512_loadu_ps(col), _mm512_loadu_ps(col.add(16)));
+            for r in 0..WIDE_ROWS {
+                let a = _mm512_set1_ps(*xs[r].get_unchecked(f));
+                lo[r] = _mm512_add_ps(lo[r], _mm512_mul_ps(c0, a));
+                hi[r] = _mm512_add_ps(hi[r], _mm512_mul_ps(c1, a));
+            }
+        }
+        for r in 0..WIDE_ROWS {
+            _mm512_storeu_ps(dots[r].as_mut_ptr(), lo[r]);
+            _mm512_storeu_ps(dots[r].as_mut_ptr().add(16), hi[r]);
+        }
+    }
+    dots
+}
+
 /// `tile[g][k] = xs[g] . row(t0 + k)` for the 16 rows of a block from `t0` (see
 /// [`Rows::dots_many_avx`]).
 #[cfg(target_arch = "x86_64")]

@@ -152,29 +152,19 @@ unsafe fn rbf_sums_avx2(m: &SvmModel, gamma: f32, xs: &[f32], out: &mut [f64]) {
     rbf_sums_portable(m, gamma, xs, out)
 }
 
-/// Rows that share each pass over a tile in [`rbf_sums_avx512`].
-#[cfg(target_arch = "x86_64")]
-const ROWS_PER_WIDE_TILE: usize = 8;
-/// Support vectors in one of its tiles: two 16-lane registers.
-#[cfg(target_arch = "x86_64")]
-const WIDE_TILE: usize = 32;
-
-/// [`rbf_sums_portable`] with AVX-512: [`ROWS_PER_WIDE_TILE`] rows x [`WIDE_TILE`]
-/// support vectors of sums in 16 of the 32 registers, each loaded feature serving eight rows
-/// and each broadcast row value two registers. Why: the compiler's code for the AVX2 tile
-/// spent more instructions on bounds checks, reloads and spills than on arithmetic
-/// (svm_speed, 61k rows against 1,758 support vectors, one thread: 0.300 s -> 0.221 s; the
-/// tile's height, 6, 8 or 12 rows, made no difference, so the tile is at the core's rate of
-/// multiplies and adds, which on this Zen 4 is the same for 256- and 512-bit vectors). Every
-/// lane takes the same terms in the same order, multiply then add, so the values are
-/// bit-identical to the other paths'.
+/// [`rbf_sums_portable`] with AVX-512: [`kernel::wide_dots`]' tiles of 8 rows x 32
+/// support vectors. Why: the compiler's code for the AVX2 tile spent more instructions on
+/// bounds checks, reloads and spills than on arithmetic (svm_speed, 61k rows against 1,758
+/// support vectors, one thread: 0.300 s -> 0.221 s; a tile of 6, 8 or 12 rows made no
+/// difference, so the tile runs at the core's rate of multiplies and adds, which on this
+/// Zen 4 is the same for 256- and 512-bit vectors). Every lane takes the same terms in the
+/// same order, multiply then add, so the values are bit-identical to the other paths'.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx512f")]
 unsafe fn rbf_sums_avx512(m: &SvmModel, gamma: f32, xs: &[f32], out: &mut [f64]) {
-    const R: usize = ROWS_PER_WIDE_TILE;
+    const R: usize = kernel::WIDE_ROWS;
     let dim = m.dim;
     assert_eq!(xs.len(), dim * out.len(), "one output per {dim}-wide row");
-    assert!(m.blocks.len() >= m.coef32.len() * dim && m.norms.len() >= m.coef32.len());
     let whole = out.len() / R * R;
     for (rows, sums) in xs[..whole * dim]
         .chunks_exact(R * dim)
@@ -194,43 +184,22 @@ unsafe fn rbf_sums_avx512(m: &SvmModel, gamma: f32, xs: &[f32], out: &mut [f64])
 fn rbf_sums_wide_tile(
     m: &SvmModel,
     gamma: f32,
-    xs: [&[f32]; ROWS_PER_WIDE_TILE],
-) -> [f64; ROWS_PER_WIDE_TILE] {
-    use std::arch::x86_64::*;
-    const R: usize = ROWS_PER_WIDE_TILE;
-    let dim = m.dim;
+    xs: [&[f32]; kernel::WIDE_ROWS],
+) -> [f64; kernel::WIDE_ROWS] {
+    const R: usize = kernel::WIDE_ROWS;
+    const TILE: usize = kernel::WIDE_COLUMNS;
     let nx: [f32; R] = std::array::from_fn(|r| dot(xs[r], xs[r]));
     let mut total = [[0.0f32; BLOCK]; R];
-    let mut acc = [[0.0f32; WIDE_TILE]; R];
     for ((block, coefs), norms) in m
         .blocks
-        .chunks_exact(BLOCK * dim)
+        .chunks_exact(BLOCK * m.dim)
         .zip(m.coef32.chunks_exact(BLOCK))
         .zip(m.norms.chunks_exact(BLOCK))
     {
-        for t0 in (0..BLOCK).step_by(WIDE_TILE) {
-            // SAFETY: every load lies within `block` (feature j's 64 values from j * 64,
-            // t0 + 32 <= 64) or within a row of `dim` values; stores go to `acc`.
-            unsafe {
-                let bp = block.as_ptr().add(t0);
-                let mut lo = [_mm512_setzero_ps(); R];
-                let mut hi = [_mm512_setzero_ps(); R];
-                for j in 0..dim {
-                    let col = bp.add(j * BLOCK);
-                    let (c0, c1) = (_mm512_loadu_ps(col), _mm512_loadu_ps(col.add(16)));
-                    for r in 0..R {
-                        let a = _mm512_set1_ps(*xs[r].get_unchecked(j));
-                        lo[r] = _mm512_add_ps(lo[r], _mm512_mul_ps(c0, a));
-                        hi[r] = _mm512_add_ps(hi[r], _mm512_mul_ps(c1, a));
-                    }
-                }
-                for r in 0..R {
-                    _mm512_storeu_ps(acc[r].as_mut_ptr(), lo[r]);
-                    _mm512_storeu_ps(acc[r].as_mut_ptr().add(16), hi[r]);
-                }
-            }
+        for t0 in (0..BLOCK).step_by(TILE) {
+            let acc = kernel::wide_dots(block, t0, xs);
             for r in 0..R {
-                for k in 0..WIDE_TILE {
+                for k in 0..TILE {
                     let d2 = (norms[t0 + k] + nx[r] - 2.0 * acc[r][k]).max(0.0);
                     total[r][t0 + k] += coefs[t0 + k] * kernel::exp_nonpositive(-gamma * d2);
                 }

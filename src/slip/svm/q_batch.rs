@@ -195,10 +195,6 @@ fn kernel_rows_chunk(
 ) {
     #[cfg(target_arch = "x86_64")]
     {
-        if std::arch::is_x86_feature_detected!("avx512f") {
-            // SAFETY: the CPU has the features the function is compiled for.
-            return unsafe { kernel_rows_chunk_avx512(rows, y, kernel, targets, from, outs) };
-        }
         if std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma")
         {
             // SAFETY: the CPU has the features the function is compiled for.
@@ -241,20 +237,6 @@ unsafe fn kernel_rows_chunk_avx2(
     kernel_rows_chunk_portable(rows, y, kernel, targets, from, outs)
 }
 
-/// [`kernel_rows_chunk_portable`] compiled for AVX-512 (the kernel pass 16 values wide).
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx512f")]
-unsafe fn kernel_rows_chunk_avx512(
-    rows: &Rows,
-    y: &[i8],
-    kernel: Kernel,
-    targets: &[usize],
-    from: usize,
-    outs: &mut [&mut [f32]],
-) {
-    kernel_rows_chunk_portable(rows, y, kernel, targets, from, outs)
-}
-
 /// [`add_q_products`] for the RBF kernel with AVX-512, from dot products to sums without
 /// storing the kernel values: for 32 columns at a time, the sums' values stay in registers
 /// while every target passes, eight targets' dot products at a time. Why: computed apart,
@@ -266,14 +248,12 @@ unsafe fn kernel_rows_chunk_avx512(
 /// zero coefficients, so the sums are bit-identical.
 #[cfg(target_arch = "x86_64")]
 mod fused {
-    use std::arch::x86_64::*;
-
-    use super::super::kernel::{exp_nonpositive, Rows, BLOCK};
+    use super::super::kernel::{exp_nonpositive, wide_dots, Rows, BLOCK, WIDE_COLUMNS, WIDE_ROWS};
 
     /// Targets whose dot products are computed together.
-    const GROUP: usize = 8;
+    const GROUP: usize = WIDE_ROWS;
     /// Columns whose sums stay in registers.
-    const TILE: usize = 32;
+    const TILE: usize = WIDE_COLUMNS;
 
     /// `outs[s][k] += sum over t of coefs[s][t] Q(targets[t], from + k)`, at most two sums.
     #[target_feature(enable = "avx512f")]
@@ -360,35 +340,12 @@ mod fused {
     }
 
     /// `dots[m][k] = row(group[m]) . row(b * BLOCK + t0 + k)` for the block's 32 rows from
-    /// `t0`; multiply then add in feature order, as [`Rows::dots`].
+    /// `t0`.
     #[target_feature(enable = "avx512f")]
     fn group_dots(rows: &Rows, block: &[f32], t0: usize, group: &[usize]) -> [[f32; TILE]; GROUP] {
-        let dim = rows.dim;
-        assert!(block.len() >= dim * BLOCK && t0 + TILE <= BLOCK && group.len() <= GROUP);
         // a short group repeats its first target; those lanes are not read
-        let xs: [&[f32]; GROUP] = std::array::from_fn(|m| rows.row(group[m.min(group.len() - 1)]));
-        let mut dots = [[0.0f32; TILE]; GROUP];
-        // SAFETY: loads lie within `block` (feature f's 64 values from f * 64, t0 + 32 <= 64)
-        // and within the targets' rows of `dim` values; stores go to `dots`.
-        unsafe {
-            let bp = block.as_ptr().add(t0);
-            let mut lo = [_mm512_setzero_ps(); GROUP];
-            let mut hi = [_mm512_setzero_ps(); GROUP];
-            for f in 0..dim {
-                let col = bp.add(f * BLOCK);
-                let (c0, c1) = (_mm512_loadu_ps(col), _mm512_loadu_ps(col.add(16)));
-                for m in 0..GROUP {
-                    let a = _mm512_set1_ps(*xs[m].get_unchecked(f));
-                    lo[m] = _mm512_add_ps(lo[m], _mm512_mul_ps(c0, a));
-                    hi[m] = _mm512_add_ps(hi[m], _mm512_mul_ps(c1, a));
-                }
-            }
-            for m in 0..GROUP {
-                _mm512_storeu_ps(dots[m].as_mut_ptr(), lo[m]);
-                _mm512_storeu_ps(dots[m].as_mut_ptr().add(16), hi[m]);
-            }
-        }
-        dots
+        let xs = std::array::from_fn(|m| rows.row(group[m.min(group.len() - 1)]));
+        wide_dots(block, t0, xs)
     }
 }
 
