@@ -429,16 +429,24 @@ pub fn sha256_hex(bytes: &[u8]) -> String {
 
 /// Reads every trial in `paths` (directories expanded); returns each with its file's hash.
 pub fn load_trials(paths: &[PathBuf]) -> Result<Vec<(PathBuf, String, Trial)>, TrialError> {
-    let mut out = Vec::new();
-    for path in expand_trial_paths(paths)? {
-        let bytes = fs::read(&path).map_err(|source| TrialError::Io {
-            path: path.clone(),
-            source,
-        })?;
-        let hash = sha256_hex(&bytes);
-        out.push((path.clone(), hash, read_trial(&path)?));
-    }
-    Ok(out)
+    use rayon::prelude::*;
+    // Files are read on every core (parsing took most of a sweep's 2.5 s start on 80
+    // trials); the results keep the files' order, and the first failing file in that order
+    // is the one reported, as when they were read one by one.
+    expand_trial_paths(paths)?
+        .into_par_iter()
+        .map(|path| {
+            let bytes = fs::read(&path).map_err(|source| TrialError::Io {
+                path: path.clone(),
+                source,
+            })?;
+            let hash = sha256_hex(&bytes);
+            let trial = read_trial(&path)?;
+            Ok((path, hash, trial))
+        })
+        .collect::<Vec<Result<_, TrialError>>>()
+        .into_iter()
+        .collect()
 }
 
 /// The `.mcap` files among `paths`, with directories expanded (sorted by name); in a
@@ -574,6 +582,31 @@ pub(crate) mod tests {
         write_trial(&path, &trial).unwrap();
         assert!(!dir.path().join("t.mcap.partial").exists());
         assert_eq!(read_trial(&path).unwrap(), trial);
+    }
+
+    #[test]
+    fn trials_load_in_name_order_and_the_first_bad_file_is_the_one_named() {
+        let dir = tempfile::tempdir().unwrap();
+        let mut trial = sample_trial();
+        for k in 0..12 {
+            trial.meta.trial_id = format!("t{k:02}");
+            write_trial(&dir.path().join(format!("t{k:02}.mcap")), &trial).unwrap();
+        }
+        let loaded = load_trials(&[dir.path().to_path_buf()]).unwrap();
+        let ids: Vec<String> = loaded
+            .iter()
+            .map(|(_, _, t)| t.meta.trial_id.clone())
+            .collect();
+        let want: Vec<String> = (0..12).map(|k| format!("t{k:02}")).collect();
+        assert_eq!(ids, want);
+        // two broken files among them: the first by name is reported, whichever is read first
+        for k in [3, 9] {
+            fs::write(dir.path().join(format!("t{k:02}.mcap")), b"not a log").unwrap();
+        }
+        for _ in 0..5 {
+            let err = load_trials(&[dir.path().to_path_buf()]).unwrap_err();
+            assert!(err.to_string().contains("t03.mcap"), "{err}");
+        }
     }
 
     #[test]
