@@ -287,13 +287,8 @@ impl Dataset {
     /// The rows a labelling with `n_slip` slip frames would give, from rows labelled with
     /// at least that many; `None` for rows without `slip_frame` counts.
     pub fn with_n_slip(&self, n_slip: usize) -> Option<Dataset> {
-        self.rows_with_n_slip(n_slip).map(|rows| {
-            let mut keep = vec![false; self.len()];
-            for i in rows {
-                keep[i] = true;
-            }
-            self.filter(|i| keep[i])
-        })
+        (self.slip_frame.len() == self.len())
+            .then(|| self.filter(|i| self.slip_frame[i] as usize <= n_slip))
     }
 
     /// The indices of the rows [`Self::with_n_slip`] keeps, in order.

@@ -976,7 +976,6 @@ mod tests {
         ds
     }
 
-    /// A trained model of `kind` as JSON.
     #[test]
     fn models_scored_on_some_rows_score_as_on_a_copy_of_those_rows() {
         let mut data = data();
@@ -1013,6 +1012,7 @@ mod tests {
         }
     }
 
+    /// A trained model of `kind` as JSON.
     fn trained(kind: ClassifierKind) -> serde_json::Value {
         let m = ModelFile::train(&data(), &spec(kind), Vec::new(), None).unwrap();
         serde_json::to_value(&m).unwrap()

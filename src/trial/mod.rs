@@ -19,6 +19,7 @@ use tmo_hal::{MarkerSample, PinFrame};
 mod read;
 pub mod schema;
 
+use read::read_trial_bytes;
 pub use read::{read_trial, read_trial_for_scoring, MAX_PIN_COORDINATE_PX};
 
 /// Version of the log layout; readers refuse newer ones and read every older one.
@@ -441,7 +442,7 @@ pub fn load_trials(paths: &[PathBuf]) -> Result<Vec<(PathBuf, String, Trial)>, T
                 source,
             })?;
             let hash = sha256_hex(&bytes);
-            let trial = read_trial(&path)?;
+            let trial = read_trial_bytes(&path, &bytes)?;
             Ok((path, hash, trial))
         })
         .collect::<Vec<Result<_, TrialError>>>()

@@ -39,7 +39,16 @@ fn read(path: &Path, channels: Channels) -> Result<Trial, TrialError> {
         path: path.into(),
         source,
     })?;
-    let summary = mcap::read::Summary::read(&buf)
+    parse(path, &buf, channels)
+}
+
+/// [`read_trial`] of a log already read into `buf` from `path` (named in errors).
+pub(super) fn read_trial_bytes(path: &Path, buf: &[u8]) -> Result<Trial, TrialError> {
+    parse(path, buf, Channels::All)
+}
+
+fn parse(path: &Path, buf: &[u8], channels: Channels) -> Result<Trial, TrialError> {
+    let summary = mcap::read::Summary::read(buf)
         .map_err(mcap_err(path))?
         .ok_or_else(|| TrialError::Mcap {
             path: path.into(),
@@ -64,7 +73,7 @@ fn read(path: &Path, channels: Channels) -> Result<Trial, TrialError> {
         }
         if let Some(role) = index.name.strip_prefix("tmo.") {
             if matches!(role, "protocol" | "hardware") {
-                let record = mcap::read::metadata(&buf, index).map_err(mcap_err(path))?;
+                let record = mcap::read::metadata(buf, index).map_err(mcap_err(path))?;
                 let field = |k: &str| record.metadata.get(k).cloned().unwrap_or_default();
                 sources.push(SourceFile {
                     role: role.into(),
@@ -77,7 +86,7 @@ fn read(path: &Path, channels: Channels) -> Result<Trial, TrialError> {
         if index.name != "tmo.trial" {
             continue;
         }
-        let record = mcap::read::metadata(&buf, index).map_err(mcap_err(path))?;
+        let record = mcap::read::metadata(buf, index).map_err(mcap_err(path))?;
         let json = record
             .metadata
             .get("json")
@@ -99,7 +108,7 @@ fn read(path: &Path, channels: Channels) -> Result<Trial, TrialError> {
             supported: TRIAL_FORMAT_VERSION,
         });
     }
-    check_chunk_sizes(&buf, path)?;
+    check_chunk_sizes(buf, path)?;
     let base = time_base_ns(&meta);
     let mut frames = Vec::new();
     let mut markers = Vec::new();
@@ -111,8 +120,7 @@ fn read(path: &Path, channels: Channels) -> Result<Trial, TrialError> {
     let options = mcap::sans_io::LinearReaderOptions::default()
         .with_validate_chunk_crcs(true)
         .with_record_length_limit(MAX_CHUNK_BYTES as usize);
-    for (index, message) in mcap::io::MessageReader::new_with_options(&buf[..], options).enumerate()
-    {
+    for (index, message) in mcap::io::MessageReader::new_with_options(buf, options).enumerate() {
         let message = message.map_err(mcap_err(path))?;
         let topic = message.channel.topic.as_str();
         let bad = |e: serde_json::Error| TrialError::BadMessage {
