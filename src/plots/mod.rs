@@ -3,7 +3,7 @@
 //! feature) so a machine without system font libraries draws the same PNGs; the SVGs name
 //! it first and the PDFs embed it.
 //!
-//! Each figure is a function generic over the drawing backend; [`figure_files`] runs it on
+//! Each figure is a function generic over the drawing backend; the `figure_files!` macro runs it on
 //! both and derives the PDF from the SVG. Data preparation is plain functions with unit tests; drawing is checked by eye (the
 //! issue note lists what was looked at) and by tests that the files are written.
 

@@ -257,10 +257,10 @@ impl Rows {
 
 /// Rows of a [`wide_dots`] tile.
 #[cfg(target_arch = "x86_64")]
-pub const WIDE_ROWS: usize = 8;
+pub(super) const WIDE_ROWS: usize = 8;
 /// Block rows (columns) of a [`wide_dots`] tile: two 16-lane registers.
 #[cfg(target_arch = "x86_64")]
-pub const WIDE_COLUMNS: usize = 32;
+pub(super) const WIDE_COLUMNS: usize = 32;
 
 /// `dots[r][k] = xs[r] . (block row t0 + k)` for the 32 rows from `t0` of a block stored
 /// feature-major (feature `f` of its row `k` at `f * BLOCK + k`, as [`Rows`] and a model's

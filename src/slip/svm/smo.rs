@@ -10,7 +10,7 @@
 //!   reconstructed before the final optimality check;
 //! - kernel rows computed in parallel when a row is long enough to pay for it, and where the
 //!   rows needed are known ahead (a warm start, a gradient reconstruction) many at a time
-//!   in one pass over the training rows ([`super::q_batch`]): a reconstruction on 151k rows
+//!   in one pass over the training rows (`q_batch`): a reconstruction on 151k rows
 //!   took 3.8 s one row at a time, 1.9 s with 64 rows a pass, and about 1.0 s with their
 //!   values added to the gradient as they are computed, with the same gradient to the bit.
 //!
