@@ -288,14 +288,20 @@ impl Dataset {
     /// at least that many; `None` for rows without `slip_frame` counts.
     pub fn with_n_slip(&self, n_slip: usize) -> Option<Dataset> {
         (self.slip_frame.len() == self.len())
-            .then(|| self.filter(|i| self.slip_frame[i] as usize <= n_slip))
+            .then(|| self.filter(|i| self.within_n_slip(i, n_slip)))
+    }
+
+    /// Whether row `i` stays in a labelling with `n_slip` slip frames (see
+    /// [`Self::with_n_slip`]).
+    fn within_n_slip(&self, i: usize, n_slip: usize) -> bool {
+        self.slip_frame[i] as usize <= n_slip
     }
 
     /// The indices of the rows [`Self::with_n_slip`] keeps, in order.
     pub fn rows_with_n_slip(&self, n_slip: usize) -> Option<Vec<usize>> {
         (self.slip_frame.len() == self.len()).then(|| {
             (0..self.len())
-                .filter(|&i| self.slip_frame[i] as usize <= n_slip)
+                .filter(|&i| self.within_n_slip(i, n_slip))
                 .collect()
         })
     }

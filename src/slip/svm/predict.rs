@@ -46,17 +46,23 @@ pub(super) fn rbf_sums(m: &SvmModel, gamma: f32, xs: &[f32], out: &mut [f64]) {
     rbf_sums_portable(m, gamma, xs, out)
 }
 
+/// The support vectors a [`BLOCK`] at a time: the block (feature-major), its coefficients
+/// and its squared norms.
+#[inline(always)]
+fn sv_blocks(m: &SvmModel) -> impl Iterator<Item = (&[f32], &[f32], &[f32])> {
+    m.blocks
+        .chunks_exact(BLOCK * m.dim)
+        .zip(m.coef32.chunks_exact(BLOCK))
+        .zip(m.norms.chunks_exact(BLOCK))
+        .map(|((block, coefs), norms)| (block, coefs, norms))
+}
+
 #[inline(always)]
 fn rbf_sum_portable(m: &SvmModel, gamma: f32, x: &[f32]) -> f64 {
     let nx = dot(x, x);
     // Per-lane running sums: a single scalar sum would keep the loop from vectorising.
     let mut total = [0.0f32; BLOCK];
-    for ((block, coefs), norms) in m
-        .blocks
-        .chunks_exact(BLOCK * m.dim)
-        .zip(m.coef32.chunks_exact(BLOCK))
-        .zip(m.norms.chunks_exact(BLOCK))
-    {
+    for (block, coefs, norms) in sv_blocks(m) {
         let mut acc = [0.0f32; BLOCK];
         for (j, xj) in x.iter().enumerate() {
             let col = &block[j * BLOCK..(j + 1) * BLOCK];
@@ -91,12 +97,7 @@ fn lanes_sum(total: &[f32; BLOCK]) -> f64 {
 fn rbf_sums_tiled(m: &SvmModel, gamma: f32, xs: [&[f32]; ROWS_PER_TILE]) -> [f64; ROWS_PER_TILE] {
     let nx: [f32; ROWS_PER_TILE] = std::array::from_fn(|r| dot(xs[r], xs[r]));
     let mut total = [[0.0f32; BLOCK]; ROWS_PER_TILE];
-    for ((block, coefs), norms) in m
-        .blocks
-        .chunks_exact(BLOCK * m.dim)
-        .zip(m.coef32.chunks_exact(BLOCK))
-        .zip(m.norms.chunks_exact(BLOCK))
-    {
+    for (block, coefs, norms) in sv_blocks(m) {
         for t0 in (0..BLOCK).step_by(TILE) {
             let mut acc = [[0.0f32; TILE]; ROWS_PER_TILE];
             for j in 0..m.dim {
@@ -190,12 +191,7 @@ fn rbf_sums_wide_tile(
     const TILE: usize = kernel::WIDE_COLUMNS;
     let nx: [f32; R] = std::array::from_fn(|r| dot(xs[r], xs[r]));
     let mut total = [[0.0f32; BLOCK]; R];
-    for ((block, coefs), norms) in m
-        .blocks
-        .chunks_exact(BLOCK * m.dim)
-        .zip(m.coef32.chunks_exact(BLOCK))
-        .zip(m.norms.chunks_exact(BLOCK))
-    {
+    for (block, coefs, norms) in sv_blocks(m) {
         for t0 in (0..BLOCK).step_by(TILE) {
             let acc = kernel::wide_dots(block, t0, xs);
             for r in 0..R {
