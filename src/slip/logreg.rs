@@ -44,7 +44,8 @@ fn padded_width(m: usize) -> usize {
 /// a row, and it was 44 % of a LogReg-only sweep's time (perf, d 0.5 and 1.0). Loading and
 /// storing each entry once per 8 rows (the previous loop) kept the core waiting on loads;
 /// an 8 x 16 register tile loads two vectors and eight broadcasts per row for 128
-/// multiply-adds.
+/// multiply-adds. Measured on the README's data, a LogReg-only sweep at d 0.5 and 1.0 (30
+/// cells, 2 cores): the cells took 13.7 s, then 9.6 s so, with the same CSV.
 fn add_weighted_outer_products(hess: &mut [f64], m: usize, hx: &[f64], x: &[f64], rows: usize) {
     let width = padded_width(m);
     assert!(hess.len() >= width * width && hx.len() >= rows * width && x.len() >= rows * width);
@@ -117,7 +118,7 @@ unsafe fn add_weighted_outer_products_avx512(
 /// `out[r] = sum_f rows[r * stride + f] w[f]` (`f < w.len()`), each in feature order from
 /// `-0.0` as `Iterator::sum` adds, so the values are the same to the bit. Why eight rows at a
 /// time: one row's sum is a chain of dependent adds, which kept the core waiting on each add's
-/// latency; eight rows' chains go side by side.
+/// latency; eight rows' chains go side by side. The sweep above: 9.6 -> 8.6 s, the same CSV.
 fn row_dots<T: Copy + Into<f64>>(rows: &[T], stride: usize, w: &[f64], out: &mut [f64]) {
     const TOGETHER: usize = 8;
     let len = w.len();
