@@ -464,21 +464,22 @@ mod tests {
                         .flat_map(|a| h[a * width..a * width + a + 1].to_vec())
                         .collect()
                 };
-                let mut dispatched = start.clone();
-                add_weighted_outer_products(&mut dispatched, m, &hx, &x, rows);
-                assert_eq!(
-                    lower(&dispatched),
-                    lower(&one_at_a_time),
-                    "{m} wide, {rows} rows"
-                );
-                // Also the loops for CPUs without AVX-512, which this one may not run otherwise.
-                let mut portable = start.clone();
-                add_weighted_outer_products_portable(&mut portable, m, &hx, &x, rows);
-                assert_eq!(
-                    lower(&portable),
-                    lower(&one_at_a_time),
-                    "{m} wide, {rows} rows"
-                );
+                // The dispatched loop, and the one for CPUs without AVX-512, which this one
+                // may not run otherwise.
+                type Add = fn(&mut [f64], usize, &[f64], &[f64], usize);
+                let loops: [(&str, Add); 2] = [
+                    ("dispatched", add_weighted_outer_products),
+                    ("portable", add_weighted_outer_products_portable),
+                ];
+                for (name, add) in loops {
+                    let mut summed = start.clone();
+                    add(&mut summed, m, &hx, &x, rows);
+                    assert_eq!(
+                        lower(&summed),
+                        lower(&one_at_a_time),
+                        "{name}: {m} wide, {rows} rows"
+                    );
+                }
             }
         }
     }

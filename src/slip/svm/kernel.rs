@@ -41,7 +41,8 @@ pub fn exp_nonpositive(x: f32) -> f32 {
     const LOG2E: f32 = std::f32::consts::LOG2_E;
     const LN2_HI: f32 = 0.693_145_75;
     const LN2_LO: f32 = 1.428_606_8e-6;
-    const ROUND: f32 = 12_582_912.0; // 1.5 * 2^23: adding and subtracting it rounds to an integer
+    // 1.5 * 2^23: adding and subtracting it rounds to an integer
+    const ROUND: f32 = 12_582_912.0;
     // Only the lower clamp, which keeps 2^n a normal float: every caller passes `-gamma d2`
     // with `d2 >= 0` (a positive `x` would still get about `e^x` up to 88), and the upper one
     // was an instruction of the RBF loops' ~40 past their dot products.
