@@ -19,8 +19,9 @@ use super::Class;
 /// terms in f64, each good to about 1e-16).
 const OBJECTIVE_RESOLUTION: f64 = 1e-13;
 
-/// Rows whose terms are added into the Hessian together (see
-/// [`add_weighted_outer_products`]).
+/// Rows handled together in a pass over the data: their terms added into the Hessian at once
+/// (see [`add_weighted_outer_products`]) and their dot products with the weights taken side
+/// by side (see [`row_dots`]).
 const HESSIAN_BLOCK: usize = 64;
 
 /// Hessian rows (`a`) and columns (`b`) of one register tile of [`add_weighted_outer_products`].
