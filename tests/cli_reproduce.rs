@@ -16,7 +16,8 @@ fn the_quick_preset_writes_every_step_and_the_findings_report() {
         d,
         &["reproduce", "--preset", "quick", "--out", "paper"],
     ));
-    assert!(out.contains("findings reproduced"), "{out}");
+    assert!(out.contains("held-out findings: "), "{out}");
+    assert!(out.contains("calibrated findings: "), "{out}");
     assert!(out.contains("findings.html"), "{out}");
     assert!(out.contains("ground truth"), "{out}");
     for step in [
@@ -33,12 +34,15 @@ fn the_quick_preset_writes_every_step_and_the_findings_report() {
         "11_first_time_lift",
     ] {
         assert!(
-            d.join("paper").join(step).join("step.json").is_file(),
+            d.join("paper/replicate-01")
+                .join(step)
+                .join("step.json")
+                .is_file(),
             "{step}"
         );
         // the logs of every protocol open in the mcap crate's reader, CRCs checked, and
         // every message fits its channel's schema
-        let mut logs: Vec<_> = walk(&d.join("paper").join(step))
+        let mut logs: Vec<_> = walk(&d.join("paper/replicate-01").join(step))
             .into_iter()
             .filter(|p| p.extension().is_some_and(|x| x == "mcap"))
             .collect();
@@ -52,6 +56,14 @@ fn the_quick_preset_writes_every_step_and_the_findings_report() {
             .unwrap();
     let findings = json["findings"].as_array().unwrap();
     assert!(findings.len() >= 25);
+    assert_eq!(json["replicates"], 1);
+    // held-out and calibrated findings are counted apart, and add up to all of them
+    let total = |k: &str| json[k]["total"].as_u64().unwrap();
+    assert_eq!(
+        total("held_out") + total("calibrated"),
+        findings.len() as u64
+    );
+    assert!(total("calibrated") > 0);
     // every finding was measured: each step gave what its rows read. Slip distances are
     // means over caught trials only, and the quick preset's three trials per strategy may
     // catch none with some strategy, so those rows need only be measured somewhere.
@@ -71,6 +83,20 @@ fn the_quick_preset_writes_every_step_and_the_findings_report() {
     );
     let md = std::fs::read_to_string(d.join("paper/findings.md")).unwrap();
     assert!(md.contains("| sf-offline-order |"), "{md}");
+    assert!(md.contains("| verdict | finding | paper |"), "{md}");
+
+    // the report again from the finished steps, running nothing
+    let again = ok(&tmo(d, &["reproduce", "--out", "paper", "--findings-only"]));
+    assert!(again.contains("held-out findings: "), "{again}");
+    assert_eq!(
+        std::fs::read_to_string(d.join("paper/findings.md")).unwrap(),
+        md
+    );
+    let none = fails(&tmo(
+        d,
+        &["reproduce", "--out", "nothing", "--findings-only"],
+    ));
+    assert!(none.contains("holds no reproduction"), "{none}");
 
     // everything done: a resume runs nothing; without --resume the directory is refused
     let again = ok(&tmo(d, &["reproduce", "--out", "paper", "--resume"]));
@@ -93,6 +119,8 @@ fn walk(dir: &std::path::Path) -> Vec<std::path::PathBuf> {
     out
 }
 
+/// A reproduction killed in its first step, resumed with a second replicate: the finished
+/// step is kept, the rest run, and the findings pool both replicates.
 #[test]
 fn a_reproduction_killed_mid_way_resumes_without_rerunning_finished_steps() {
     let dir = tempfile::tempdir().unwrap();
@@ -105,9 +133,9 @@ fn a_reproduction_killed_mid_way_resumes_without_rerunning_finished_steps() {
         .spawn()
         .unwrap();
     // kill -9 once the first step is done and the second has started
-    let first = d.join("r/01_rail_collect/step.json");
+    let first = d.join("r/replicate-01/01_rail_collect/step.json");
     let started = Instant::now();
-    while !(first.exists() && d.join("r/02_rail_sweep").exists()) {
+    while !(first.exists() && d.join("r/replicate-01/02_rail_sweep").exists()) {
         assert!(
             started.elapsed() < Duration::from_secs(120),
             "the first step never finished"
@@ -118,18 +146,21 @@ fn a_reproduction_killed_mid_way_resumes_without_rerunning_finished_steps() {
     child.wait().unwrap();
     let record = std::fs::read_to_string(&first).unwrap();
     let modified = std::fs::metadata(&first).unwrap().modified().unwrap();
-    let trials = std::fs::read_dir(d.join("r/01_rail_collect/train"))
+    let trials = std::fs::read_dir(d.join("r/replicate-01/01_rail_collect/train"))
         .unwrap()
         .count();
 
-    let out = ok(&tmo(d, &["reproduce", "--out", "r", "--resume"]));
-    assert!(out.contains("findings reproduced"), "{out}");
+    let out = ok(&tmo(
+        d,
+        &["reproduce", "--out", "r", "--resume", "--replicates", "2"],
+    ));
+    assert!(out.contains("(2 replicates)"), "{out}");
     assert!(
         out.contains("1 already done") || out.contains("already done"),
         "{out}"
     );
     let (ran, kept) = counts(&out);
-    assert_eq!(ran + kept, 11, "{out}");
+    assert_eq!(ran + kept, 22, "{out}");
     assert!(kept >= 1, "{out}");
     // the finished step was kept as it was
     assert_eq!(std::fs::read_to_string(&first).unwrap(), record);
@@ -138,12 +169,38 @@ fn a_reproduction_killed_mid_way_resumes_without_rerunning_finished_steps() {
         modified
     );
     assert_eq!(
-        std::fs::read_dir(d.join("r/01_rail_collect/train"))
+        std::fs::read_dir(d.join("r/replicate-01/01_rail_collect/train"))
             .unwrap()
             .count(),
         trials
     );
-    assert!(d.join("r/11_first_time_lift/step.json").is_file());
+    for r in ["replicate-01", "replicate-02"] {
+        assert!(d
+            .join("r")
+            .join(r)
+            .join("11_first_time_lift/step.json")
+            .is_file());
+    }
+    // the second replicate ran its own trials
+    let outcomes = |r: &str| {
+        std::fs::read_to_string(d.join("r").join(r).join("04_rail_online/outcomes.json")).unwrap()
+    };
+    assert_ne!(outcomes("replicate-01"), outcomes("replicate-02"));
+    // every row counts the replicates it held in, and the trial rates pool both
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(d.join("r/findings.json")).unwrap()).unwrap();
+    assert_eq!(json["replicates"], 2);
+    let caught = json["findings"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|f| f["id"] == "sf-rail-caught")
+        .unwrap();
+    assert_eq!(caught["held_in"][1], 2, "{caught}");
+    assert_eq!(
+        caught["ours"]["rail.online.caught.1fr"]["n"], 40,
+        "{caught}"
+    );
 }
 
 /// "N step(s) run, M already done" from reproduce's output.

@@ -11,7 +11,7 @@ use super::run::EXIT_INTERRUPTED;
 
 #[derive(Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 pub enum PresetArg {
-    /// Scaled down: about ten seconds on two cores.
+    /// Scaled down: about 20 s on two cores, one replicate.
     Quick,
     /// The paper's counts and grids.
     Paper,
@@ -26,10 +26,17 @@ pub enum BackendArg {
 
 #[derive(clap::Args)]
 pub struct ReproduceArgs {
-    /// How much to run: `quick` (a few trials a cell, about 20 s) or `paper` (the paper's
-    /// counts, about 15 min on 2 cores).
+    /// How much to run: `quick` (a few trials a cell, one replicate, about 20 s) or `paper`
+    /// (the paper's counts, five replicates, about 15 min each on 2 cores).
     #[arg(long, value_enum, default_value = "quick")]
     preset: PresetArg,
+    /// Independent replicates of every step, each with its own trial and learner seeds
+    /// (default: 1 for quick, 5 for paper). Findings pool them.
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=99))]
+    replicates: Option<u32>,
+    /// Run nothing: write the findings report again from the finished steps in --out.
+    #[arg(long, conflicts_with = "resume")]
+    findings_only: bool,
     /// Where every step's outputs and the findings report go.
     #[arg(long, default_value = "results/paper")]
     out: PathBuf,
@@ -65,15 +72,33 @@ pub fn run(args: ReproduceArgs) -> Result<u8> {
             }
         }
     };
+    let preset = match args.preset {
+        PresetArg::Quick => Preset::Quick,
+        PresetArg::Paper => Preset::Paper,
+    };
     let options = Options {
         out: args.out.clone(),
-        preset: match args.preset {
-            PresetArg::Quick => Preset::Quick,
-            PresetArg::Paper => Preset::Paper,
-        },
+        preset,
+        replicates: args
+            .replicates
+            .unwrap_or_else(|| preset.default_replicates()),
         resume: args.resume,
         backend,
     };
+    if args.findings_only {
+        let first = reproduce::replicate_dir(&options.out, 1);
+        if !first.is_dir() {
+            anyhow::bail!(
+                "{} holds no reproduction (no {}): run `tmo reproduce --out {}` first",
+                options.out.display(),
+                first.display(),
+                options.out.display()
+            );
+        }
+        let report = reproduce::page::write_findings(&options.out, &preset, options.replicates)?;
+        print_report(&report, &options);
+        return Ok(0);
+    }
     let stop = Arc::new(AtomicBool::new(false));
     let flag = stop.clone();
     ctrlc::set_handler(move || flag.store(true, Ordering::Relaxed))
@@ -116,21 +141,25 @@ pub fn run(args: ReproduceArgs) -> Result<u8> {
                 kept.len(),
                 started.elapsed().as_secs_f64()
             );
-            println!("{}", report.summary_line());
-            if let Some((n, agree)) = report.truth_agreement {
-                println!(
-                    "marker-scored verdicts agree with the simulator's ground truth in {agree} of {n} catch trials ({:.1} %)",
-                    100.0 * agree as f64 / n.max(1) as f64
-                );
-            }
-            println!(
-                "wrote {} (open it in a browser), {}, {} and every step's outputs under {}",
-                report.html.display(),
-                report.md.display(),
-                report.json.display(),
-                options.out.display()
-            );
+            print_report(&report, &options);
         }
     }
     Ok(0)
+}
+
+fn print_report(report: &reproduce::page::Written, options: &Options) {
+    println!("{}", report.summary_line());
+    if let Some((n, agree)) = report.truth_agreement {
+        println!(
+            "marker-scored verdicts agree with the simulator's ground truth in {agree} of {n} catch trials ({:.1} %)",
+            100.0 * agree as f64 / n.max(1) as f64
+        );
+    }
+    println!(
+        "wrote {} (open it in a browser), {}, {} and every replicate's step outputs under {}",
+        report.html.display(),
+        report.md.display(),
+        report.json.display(),
+        options.out.display()
+    );
 }

@@ -18,7 +18,7 @@ table{border-collapse:collapse;margin:0.5em 0 1.5em;font-size:0.9em}\
 th,td{border:1px solid #ccc;padding:0.25em 0.6em;text-align:left;vertical-align:top}\
 th{background:#f3f3f3}tr:nth-child(even) td{background:#fafafa}\
 .yes{background:#d4f4d4!important}.partly{background:#fff3c4!important}.no{background:#f8d4d4!important}\
-.not_measured{background:#e8e8e8!important}figure{display:inline-block;margin:0.5em;max-width:48%}\
+.not_measured{background:#e8e8e8!important}.not_resolved{background:#e4ecf7!important}.details{color:#666;font-size:0.85em}figure{display:inline-block;margin:0.5em;max-width:48%}\
 figure svg{max-width:100%;height:auto}figcaption{font-size:0.85em;color:#555}code{font-size:0.9em}";
 
 /// A table as HTML, title above.

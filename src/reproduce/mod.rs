@@ -9,6 +9,7 @@
 //! trials are kept), and reruns a step whose inputs changed. A step is only ever marked
 //! done once all its files are in place, so a Ctrl-C or kill -9 loses no finished step.
 
+pub mod evidence;
 pub mod findings;
 pub mod measure;
 pub mod page;
@@ -75,8 +76,15 @@ pub enum Backend {
 pub struct Options {
     pub out: PathBuf,
     pub preset: Preset,
+    /// Independent replicates of every step (each with its own trial and learner seeds).
+    pub replicates: u32,
     pub resume: bool,
     pub backend: Backend,
+}
+
+/// The directory of replicate `r` (1-based) under the output directory.
+pub fn replicate_dir(out: &Path, r: u32) -> PathBuf {
+    out.join(format!("replicate-{r:02}"))
 }
 
 /// `step.json`: a finished step.
@@ -110,13 +118,14 @@ impl Progress {
 #[derive(Debug)]
 pub enum End {
     Finished {
-        /// Steps run now and steps already done.
-        ran: Vec<&'static str>,
-        kept: Vec<&'static str>,
-        report: page::Written,
+        /// Steps run now and steps already done (`replicate-01/rail_sweep`).
+        ran: Vec<String>,
+        kept: Vec<String>,
+        report: Box<page::Written>,
     },
     Interrupted {
-        step: &'static str,
+        /// The step, as `replicate-01/rail_sweep`.
+        step: String,
     },
 }
 
@@ -168,84 +177,107 @@ fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), ReproduceError> {
     std::fs::rename(&tmp, path).map_err(io(path))
 }
 
-/// Runs every step the preset asks for, then writes the findings report.
+/// Runs every step the preset asks for in each replicate, then writes the findings report.
 pub fn reproduce(
     options: &Options,
     stop: &AtomicBool,
     progress: &Progress,
 ) -> Result<End, ReproduceError> {
     let out = &options.out;
-    let has_steps = Step::ALL.iter().any(|s| out.join(s.dir()).exists());
+    let replicates = options.replicates.max(1);
+    let has_steps = (1..=replicates.max(99)).any(|r| replicate_dir(out, r).exists())
+        || Step::ALL.iter().any(|s| out.join(s.dir()).exists());
     if has_steps && !options.resume {
         return Err(ReproduceError::AlreadyThere(out.clone()));
     }
     std::fs::create_dir_all(out).map_err(io(out))?;
     let _lock =
         crate::lock::OutputLock::acquire(out).map_err(|e| ReproduceError::step("reproduce", e))?;
-    let ctx = steps::Context {
-        out,
-        preset: &options.preset,
-        backend: &options.backend,
-        stop,
-        bar: &progress.work,
-    };
-    progress.steps.set_length(Step::ALL.len() as u64 + 1);
+    let steps_in_all = Step::ALL.len() * replicates as usize + 1;
+    progress.steps.set_length(steps_in_all as u64);
     let (mut ran, mut kept) = (Vec::new(), Vec::new());
-    for (k, step) in Step::ALL.iter().copied().enumerate() {
-        progress.steps.set_message(format!(
-            "step {} of {}: {}",
-            k + 1,
-            Step::ALL.len() + 1,
-            step.title()
-        ));
-        let dir = out.join(step.dir());
-        let inputs = sha256_text(&step.inputs(&ctx)?);
-        let done = read_record(&dir).is_some_and(|r| r.inputs_sha256 == inputs);
-        if done {
-            kept.push(step.name());
-            progress.steps.inc(1);
-            continue;
-        }
-        // A step interrupted with the same inputs carries on (a batch keeps its trials);
-        // one whose inputs changed starts again.
-        let same_inputs =
-            std::fs::read_to_string(dir.join("step.inputs")).is_ok_and(|h| h.trim() == inputs);
-        if dir.exists() && !same_inputs {
-            std::fs::remove_dir_all(&dir).map_err(io(&dir))?;
-        }
-        std::fs::create_dir_all(&dir).map_err(io(&dir))?;
-        std::fs::write(dir.join("step.inputs"), &inputs).map_err(io(&dir))?;
-        progress.work.reset();
-        progress.work.set_length(0);
-        progress.work.set_message("");
-        let started = std::time::Instant::now();
-        let finished = step.run(&ctx, &dir)?;
-        if !finished || stop.load(Ordering::Relaxed) {
-            return Ok(End::Interrupted { step: step.name() });
-        }
-        let (tmo_version, git_revision) = crate::trial::TrialMeta::code_version();
-        let record = StepRecord {
-            step: step.name().into(),
-            inputs_sha256: inputs,
-            outputs_sha256: digest_dir(&dir)?,
-            wall_s: started.elapsed().as_secs_f64(),
-            tmo_version,
-            git_revision,
+    for r in 1..=replicates {
+        let dir = replicate_dir(out, r);
+        let ctx = steps::Context {
+            out: &dir,
+            replicate: r,
+            preset: &options.preset,
+            backend: &options.backend,
+            stop,
+            bar: &progress.work,
         };
-        write_atomic(
-            &dir.join("step.json"),
-            serde_json::to_string_pretty(&record)
-                .expect("a record serialises")
-                .as_bytes(),
-        )?;
-        ran.push(step.name());
-        progress.steps.inc(1);
+        for (k, step) in Step::ALL.iter().copied().enumerate() {
+            let name = format!("replicate-{r:02}/{}", step.name());
+            progress.steps.set_message(format!(
+                "replicate {r} of {replicates}, step {} of {}: {}",
+                k + 1,
+                Step::ALL.len(),
+                step.title()
+            ));
+            match run_step(&ctx, step, progress)? {
+                StepEnd::Ran => ran.push(name),
+                StepEnd::Kept => kept.push(name),
+                StepEnd::Interrupted => return Ok(End::Interrupted { step: name }),
+            }
+            progress.steps.inc(1);
+        }
     }
     progress.steps.set_message(format!(
-        "step {0} of {0}: the findings report",
-        Step::ALL.len() + 1
+        "step {steps_in_all} of {steps_in_all}: the findings report"
     ));
-    let report = page::write_findings(out, &options.preset)?;
+    let report = Box::new(page::write_findings(out, &options.preset, replicates)?);
     progress.steps.inc(1);
     Ok(End::Finished { ran, kept, report })
+}
+
+enum StepEnd {
+    Ran,
+    Kept,
+    Interrupted,
+}
+
+/// Runs one step of one replicate unless it is already done with the same inputs.
+fn run_step(
+    ctx: &steps::Context,
+    step: Step,
+    progress: &Progress,
+) -> Result<StepEnd, ReproduceError> {
+    let dir = ctx.out.join(step.dir());
+    let inputs = sha256_text(&step.inputs(ctx)?);
+    if read_record(&dir).is_some_and(|r| r.inputs_sha256 == inputs) {
+        return Ok(StepEnd::Kept);
+    }
+    // A step interrupted with the same inputs carries on (a batch keeps its trials); one
+    // whose inputs changed starts again.
+    let same_inputs =
+        std::fs::read_to_string(dir.join("step.inputs")).is_ok_and(|h| h.trim() == inputs);
+    if dir.exists() && !same_inputs {
+        std::fs::remove_dir_all(&dir).map_err(io(&dir))?;
+    }
+    std::fs::create_dir_all(&dir).map_err(io(&dir))?;
+    std::fs::write(dir.join("step.inputs"), &inputs).map_err(io(&dir))?;
+    progress.work.reset();
+    progress.work.set_length(0);
+    progress.work.set_message("");
+    let started = std::time::Instant::now();
+    let finished = step.run(ctx, &dir)?;
+    if !finished || ctx.stop.load(Ordering::Relaxed) {
+        return Ok(StepEnd::Interrupted);
+    }
+    let (tmo_version, git_revision) = crate::trial::TrialMeta::code_version();
+    let record = StepRecord {
+        step: step.name().into(),
+        inputs_sha256: inputs,
+        outputs_sha256: digest_dir(&dir)?,
+        wall_s: started.elapsed().as_secs_f64(),
+        tmo_version,
+        git_revision,
+    };
+    write_atomic(
+        &dir.join("step.json"),
+        serde_json::to_string_pretty(&record)
+            .expect("a record serialises")
+            .as_bytes(),
+    )?;
+    Ok(StepEnd::Ran)
 }

@@ -1,14 +1,20 @@
 //! The findings report of a reproduction: `findings.md`, `findings.json` and a
-//! self-contained `findings.html`, each row the paper's value, ours (with its interval)
-//! and whether it reproduced by the row's rule; then the paper's tables and figures as
-//! `tmo report` makes them from the same step outputs.
+//! self-contained `findings.html`. Each row gives the verdict first, then the paper's value
+//! and ours (pooled over the replicates, with its 95 % interval), in how many replicates
+//! the claim held, whether the paper's own effect was clear at its n, and whether a
+//! simulator value was calibrated against the row; central claims come first. Then the
+//! paper's tables and figures as `tmo report` makes them from the first replicate.
 
 use std::path::{Path, PathBuf};
 
-use super::findings::{judge_all, paper, summary, Judged, Measure, Measures, Reproduced};
+use super::evidence::Basis;
+use super::findings::{
+    held_out_and_calibrated, judge_all, mark_calibrated, paper, Judged, Measure, Measures,
+    Reproduced, Tally,
+};
 use super::measure::{measure, Observations};
 use super::steps::{read_sweep, Preset, Step, Timing};
-use super::{io, ReproduceError};
+use super::{io, replicate_dir, ReproduceError};
 use crate::report::html;
 use crate::runner::score::{LiftRow, OutcomeRow};
 use crate::slip::evaluation::Evaluation;
@@ -21,19 +27,31 @@ pub struct Written {
     pub json: PathBuf,
     pub html: PathBuf,
     pub figures: Vec<PathBuf>,
-    /// Findings reproduced fully, partly, and in all.
-    pub reproduced: usize,
-    pub partly: usize,
-    pub total: usize,
+    pub replicates: u32,
+    pub all: Tally,
+    /// Findings no simulator value was chosen with in view, and the calibrated ones.
+    pub held_out: Tally,
+    pub calibrated: Tally,
     /// Simulated catch trials with a ground-truth verdict, and how many agree.
     pub truth_agreement: Option<(usize, usize)>,
 }
 
+fn tally_text(t: &Tally) -> String {
+    format!(
+        "{} of {} reproduced ({} partly, {} not resolved)",
+        t.yes, t.total, t.partly, t.not_resolved
+    )
+}
+
 impl Written {
+    /// The headline: held-out and calibrated findings counted apart.
     pub fn summary_line(&self) -> String {
         format!(
-            "{} of {} findings reproduced ({} partly)",
-            self.reproduced, self.total, self.partly
+            "held-out findings: {}; calibrated findings: {} ({} replicate{})",
+            tally_text(&self.held_out),
+            tally_text(&self.calibrated),
+            self.replicates,
+            if self.replicates == 1 { "" } else { "s" }
         )
     }
 
@@ -53,7 +71,7 @@ fn read_json<T: serde::de::DeserializeOwned>(path: &Path) -> Option<T> {
 }
 
 /// Everything the steps left, read from their directories (missing pieces stay `None`).
-struct Loaded {
+pub struct Loaded {
     sweep: Option<Vec<crate::slip::sweep::SweepRow>>,
     speeds: Option<(Vec<f64>, Vec<f64>, f64)>,
     timing: Option<Timing>,
@@ -111,36 +129,182 @@ fn load(out: &Path) -> Loaded {
     }
 }
 
-/// The value of a measure as the report shows it, interval included.
-pub fn show(m: &Measure) -> String {
-    let v = |x: f64| {
-        if x.abs() >= 10.0 {
-            format!("{x:.1}")
-        } else {
-            format!("{x:.3}")
-        }
-    };
-    let mut s = v(m.value);
-    if let Some((lo, hi)) = m.interval {
-        s += &format!(" [{}, {}]", v(lo), v(hi));
+fn number(x: f64) -> String {
+    if x.abs() >= 10.0 {
+        format!("{x:.1}")
+    } else {
+        format!("{x:.3}")
     }
-    if let Some(n) = m.n {
-        s += &format!(" (n={n})");
+}
+
+/// `k` and `n` of a measure that is one rate.
+fn single_rate(m: &Measure) -> Option<(u64, u64)> {
+    match &m.basis {
+        Basis::Counts(terms) if terms.len() == 1 && terms[0].coef == 1.0 => {
+            Some((terms[0].k, terms[0].n))
+        }
+        _ => None,
+    }
+}
+
+/// The value of a measure as the report shows it: a rate as a percentage with its counts,
+/// anything else as a number; its interval; what it rests on.
+pub fn show(m: &Measure) -> String {
+    if let Some((k, n)) = single_rate(m) {
+        let pct = |x: f64| format!("{:.0}", 100.0 * x);
+        let mut s = format!("{} %", pct(m.value));
+        if let Some((lo, hi)) = m.interval {
+            s += &format!(" [{}, {}]", pct(lo), pct(hi));
+        }
+        return s + &format!(" ({k}/{n})");
+    }
+    let mut s = number(m.value);
+    if let Some((lo, hi)) = m.interval {
+        s += &format!(" [{}, {}]", number(lo), number(hi));
+    }
+    match (&m.basis, m.n) {
+        (Basis::Replicates(v), _) => s += &format!(" (mean of {} replicates)", v.len()),
+        (_, Some(n)) => s += &format!(" (n={n})"),
+        _ => {}
     }
     s
 }
 
+/// Our side of a row, in the rule's terms: the values it compares and, for a comparison,
+/// the difference with its interval.
 fn ours(j: &Judged) -> String {
-    j.ours
+    let value = |k: &str| {
+        j.ours
+            .get(k)
+            .and_then(|m| m.as_ref())
+            .map_or("not measured".to_string(), show)
+    };
+    let metrics = j.finding.rule.metrics();
+    let mut s = metrics
         .iter()
-        .map(|(k, v)| {
-            format!(
-                "{k} = {}",
-                v.as_ref().map_or("not measured".to_string(), show)
-            )
-        })
+        .map(|k| value(k))
         .collect::<Vec<_>>()
-        .join("; ")
+        .join(" vs ");
+    if let [c] = j.comparisons.as_slice() {
+        s += &format!("; difference {}", number(c.difference));
+        if let Some((lo, hi)) = c.interval {
+            s += &format!(" [{}, {}]", number(lo), number(hi));
+        }
+    }
+    s
+}
+
+/// The metric keys, the rule and the calibrated parameters, for the details line.
+fn details(j: &Judged) -> String {
+    let mut s = format!("rule `{}` ({})", j.rule_text, j.finding.source);
+    if !j.calibrated_by.is_empty() {
+        s += &format!("; calibrated by {}", j.calibrated_by.join(", "));
+    }
+    s
+}
+
+fn held_in(j: &Judged) -> String {
+    let (held, of) = j.held_in;
+    if of == 0 {
+        "-".into()
+    } else {
+        format!("{held} of {of}")
+    }
+}
+
+fn paper_effect(j: &Judged) -> String {
+    match j.paper_verdict {
+        Some(Reproduced::Yes) => "clear at its n".into(),
+        Some(Reproduced::Partly) => "partly clear at its n".into(),
+        Some(v) => format!("{} at its n", v.label()),
+        None => "-".into(),
+    }
+}
+
+fn standing(j: &Judged) -> String {
+    match j.calibrated_by.len() {
+        0 => "held-out".into(),
+        1 => "calibrated (1 parameter)".into(),
+        n => format!("calibrated ({n} parameters)"),
+    }
+}
+
+/// Whether every value the verdict used was a point with no interval (one replicate of an
+/// offline score): decided, but with nothing to say how firmly.
+fn decided_at_point(j: &Judged) -> bool {
+    let no_interval = |m: &Option<Measure>| m.as_ref().is_none_or(|m| m.interval.is_none());
+    if j.comparisons.is_empty() {
+        j.ours.values().all(no_interval)
+    } else {
+        j.comparisons.iter().all(|c| c.interval.is_none())
+    }
+}
+
+/// Central claims first, each group in the findings file's order.
+fn ordered(judged: &[Judged]) -> Vec<&Judged> {
+    let mut rows: Vec<&Judged> = judged.iter().filter(|j| j.finding.central).collect();
+    rows.extend(judged.iter().filter(|j| !j.finding.central));
+    rows
+}
+
+const COLUMNS: [&str; 8] = [
+    "verdict",
+    "finding",
+    "paper",
+    "ours (95 % interval)",
+    "replicates holding",
+    "paper's effect",
+    "standing",
+    "id",
+];
+
+fn cells(j: &Judged) -> [String; 8] {
+    [
+        j.reproduced.label().to_string(),
+        j.finding.measured.clone(),
+        j.finding.paper.clone(),
+        ours(j),
+        held_in(j),
+        paper_effect(j),
+        standing(j),
+        j.finding.id.clone(),
+    ]
+}
+
+/// What the page says about how far its verdicts can be trusted.
+fn caveats(preset: Preset, judged: &[Judged], w: &Written) -> Vec<String> {
+    let mut out = vec![
+        "A verdict is **yes** only where the claim holds with its 95 % interval clear of the rule's margin, **no** where the opposite holds that way, and **not resolved** where the interval straddles it (docs/reproduce.md). \"Replicates holding\" counts the replicates in which the claim held at the measured values alone.".to_string(),
+        "A **calibrated** finding is one a simulator value was chosen while looking at (hal/data/parameters.toml); it is not evidence that the simulator predicts it, and is counted apart.".to_string(),
+    ];
+    let unresolved: Vec<&str> = judged
+        .iter()
+        .filter(|j| j.reproduced == Reproduced::NotResolved)
+        .map(|j| j.finding.id.as_str())
+        .collect();
+    if !unresolved.is_empty() {
+        out.push(format!(
+            "Not resolved at this size: {}.",
+            unresolved.join(", ")
+        ));
+    }
+    if w.replicates == 1 {
+        let point: Vec<&str> = judged
+            .iter()
+            .filter(|j| j.reproduced != Reproduced::NotMeasured && decided_at_point(j))
+            .map(|j| j.finding.id.as_str())
+            .collect();
+        if !point.is_empty() {
+            out.push(format!(
+                "With one replicate these rows rest on a single offline score, with no interval to say how firmly they are decided: {}. Run more replicates (`--replicates K`) to decide them.",
+                point.join(", ")
+            ));
+        }
+    }
+    if preset == Preset::Quick {
+        out.push("The quick preset runs a few trials a cell: its online rows are mostly not resolved, and its verdicts are a first look, not evidence. `--preset paper` runs the paper's counts with five replicates.".to_string());
+    }
+    out
 }
 
 fn markdown(preset: Preset, judged: &[Judged], w: &Written, tables: &str) -> String {
@@ -152,30 +316,45 @@ fn markdown(preset: Preset, judged: &[Judged], w: &Written, tables: &str) -> Str
     if let Some(line) = w.agreement_line() {
         out += &format!("{line}\n\n");
     }
-    out += "| id | measured | paper | source | ours | rule | reproduced |\n| --- | --- | --- | --- | --- | --- | --- |\n";
-    for j in judged {
-        let f = &j.finding;
-        let cells = [
-            f.id.clone(),
-            f.measured.clone(),
-            f.paper.clone(),
-            f.source.clone(),
-            ours(j),
-            format!("`{}`", j.rule_text),
-            j.reproduced.label().to_string(),
-        ];
+    for c in caveats(preset, judged, w) {
+        out += &format!("- {c}\n");
+    }
+    out += &format!(
+        "\n| {} | details |\n|{}\n",
+        COLUMNS.join(" | "),
+        " --- |".repeat(COLUMNS.len() + 1)
+    );
+    let mut central = true;
+    for j in ordered(judged) {
+        if central && !j.finding.central {
+            central = false;
+        }
+        let mut row: Vec<String> = cells(j).to_vec();
+        if j.finding.central {
+            row[1] = format!("**{}**", row[1]);
+        }
+        row.push(details(j));
         out += &format!(
             "| {} |\n",
-            cells
-                .iter()
+            row.iter()
                 .map(|c| c.replace('|', "\\|"))
                 .collect::<Vec<_>>()
                 .join(" | ")
         );
     }
-    out += "\n## The paper's tables, from this run\n\n";
+    out += "\nCentral claims (in bold) come first.\n\n## The paper's tables, from the first replicate\n\n";
     out += tables;
     out
+}
+
+fn verdict_class(v: Reproduced) -> &'static str {
+    match v {
+        Reproduced::Yes => "yes",
+        Reproduced::Partly => "partly",
+        Reproduced::No => "no",
+        Reproduced::NotResolved => "not_resolved",
+        Reproduced::NotMeasured => "not_measured",
+    }
 }
 
 fn html_page(
@@ -192,27 +371,39 @@ fn html_page(
     if let Some(line) = w.agreement_line() {
         body += &format!("<p>{}</p>\n", html::escape(&line));
     }
-    body += "<table>\n<tr><th>id</th><th>measured</th><th>paper</th><th>source</th><th>ours</th><th>rule</th><th>reproduced</th></tr>\n";
-    for j in judged {
-        let f = &j.finding;
-        let class = match j.reproduced {
-            Reproduced::Yes => "yes",
-            Reproduced::Partly => "partly",
-            Reproduced::No => "no",
-            Reproduced::NotMeasured => "not_measured",
-        };
-        body += &format!(
-            "<tr><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td><code>{}</code></td><td class=\"{class}\">{}</td></tr>\n",
-            html::escape(&f.id),
-            html::escape(&f.measured),
-            html::escape(&f.paper),
-            html::escape(&f.source),
-            html::escape(&ours(j)),
-            html::escape(&j.rule_text),
-            j.reproduced.label()
-        );
+    body += "<ul>\n";
+    for c in caveats(preset, judged, w) {
+        let text = html::escape(&c).replace("**", "");
+        body += &format!("<li>{text}</li>\n");
     }
-    body += "</table>\n<h2>The paper's tables, from this run</h2>\n";
+    body += "</ul>\n";
+    let table = |title: &str, rows: &[&Judged]| {
+        let mut t = format!("<h2>{title}</h2>\n<table>\n<tr>");
+        for c in COLUMNS {
+            t += &format!("<th>{}</th>", html::escape(c));
+        }
+        t += "</tr>\n";
+        for j in rows {
+            let c = cells(j);
+            t += &format!(
+                "<tr><td class=\"{}\"><b>{}</b></td><td>{}<div class=\"details\">{}</div></td>",
+                verdict_class(j.reproduced),
+                html::escape(&c[0]),
+                html::escape(&c[1]),
+                html::escape(&details(j))
+            );
+            for cell in &c[2..] {
+                t += &format!("<td>{}</td>", html::escape(cell));
+            }
+            t += "</tr>\n";
+        }
+        t + "</table>\n"
+    };
+    let (central, rest): (Vec<&Judged>, Vec<&Judged>) =
+        judged.iter().partition(|j| j.finding.central);
+    body += &table("Central claims", &central);
+    body += &table("Details", &rest);
+    body += "<h2>The paper's tables, from the first replicate</h2>\n";
     body += &tables.iter().map(html::table).collect::<String>();
     if !w.figures.is_empty() {
         body += "<h2>Figures</h2>\n";
@@ -221,16 +412,13 @@ fn html_page(
     html::page("tmo reproduce: findings against the paper", &body)
 }
 
-/// Measures what the finished steps in `out` hold and writes the findings report there.
-pub fn write_findings(out: &Path, preset: &Preset) -> Result<Written, ReproduceError> {
-    let l = load(out);
-    let speeds = l
-        .speeds
-        .as_ref()
-        .map(|(a, b, t)| (a.as_slice(), b.as_slice(), *t));
-    let observations = Observations {
+fn observations(l: &Loaded) -> Observations<'_> {
+    Observations {
         rail_sweep: l.sweep.as_deref(),
-        rail_speeds: speeds,
+        rail_speeds: l
+            .speeds
+            .as_ref()
+            .map(|(a, b, t)| (a.as_slice(), b.as_slice(), *t)),
         classify_ms: l.timing.as_ref().map(|t| t.median_ms),
         rail_online: l.rail_online.as_deref(),
         hand_global: l.global.as_ref(),
@@ -241,27 +429,81 @@ pub fn write_findings(out: &Path, preset: &Preset) -> Result<Written, ReproduceE
         pour: l.pour.as_deref(),
         lift: l.lift.as_deref(),
         lift_cat: l.lift_cat.as_deref(),
-    };
-    let measures: Measures = measure(&observations);
-    let judged = judge_all(&paper(), &measures);
-    let (reproduced, total) = summary(&judged);
-    let partly = judged
-        .iter()
-        .filter(|j| j.reproduced == Reproduced::Partly)
-        .count();
+    }
+}
+
+/// Every replicate's trial rows of one kind, together (`None` where no replicate has any).
+fn pooled<T: Clone>(
+    loaded: &[Loaded],
+    rows: impl Fn(&Loaded) -> Option<&Vec<T>>,
+) -> Option<Vec<T>> {
+    let mut all: Option<Vec<T>> = None;
+    for l in loaded {
+        if let Some(r) = rows(l) {
+            all.get_or_insert_with(Vec::new).extend(r.iter().cloned());
+        }
+    }
+    all
+}
+
+/// The findings of the replicates' finished steps: pooled measures, verdicts, and the
+/// calibration marks from the simulator's parameter records.
+pub fn judge_replicates(out: &Path, replicates: u32) -> (Vec<Judged>, Measures, Vec<Loaded>) {
+    let loaded: Vec<Loaded> = (1..=replicates.max(1))
+        .map(|r| load(&replicate_dir(out, r)))
+        .collect();
+    let per_replicate: Vec<Measures> = loaded.iter().map(|l| measure(&observations(l))).collect();
+    let rail_online = pooled(&loaded, |l| l.rail_online.as_ref());
+    let hand_online = pooled(&loaded, |l| l.hand_online.as_ref());
+    let objects = pooled(&loaded, |l| l.objects.as_ref());
+    let pour = pooled(&loaded, |l| l.pour.as_ref());
+    let lift = pooled(&loaded, |l| l.lift.as_ref());
+    let lift_cat = pooled(&loaded, |l| l.lift_cat.as_ref());
+    let from_trials = measure(&Observations {
+        rail_online: rail_online.as_deref(),
+        hand_online: hand_online.as_deref(),
+        objects: objects.as_deref(),
+        pour: pour.as_deref(),
+        lift: lift.as_deref(),
+        lift_cat: lift_cat.as_deref(),
+        ..Default::default()
+    });
+    let measures = super::evidence::pool(&per_replicate, &from_trials);
+    let mut judged = judge_all(&paper(), &measures, &per_replicate);
+    let records = tmo_hal::sim::parameters::built_in();
+    mark_calibrated(
+        &mut judged,
+        records
+            .iter()
+            .map(|r| (r.name.as_str(), r.calibrated_against.as_slice())),
+    );
+    (judged, measures, loaded)
+}
+
+/// Measures what the finished steps of the replicates in `out` hold and writes the
+/// findings report there.
+pub fn write_findings(
+    out: &Path,
+    preset: &Preset,
+    replicates: u32,
+) -> Result<Written, ReproduceError> {
+    let (judged, measures, loaded) = judge_replicates(out, replicates);
+    let (held_out, calibrated) = held_out_and_calibrated(&judged);
     let truth_agreement = crate::outcome::truth_agreement(
-        [&l.rail_online, &l.hand_online, &l.objects, &l.pour]
-            .into_iter()
+        loaded
+            .iter()
+            .flat_map(|l| [&l.rail_online, &l.hand_online, &l.objects, &l.pour])
             .flatten()
             .flatten()
             .filter(|r| r.fault.is_none())
             .map(|r| (r.verdict, r.truth_verdict)),
     );
 
-    // The paper's tables and figures from the same outputs, as `tmo report` makes them.
+    // The paper's tables and figures from the first replicate, as `tmo report` makes them.
+    let first = replicate_dir(out, 1);
     let mut inputs: Vec<PathBuf> = Vec::new();
     let mut add = |step: Step, sub: &str| {
-        if let Some(d) = done(out, step) {
+        if let Some(d) = done(&first, step) {
             inputs.push(if sub.is_empty() { d } else { d.join(sub) });
         }
     };
@@ -294,9 +536,10 @@ pub fn write_findings(out: &Path, preset: &Preset) -> Result<Written, ReproduceE
         json: out.join("findings.json"),
         html: out.join("findings.html"),
         figures,
-        reproduced,
-        partly,
-        total,
+        replicates: replicates.max(1),
+        all: Tally::of(&judged),
+        held_out,
+        calibrated,
         truth_agreement,
     };
     let md_tables = crate::report::render(&tables, crate::report::Format::Md)
@@ -305,9 +548,11 @@ pub fn write_findings(out: &Path, preset: &Preset) -> Result<Written, ReproduceE
     std::fs::write(&written.md, md).map_err(io(&written.md))?;
     let json = serde_json::json!({
         "preset": preset.name(),
-        "reproduced": reproduced,
-        "partly": partly,
-        "total": total,
+        "replicates": written.replicates,
+        "headline": written.summary_line(),
+        "all": written.all,
+        "held_out": written.held_out,
+        "calibrated": written.calibrated,
         "truth_agreement": truth_agreement.map(|(n, agree)| serde_json::json!({"trials": n, "agree": agree})),
         "findings": judged,
         "measures": measures,

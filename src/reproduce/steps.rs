@@ -31,7 +31,7 @@ pub const SWEEP_GAMMA: f64 = 0.02;
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Preset {
-    /// A scaled-down run for a first look (about ten seconds on two cores).
+    /// A scaled-down run for a first look (about 20 s on two cores).
     Quick,
     /// The paper's counts.
     Paper,
@@ -73,6 +73,15 @@ impl Preset {
         }
     }
 
+    /// Replicates when none are asked for: five for the paper's counts, so that its
+    /// verdicts rest on their spread; one for a first look.
+    pub fn default_replicates(self) -> u32 {
+        match self {
+            Preset::Quick => 1,
+            Preset::Paper => 5,
+        }
+    }
+
     pub fn counts(self) -> Counts {
         match self {
             Preset::Paper => Counts {
@@ -111,11 +120,27 @@ impl Preset {
 
 /// What every step can see.
 pub struct Context<'a> {
+    /// The replicate's directory, which holds its steps' directories.
     pub out: &'a Path,
+    /// Which replicate (1-based): it sets every trial and learner seed.
+    pub replicate: u32,
     pub preset: &'a Preset,
     pub backend: &'a Backend,
     pub stop: &'a AtomicBool,
     pub bar: &'a indicatif::ProgressBar,
+}
+
+impl Context<'_> {
+    /// The seed of learners (sweep, search, training): 0 in the first replicate.
+    pub fn learner_seed(&self) -> u64 {
+        u64::from(self.replicate.saturating_sub(1))
+    }
+}
+
+/// Replicate `r`'s seed for a protocol whose first replicate uses `base`: replicates are
+/// 1000 apart, so no two protocols of a reproduction share a seed.
+pub fn trial_seed(base: u32, replicate: u32) -> u64 {
+    u64::from(base) + 1000 * u64::from(replicate.saturating_sub(1))
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -215,16 +240,20 @@ impl Step {
         }
     }
 
-    /// Protocol files of a batch step, by sub-directory ("" for the step's own).
-    fn protocols(self, c: &Counts) -> Vec<(&'static str, String)> {
+    /// Protocol files of a batch step in replicate `r`, by sub-directory ("" for the
+    /// step's own).
+    fn protocols(self, c: &Counts, r: u32) -> Vec<(&'static str, String)> {
         let training = quoted(&TRAINING_OBJECTS);
-        let rail_collect = |seed: u32| {
+        let seed = |base: u32| trial_seed(base, r);
+        let [s13, s23, s24, s25, s26, s27, s28, s29, s30] =
+            [13, 23, 24, 25, 26, 27, 28, 29, 30].map(seed);
+        let rail_collect = |seed: u64| {
             format!(
                 "kind = \"rail_catch\"\nmode = \"collect\"\nrepetitions = {}\nseed = {seed}\nobjects = [\"rail_object\"]\n",
                 c.rail_collect
             )
         };
-        let hand_collect = |seed: u32| {
+        let hand_collect = |seed: u64| {
             format!(
                 "kind = \"hand_release\"\nmode = \"collect\"\nrepetitions = {}\nseed = {seed}\nobjects = [{training}]\ngrasps_deg = [0]\n\n[hand_release]\nrelease_speed_of_max = 0.005\nlift_mm = 120.0\n",
                 c.hand_collect
@@ -232,19 +261,19 @@ impl Step {
         };
         let models = "../06_hand_models";
         match self {
-            Step::RailCollect => vec![("train", rail_collect(11)), ("test", rail_collect(12))],
+            Step::RailCollect => vec![("train", rail_collect(seed(11))), ("test", rail_collect(seed(12)))],
             Step::RailOnline => vec![(
                 "",
                 format!(
-                    "kind = \"rail_catch\"\nrepetitions = {}\nseed = 13\nobjects = [\"rail_object\"]\nmodels = [\"../03_rail_model/rail.json\"]\nstrategies = [\"1x1\", \"2x1\"]\n",
+                    "kind = \"rail_catch\"\nrepetitions = {}\nseed = {s13}\nobjects = [\"rail_object\"]\nmodels = [\"../03_rail_model/rail.json\"]\nstrategies = [\"1x1\", \"2x1\"]\n",
                     c.rail_online
                 ),
             )],
-            Step::HandCollect => vec![("train", hand_collect(21)), ("test", hand_collect(22))],
+            Step::HandCollect => vec![("train", hand_collect(seed(21))), ("test", hand_collect(seed(22)))],
             Step::HandOnline => vec![(
                 "",
                 format!(
-                    "kind = \"hand_release\"\nrepetitions = {}\nseed = 23\nobjects = [\"crisps_can\"]\ngrasps_deg = [0, 180]\nmodels = [\"{models}/global.json\", \"{models}/local.json\"]\nstrategies = [\"1x1\", \"2x1\", \"1x2\", \"2x2\", \"1x3\", \"2x3\"]\n",
+                    "kind = \"hand_release\"\nrepetitions = {}\nseed = {s23}\nobjects = [\"crisps_can\"]\ngrasps_deg = [0, 180]\nmodels = [\"{models}/global.json\", \"{models}/local.json\"]\nstrategies = [\"1x1\", \"2x1\", \"1x2\", \"2x2\", \"1x3\", \"2x3\"]\n",
                     c.hand_online
                 ),
             )],
@@ -252,7 +281,7 @@ impl Step {
                 (
                     "all",
                     format!(
-                        "kind = \"hand_release\"\nrepetitions = {}\nseed = 24\nobjects = [{}]\ngrasps_deg = [0]\nmodels = [\"../{models}/global.json\"]\nstrategies = [\"2x2\", \"1x2\"]\n",
+                        "kind = \"hand_release\"\nrepetitions = {}\nseed = {s24}\nobjects = [{}]\ngrasps_deg = [0]\nmodels = [\"../{models}/global.json\"]\nstrategies = [\"2x2\", \"1x2\"]\n",
                         c.objects,
                         quoted(&paper_objects())
                     ),
@@ -261,7 +290,7 @@ impl Step {
                     // the paper's cat again, with a 100 g mass adhered to its underside
                     "cat_100g",
                     format!(
-                        "kind = \"hand_release\"\nrepetitions = {}\nseed = 30\nobjects = [\"toy_cat\"]\ngrasps_deg = [0]\nmodels = [\"../{models}/global.json\"]\nstrategies = [\"2x2\", \"1x2\"]\n\n[hand_release]\nmasses_g = [100]\n",
+                        "kind = \"hand_release\"\nrepetitions = {}\nseed = {s30}\nobjects = [\"toy_cat\"]\ngrasps_deg = [0]\nmodels = [\"../{models}/global.json\"]\nstrategies = [\"2x2\", \"1x2\"]\n\n[hand_release]\nmasses_g = [100]\n",
                         c.objects
                     ),
                 ),
@@ -269,7 +298,7 @@ impl Step {
             Step::RicePour => vec![(
                 "",
                 format!(
-                    "kind = \"rice_pour\"\nrepetitions = {}\nseed = 25\nobjects = [\"crisps_can_empty\"]\nmodels = [\"{models}/global.json\"]\nstrategies = [\"2x2\"]\n",
+                    "kind = \"rice_pour\"\nrepetitions = {}\nseed = {s25}\nobjects = [\"crisps_can_empty\"]\nmodels = [\"{models}/global.json\"]\nstrategies = [\"2x2\"]\n",
                     c.pour
                 ),
             )],
@@ -277,14 +306,14 @@ impl Step {
                 (
                     "can",
                     format!(
-                        "kind = \"calibrate_lift\"\nrepetitions = {}\nseed = 26\nobjects = [\"crisps_can_empty\"]\n\n[calibrate_lift]\nmasses_g = [0, 50, 100, 150, 250, 350, 450]\n",
+                        "kind = \"calibrate_lift\"\nrepetitions = {}\nseed = {s26}\nobjects = [\"crisps_can_empty\"]\n\n[calibrate_lift]\nmasses_g = [0, 50, 100, 150, 250, 350, 450]\n",
                         c.calibrate
                     ),
                 ),
                 (
                     "cat",
                     format!(
-                        "kind = \"calibrate_lift\"\nrepetitions = {}\nseed = 27\nobjects = [\"toy_cat\"]\n\n[calibrate_lift]\nmasses_g = [0, 100]\n",
+                        "kind = \"calibrate_lift\"\nrepetitions = {}\nseed = {s27}\nobjects = [\"toy_cat\"]\n\n[calibrate_lift]\nmasses_g = [0, 100]\n",
                         c.calibrate
                     ),
                 ),
@@ -293,14 +322,14 @@ impl Step {
                 (
                     "can",
                     format!(
-                        "kind = \"first_time_lift\"\nrepetitions = {}\nseed = 28\nobjects = [\"crisps_can_empty\"]\nmodels = [\"../{models}/global.json\"]\nstrategies = [\"1x1\"]\n\n[first_time_lift]\nmasses_g = [0, 50, 100, 150, 250, 350, 450]\ncalibration = \"../../10_calibrate_lift/can/g_min.json\"\n",
+                        "kind = \"first_time_lift\"\nrepetitions = {}\nseed = {s28}\nobjects = [\"crisps_can_empty\"]\nmodels = [\"../{models}/global.json\"]\nstrategies = [\"1x1\"]\n\n[first_time_lift]\nmasses_g = [0, 50, 100, 150, 250, 350, 450]\ncalibration = \"../../10_calibrate_lift/can/g_min.json\"\n",
                         c.lift
                     ),
                 ),
                 (
                     "cat",
                     format!(
-                        "kind = \"first_time_lift\"\nrepetitions = {}\nseed = 29\nobjects = [\"toy_cat\"]\nmodels = [\"../{models}/global.json\"]\nstrategies = [\"1x1\"]\n\n[first_time_lift]\nmasses_g = [0, 100]\ncalibration = \"../../10_calibrate_lift/cat/g_min.json\"\n",
+                        "kind = \"first_time_lift\"\nrepetitions = {}\nseed = {s29}\nobjects = [\"toy_cat\"]\nmodels = [\"../{models}/global.json\"]\nstrategies = [\"1x1\"]\n\n[first_time_lift]\nmasses_g = [0, 100]\ncalibration = \"../../10_calibrate_lift/cat/g_min.json\"\n",
                         c.lift
                     ),
                 ),
@@ -316,7 +345,12 @@ impl Step {
         let c = ctx.preset.counts();
         // The code is an input: a step made by another build of tmo is made again.
         let (version, revision) = crate::trial::TrialMeta::code_version();
-        let mut text = format!("step {}\ntmo {version} {revision}\n", self.name());
+        let mut text = format!(
+            "step {}\ntmo {version} {revision}\nreplicate {} learner seed {}\n",
+            self.name(),
+            ctx.replicate,
+            ctx.learner_seed()
+        );
         match self {
             Step::RailSweep => text.push_str(&format!(
                 "d {:?}\nn_slip {:?}\nsearch {:?} else C {SWEEP_C} gamma {SWEEP_GAMMA}\n",
@@ -328,7 +362,7 @@ impl Step {
             )),
             _ => {}
         }
-        for (sub, protocol) in self.protocols(&c) {
+        for (sub, protocol) in self.protocols(&c, ctx.replicate) {
             text.push_str(&format!("[{sub}]\n{protocol}"));
         }
         if let Backend::Real { hand, rail, .. } = ctx.backend {
@@ -357,7 +391,7 @@ impl Step {
             Step::RailModel => rail_model(ctx, &c, dir).map(|_| true),
             Step::HandModels => hand_models(ctx, dir).map(|_| true),
             _ => {
-                for (sub, protocol) in self.protocols(&c) {
+                for (sub, protocol) in self.protocols(&c, ctx.replicate) {
                     let batch_dir = if sub.is_empty() {
                         dir.to_path_buf()
                     } else {
@@ -478,7 +512,7 @@ fn rail_sweep(ctx: &Context, c: &Counts, dir: &Path) -> Result<bool, ReproduceEr
                 max_iterations: None,
             }),
         },
-        seed: 0,
+        seed: ctx.learner_seed(),
     };
     // Finished cells are kept in sweep.csv.partial: an interrupted sweep resumes there.
     let out = dir.join("sweep.csv");
@@ -536,7 +570,7 @@ fn rail_model(ctx: &Context, c: &Counts, dir: &Path) -> Result<(), ReproduceErro
                 kind: classifier,
                 scope: Scope::Global,
                 downsample: d,
-                seed: 0,
+                seed: ctx.learner_seed(),
                 iterations: c.search_iterations,
                 folds: c.search_folds,
                 ranges: Default::default(),
@@ -564,7 +598,7 @@ fn rail_model(ctx: &Context, c: &Counts, dir: &Path) -> Result<(), ReproduceErro
             features,
             labels: labels(cell.n_slip),
             downsample: d,
-            seed: 0,
+            seed: ctx.learner_seed(),
         };
         let model = ModelFile::train(&ds, &spec, refs, search)
             .map_err(|e| ReproduceError::step(step, e))?;
@@ -601,7 +635,7 @@ fn hand_models(ctx: &Context, dir: &Path) -> Result<(), ReproduceError> {
             features,
             labels: labels(n_slip),
             downsample: rail.downsample,
-            seed: 0,
+            seed: ctx.learner_seed(),
         };
         let model = ModelFile::train(&train, &spec, refs.clone(), None)
             .map_err(|e| ReproduceError::step(step, e))?;
@@ -696,7 +730,7 @@ mod tests {
         }
         for preset in [Preset::Quick, Preset::Paper] {
             for step in Step::ALL {
-                for (sub, text) in step.protocols(&preset.counts()) {
+                for (sub, text) in step.protocols(&preset.counts(), 2) {
                     let d = dir.path().join(step.dir()).join(sub);
                     std::fs::create_dir_all(&d).unwrap();
                     let p = d.join("protocol.toml");
@@ -707,6 +741,35 @@ mod tests {
                 }
             }
         }
+    }
+
+    #[test]
+    fn the_first_replicate_keeps_the_base_seeds_and_no_two_replicates_share_one() {
+        let seeds = |r: u32| -> Vec<String> {
+            Step::ALL
+                .iter()
+                .flat_map(|s| s.protocols(&Preset::Paper.counts(), r))
+                .map(|(_, text)| {
+                    text.lines()
+                        .find(|l| l.starts_with("seed = "))
+                        .unwrap()
+                        .to_string()
+                })
+                .collect()
+        };
+        let first = seeds(1);
+        assert!(first.contains(&"seed = 11".to_string()), "{first:?}");
+        assert!(first.contains(&"seed = 30".to_string()), "{first:?}");
+        let mut all: Vec<String> = (1..=5).flat_map(seeds).collect();
+        let n = all.len();
+        all.sort();
+        all.dedup();
+        assert_eq!(
+            all.len(),
+            n,
+            "a seed is shared between protocols or replicates"
+        );
+        assert_eq!(trial_seed(13, 3), 2013);
     }
 
     #[test]

@@ -9,6 +9,7 @@ pub mod actuators;
 pub mod config;
 pub mod grasp;
 pub mod objects;
+pub mod parameters;
 pub mod serve_control;
 pub mod serve_dynamixel;
 pub mod serve_jevois;
