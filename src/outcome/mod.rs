@@ -11,9 +11,13 @@
 //!   early;
 //! - FN: the object was dropped: it fell more than the drop limit below its held height;
 //! - TP: the hand reacted after the onset and the object came to rest held;
-//! - held, no measurable slip: the hand reacted and the object never fell past the drop
-//!   threshold: a catch so prompt that the markers cannot tell it from a reaction to
-//!   nothing, reported on its own rather than as an FP;
+//! - a reaction where the onset detector finds no slip is judged by how far the object
+//!   settled across it ([`settle_across`]: the median height in the half second before the
+//!   reaction against the half second after the catch): a settle past the drop threshold
+//!   is a slip the detector's per-sample test missed in the noise (TP, D the settle); one
+//!   the markers can tell from their own noise, but under the threshold, is "held, no
+//!   measurable slip" (caught within a millimetre); none is an FP, a reaction to nothing
+//!   (SPEC: no slip followed or preceded it);
 //! - D: object height (relative to the hand) at the onset minus at rest after the catch.
 //!
 //! A trial with no onset and no reaction is a `NoSlip` trial (nothing to catch).
@@ -74,6 +78,12 @@ pub struct CatchSpec {
     pub rest_window_s: f64,
     /// How long before the marker onset a reaction may come and still count as after it.
     pub marker_lag_s: f64,
+    /// The windows of the held height before a reaction and of the height after its
+    /// catch, s relative to the reaction ([`settle_across`]).
+    pub settle_before_s: (f64, f64),
+    pub settle_after_s: (f64, f64),
+    /// The smallest settle that counts as motion, mm, however quiet the markers are.
+    pub settle_floor_mm: f64,
 }
 
 impl Default for CatchSpec {
@@ -84,6 +94,14 @@ impl Default for CatchSpec {
             rest_tolerance_mm: 1.0,
             rest_window_s: 0.5,
             marker_lag_s: 0.07,
+            // Before: the second up to 0.1 s before the reaction, leaving out the frames
+            // in which the detector was seeing a slip begin. After: the second from 0.2 s
+            // on, when a regrasp (8 ms latency, 50 ms servo loop, tendon slack) has caught
+            // the object. A second each side: 60 samples, so that a few tenths of a mm
+            // stand out of two markers' noise.
+            settle_before_s: (-1.1, -0.1),
+            settle_after_s: (0.2, 1.2),
+            settle_floor_mm: 0.1,
         }
     }
 }
@@ -118,10 +136,19 @@ pub fn score_catch(
         None => false,
     };
     let at_rest = rest_height(track, spec);
+    let settle = match (onset_s, reaction_s) {
+        (None, Some(r)) => settle_across(track, r, spec),
+        _ => None,
+    };
     let verdict = match (onset_s, reaction_s) {
         // An early reaction is the detector's error whatever followed; `dropped` says that.
         (Some(o), Some(r)) if r < o - spec.marker_lag_s => Verdict::FalsePositive,
-        (None, Some(_)) => Verdict::HeldNoSlip,
+        (None, Some(_)) => match settle {
+            Some(s) if s.fall_mm >= spec.onset.drop_threshold_mm => Verdict::TruePositive,
+            Some(s) if s.fall_mm <= s.still_mm => Verdict::FalsePositive,
+            // settled measurably but less than the threshold, or too short a track to say
+            _ => Verdict::HeldNoSlip,
+        },
         (_, _) if dropped => Verdict::FalseNegative,
         (Some(_), Some(_)) if at_rest.is_some() => Verdict::TruePositive,
         // reacted but never came to rest, or slipped with no reaction and not yet dropped
@@ -136,11 +163,62 @@ pub fn score_catch(
         reaction_s,
         latency_s: onset_s.zip(reaction_s).map(|(o, r)| r - o),
         dropped,
-        slip_distance_mm: match (verdict, onset_height, at_rest) {
-            (Verdict::TruePositive, Some(o), Some(rest)) => Some((o - rest).max(0.0)),
+        slip_distance_mm: match (verdict, onset_height, at_rest, settle) {
+            (Verdict::TruePositive, Some(o), Some(rest), _) => Some((o - rest).max(0.0)),
+            (Verdict::TruePositive, None, _, Some(s)) => Some(s.fall_mm),
             _ => None,
         },
     }
+}
+
+/// How far the object settled across a reaction, and the least settle the markers can tell
+/// from their noise.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Settle {
+    /// Relative height before the reaction minus after its catch (20 % trimmed means of
+    /// the two windows), mm.
+    pub fall_mm: f64,
+    /// Three standard errors of that difference at the track's own noise, and at least
+    /// `settle_floor_mm`. The noise is the median absolute step between samples before the
+    /// reaction, over sqrt 2, as a normal standard deviation; a 20 % trimmed mean's
+    /// standard error is 1.06 sigma / sqrt n for normal noise, and it shrugs off a
+    /// mis-detected marker.
+    pub still_mm: f64,
+}
+
+/// The settle across a reaction at `reaction_s`; `None` when either window has fewer than
+/// ten samples.
+pub fn settle_across(track: &[MarkerSample], reaction_s: f64, spec: &CatchSpec) -> Option<Settle> {
+    let window = |(a, b): (f64, f64)| -> Vec<f64> {
+        track
+            .iter()
+            .filter(|m| m.time_s >= reaction_s + a && m.time_s < reaction_s + b)
+            .map(relative_height)
+            .collect()
+    };
+    let median = |v: &[f64]| {
+        let mut s = v.to_vec();
+        s.sort_by(f64::total_cmp);
+        s[s.len() / 2]
+    };
+    let trimmed_mean = |v: &[f64]| {
+        let mut s = v.to_vec();
+        s.sort_by(f64::total_cmp);
+        let cut = s.len() / 5;
+        let kept = &s[cut..s.len() - cut];
+        kept.iter().sum::<f64>() / kept.len() as f64
+    };
+    let (before, after) = (window(spec.settle_before_s), window(spec.settle_after_s));
+    if before.len() < 10 || after.len() < 10 {
+        return None;
+    }
+    let steps: Vec<f64> = before.windows(2).map(|w| (w[1] - w[0]).abs()).collect();
+    let sigma = median(&steps) / 0.6745 / std::f64::consts::SQRT_2;
+    let se = 1.06 * sigma * (1.0 / before.len() as f64 + 1.0 / after.len() as f64).sqrt();
+    Some(Settle {
+        fall_mm: trimmed_mean(&before) - trimmed_mean(&after),
+        still_mm: (3.0 * se).max(spec.settle_floor_mm),
+    })
 }
 
 /// What the simulator knows of a trial (its ground truth), as a trial log records it.
@@ -315,8 +393,12 @@ mod tests {
         let prompt = score_catch(&track(Some(1.0), 25.0, 3.0), Some(0.97), &spec);
         assert_eq!(prompt.verdict, Verdict::TruePositive);
         assert!(prompt.latency_s.unwrap() < 0.0);
-        let never = score_catch(&track(None, 0.0, 3.0), Some(0.5), &spec);
-        assert_eq!(never.verdict, Verdict::HeldNoSlip);
+        // a reaction to nothing: the object never moved
+        let never = score_catch(&track(None, 0.0, 3.0), Some(0.8), &spec);
+        assert_eq!(never.verdict, Verdict::FalsePositive);
+        // too early in the track to see what came before: not called an FP
+        let unknown = score_catch(&track(None, 0.0, 3.0), Some(0.1), &spec);
+        assert_eq!(unknown.verdict, Verdict::HeldNoSlip);
 
         let fell = score_catch(&track(Some(1.0), f64::INFINITY, 2.0), Some(1.2), &spec);
         assert_eq!(fell.verdict, Verdict::FalseNegative);
@@ -336,6 +418,45 @@ mod tests {
         );
         assert_eq!(o.verdict, Verdict::HeldNoSlip);
         assert!(o.onset_s.is_none() && !o.dropped && o.slip_distance_mm.is_none());
+    }
+
+    /// Held 100 mm below the hand with noise `+noise, 0, -noise` repeating sample to
+    /// sample, settling by `fall` mm over 30 ms from `at_s`.
+    fn noisy_settle(at_s: f64, fall: f64, noise: f64) -> Vec<MarkerSample> {
+        (0..240)
+            .map(|i| {
+                let t = i as f64 / 60.0;
+                let f = fall * ((t - at_s) / 0.03).clamp(0.0, 1.0);
+                MarkerSample {
+                    time_s: t,
+                    object_mm: 300.0 - f + noise * [1.0, 0.0, -1.0][i % 3],
+                    hand_mm: 400.0,
+                }
+            })
+            .collect()
+    }
+
+    #[test]
+    fn a_reaction_the_onset_detector_sees_nothing_around_is_judged_by_the_settle() {
+        let spec = CatchSpec::default();
+        // a 1.2 mm slip in 0.3 mm noise: no five samples in a row are past 1 mm, so the
+        // detector finds no onset, but the half-second medians show the fall
+        let missed = noisy_settle(1.2, 1.2, 0.3);
+        assert!(find_onset(&missed, &spec.onset).is_none());
+        let o = score_catch(&missed, Some(1.21), &spec);
+        assert_eq!(o.verdict, Verdict::TruePositive);
+        assert!((o.slip_distance_mm.unwrap() - 1.2).abs() < 0.05, "{o:?}");
+        // 0.6 mm in the same noise: measurable, under the threshold
+        let small = score_catch(&noisy_settle(1.2, 0.6, 0.3), Some(1.21), &spec);
+        assert_eq!(small.verdict, Verdict::HeldNoSlip);
+        // 0.12 mm in that noise cannot be told from none; in quiet markers it can
+        let s = settle_across(&noisy_settle(1.2, 0.12, 0.3), 1.21, &spec).unwrap();
+        assert!(s.fall_mm <= s.still_mm, "{s:?}");
+        let quiet = score_catch(&noisy_settle(1.2, 0.12, 0.01), Some(1.21), &spec);
+        assert_eq!(quiet.verdict, Verdict::HeldNoSlip);
+        // a regrasp that lifts the object a little is no slip
+        let lifted = score_catch(&noisy_settle(1.2, -0.3, 0.01), Some(1.21), &spec);
+        assert_eq!(lifted.verdict, Verdict::FalsePositive);
     }
 
     #[test]
