@@ -37,6 +37,14 @@ pub struct ReproduceArgs {
     /// Run nothing: write the findings report again from the finished steps in --out.
     #[arg(long, conflicts_with = "resume")]
     findings_only: bool,
+    /// Also vary every physical simulator parameter to the low and the high end of its
+    /// plausible range (`tmo sim parameters`), rerun the steps it touches with the same
+    /// seeds, and say which verdicts change (`sensitivity.md`, and a column of the page).
+    #[arg(long)]
+    sensitivity: bool,
+    /// With --sensitivity: vary only these parameters (comma-separated names).
+    #[arg(long, value_delimiter = ',', requires = "sensitivity")]
+    sensitivity_parameters: Vec<String>,
     /// Where every step's outputs and the findings report go.
     #[arg(long, default_value = "results/paper")]
     out: PathBuf,
@@ -84,6 +92,9 @@ pub fn run(args: ReproduceArgs) -> Result<u8> {
             .unwrap_or_else(|| preset.default_replicates()),
         resume: args.resume,
         backend,
+        sensitivity: args
+            .sensitivity
+            .then(|| args.sensitivity_parameters.clone()),
     };
     if args.findings_only {
         let first = reproduce::replicate_dir(&options.out, 1);
@@ -95,7 +106,8 @@ pub fn run(args: ReproduceArgs) -> Result<u8> {
                 options.out.display()
             );
         }
-        let report = reproduce::page::write_findings(&options.out, &preset, options.replicates)?;
+        let report =
+            reproduce::page::write_findings(&options.out, &preset, options.replicates, None)?;
         print_report(&report, &options);
         return Ok(0);
     }

@@ -16,6 +16,9 @@ pub enum SimCommand {
     Trace(TraceArgs),
     /// Lists the object library.
     Objects,
+    /// Lists the simulator's parameters: value, unit, plausible range, where the value
+    /// comes from, and the findings it was calibrated against (hal/data/parameters.toml).
+    Parameters,
     /// Records collect-mode trials (no reaction to slip) as training data.
     Collect(CollectArgs),
     /// Serves the simulated rig over the real rig's wire protocols (cameras and hand bus on
@@ -90,10 +93,52 @@ pub fn run(command: SimCommand) -> Result<()> {
             list_objects();
             Ok(())
         }
+        SimCommand::Parameters => list_parameters().context("cannot write to standard output"),
         SimCommand::Trace(args) => sim_trace(args),
         SimCommand::Collect(args) => sim_collect(args),
         SimCommand::Serve(args) => super::serve::serve_cmd(args),
     }
+}
+
+fn list_parameters() -> std::io::Result<()> {
+    use std::io::Write;
+    let records = tmo_hal::sim::parameters::built_in();
+    let mut out = std::io::stdout().lock();
+    writeln!(
+        out,
+        "parameter\tvalue\tunit\trange\tbasis\tcalibrated against\tsource"
+    )?;
+    for r in &records {
+        let value = r.value.map_or("per object".to_string(), |v| v.to_string());
+        let basis = serde_json::to_value(r.basis)
+            .ok()
+            .and_then(|v| v.as_str().map(str::to_string))
+            .unwrap_or_default();
+        writeln!(
+            out,
+            "{}\t{value}\t{}\t{}..{}\t{basis}\t{}\t{}",
+            r.name,
+            r.unit,
+            r.range[0],
+            r.range[1],
+            if r.calibrated_against.is_empty() {
+                "-".to_string()
+            } else {
+                r.calibrated_against.join(",")
+            },
+            r.source
+        )?;
+    }
+    out.flush()?;
+    let calibrated = records
+        .iter()
+        .filter(|r| !r.calibrated_against.is_empty())
+        .count();
+    eprintln!(
+        "{} parameters, {calibrated} of them calibrated against findings (hal/data/parameters.toml)",
+        records.len()
+    );
+    Ok(())
 }
 
 fn list_objects() {

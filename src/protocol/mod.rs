@@ -94,6 +94,11 @@ pub struct ProtocolFile {
     pub rice_pour: Option<RicePour>,
     pub first_time_lift: Option<FirstTimeLift>,
     pub calibrate_lift: Option<Calibration>,
+    /// Simulator parameters for this batch, by the names of `tmo sim parameters`
+    /// (`[sim.physics]` `finger_stiffness_n_per_mm = 1.2`, or `"rail.rail_mu" = 0.1`);
+    /// the simulated rig only. `tmo reproduce --sensitivity` writes them.
+    #[serde(default)]
+    pub sim: toml::Table,
 }
 
 fn one() -> u32 {
@@ -174,6 +179,49 @@ pub struct Plan {
     pub outcome: Outcome,
     pub safety: SafetyLimits,
     pub params: KindParams,
+    /// Simulator parameters set for the batch (the file's `[sim]`), checked.
+    pub sim: std::collections::BTreeMap<String, f64>,
+}
+
+/// The `[sim]` table's numbers by dotted name (`physics.finger_stiffness_n_per_mm`,
+/// `arm.start_mm[2]`), or the name of the first entry that is not a number.
+fn sim_parameters(table: &toml::Table) -> Result<std::collections::BTreeMap<String, f64>, String> {
+    fn walk(
+        prefix: &str,
+        v: &toml::Value,
+        out: &mut std::collections::BTreeMap<String, f64>,
+    ) -> Result<(), String> {
+        match v {
+            toml::Value::Table(t) => {
+                for (k, x) in t {
+                    let name = if prefix.is_empty() {
+                        k.clone()
+                    } else {
+                        format!("{prefix}.{k}")
+                    };
+                    walk(&name, x, out)?;
+                }
+            }
+            toml::Value::Array(items) => {
+                for (i, x) in items.iter().enumerate() {
+                    walk(&format!("{prefix}[{i}]"), x, out)?;
+                }
+            }
+            toml::Value::Float(f) => {
+                out.insert(prefix.to_string(), *f);
+            }
+            toml::Value::Integer(i) => {
+                out.insert(prefix.to_string(), *i as f64);
+            }
+            _ => return Err(prefix.to_string()),
+        }
+        Ok(())
+    }
+    let mut out = std::collections::BTreeMap::new();
+    for (k, v) in table {
+        walk(k, v, &mut out)?;
+    }
+    Ok(out)
 }
 
 impl Plan {
@@ -604,6 +652,21 @@ pub fn validate(
         }
     }
 
+    let sim = sim_parameters(&file.sim)
+        .map_err(|name| err(&format!("sim.{name}"), "expected a number".into()))?;
+    // Checked on both rigs, so that a value neither can stand for is refused here.
+    for rig in [
+        tmo_hal::sim::RigSetup::Hand(Default::default()),
+        tmo_hal::sim::RigSetup::Rail(Default::default()),
+    ] {
+        let mut config = tmo_hal::sim::SimConfig {
+            rig,
+            ..Default::default()
+        };
+        config
+            .set_parameters(sim.iter().map(|(k, v)| (k.as_str(), *v)))
+            .map_err(|e| err(&format!("sim.{}", e.field), format!("{e}")))?;
+    }
     Ok(Plan {
         source: path.to_path_buf(),
         source_sha256: crate::trial::sha256_hex(text.as_bytes()),
@@ -619,6 +682,7 @@ pub fn validate(
         outcome: file.outcome,
         safety: file.safety,
         params,
+        sim,
     })
 }
 

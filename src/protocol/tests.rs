@@ -210,3 +210,25 @@ fn a_file_that_cannot_be_read_is_named_without_a_made_up_line() {
     );
     assert!(!text.contains(":1:1") && !text.contains("(file)"), "{text}");
 }
+
+#[test]
+fn simulator_parameters_are_set_by_name_and_checked() {
+    let plan = check(&format!(
+        "{MINIMAL}\n[sim]\n\"rail.rail_mu\" = 0.1\n\n[sim.physics]\nfinger_stiffness_n_per_mm = 1.2\nsurface_wavelength_mm = [0.5, 10]\n"
+    ))
+    .unwrap();
+    assert_eq!(plan.sim["rail.rail_mu"], 0.1);
+    assert_eq!(plan.sim["physics.finger_stiffness_n_per_mm"], 1.2);
+    assert_eq!(plan.sim["physics.surface_wavelength_mm[1]"], 10.0);
+    assert!(check(MINIMAL).unwrap().sim.is_empty());
+    let e = check(&format!("{MINIMAL}\n[sim.physics]\nstiffness = 1.2\n")).unwrap_err();
+    assert_eq!(e.field, "sim.physics.stiffness", "{e}");
+    assert!(e.message.contains("tmo sim parameters"), "{e}");
+    let e = check(&format!("{MINIMAL}\n[sim.physics]\ngravity_m_s2 = -1\n")).unwrap_err();
+    assert!(e.message.contains("gravity_m_s2"), "{e}");
+    let e = check(&format!(
+        "{MINIMAL}\n[sim.physics]\nfinger_travel_mm = \"long\"\n"
+    ))
+    .unwrap_err();
+    assert_eq!(e.field, "sim.physics.finger_travel_mm", "{e}");
+}

@@ -327,6 +327,9 @@ pub struct Judged {
     /// Simulator parameters whose values were chosen with this finding in view: a
     /// calibrated finding, counted apart from the held-out ones.
     pub calibrated_by: Vec<String>,
+    /// The sensitivity variants (`parameter@low`) that change its verdict; `None` where no
+    /// sensitivity study was run, empty where none does.
+    pub sensitive_to: Option<Vec<String>>,
 }
 
 /// Judges every finding against the pooled measures `m`, counting in how many of the
@@ -353,6 +356,7 @@ pub fn judge_all(findings: &[Finding], m: &Measures, replicates: &[Measures]) ->
                 ),
                 paper_verdict: f.paper_verdict(),
                 calibrated_by: Vec::new(),
+                sensitive_to: None,
                 finding: f.clone(),
             }
         })

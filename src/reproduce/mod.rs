@@ -13,6 +13,7 @@ pub mod evidence;
 pub mod findings;
 pub mod measure;
 pub mod page;
+pub mod sensitivity;
 pub mod steps;
 
 use std::path::{Path, PathBuf};
@@ -78,6 +79,9 @@ pub struct Options {
     pub preset: Preset,
     /// Independent replicates of every step (each with its own trial and learner seeds).
     pub replicates: u32,
+    /// `Some` to run the sensitivity study too: the parameters to vary (none named: every
+    /// physical parameter).
+    pub sensitivity: Option<Vec<String>>,
     pub resume: bool,
     pub backend: Backend,
 }
@@ -177,7 +181,8 @@ fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), ReproduceError> {
     std::fs::rename(&tmp, path).map_err(io(path))
 }
 
-/// Runs every step the preset asks for in each replicate, then writes the findings report.
+/// Runs every step the preset asks for in each replicate (and, for a sensitivity study,
+/// again in each variant), then writes the findings report.
 pub fn reproduce(
     options: &Options,
     stop: &AtomicBool,
@@ -190,44 +195,138 @@ pub fn reproduce(
     if has_steps && !options.resume {
         return Err(ReproduceError::AlreadyThere(out.clone()));
     }
+    let variants = match &options.sensitivity {
+        None => Vec::new(),
+        Some(only) => {
+            if options.backend != Backend::Sim {
+                return Err(ReproduceError::step(
+                    "sensitivity",
+                    "a sensitivity study varies the simulator's parameters: it runs on --backend sim only",
+                ));
+            }
+            sensitivity::variants(&tmo_hal::sim::parameters::built_in(), only)
+                .map_err(|e| ReproduceError::step("sensitivity", e))?
+        }
+    };
     std::fs::create_dir_all(out).map_err(io(out))?;
     let _lock =
         crate::lock::OutputLock::acquire(out).map_err(|e| ReproduceError::step("reproduce", e))?;
-    let steps_in_all = Step::ALL.len() * replicates as usize + 1;
+    let runs = 1 + variants.len();
+    let steps_in_all = Step::ALL.len() * replicates as usize * runs + 1;
     progress.steps.set_length(steps_in_all as u64);
-    let (mut ran, mut kept) = (Vec::new(), Vec::new());
+    let mut tally = Steps::default();
+    let none = Default::default();
+    let baseline = Run {
+        dir: out.clone(),
+        label: String::new(),
+        sim: &none,
+        reuse: None,
+    };
+    if let Some(step) = run_replicates(&baseline, options, stop, progress, &mut tally)? {
+        return Ok(End::Interrupted { step });
+    }
+    for v in &variants {
+        let sim = v.sim();
+        let run = Run {
+            dir: v.dir(out),
+            label: format!("{}/", v.dir_name()),
+            sim: &sim,
+            reuse: Some(out),
+        };
+        if let Some(step) = run_replicates(&run, options, stop, progress, &mut tally)? {
+            return Ok(End::Interrupted { step });
+        }
+    }
+    progress.steps.set_message(format!(
+        "step {steps_in_all} of {steps_in_all}: the findings report"
+    ));
+    let study = (!variants.is_empty()).then_some(variants.as_slice());
+    let report = Box::new(page::write_findings(
+        out,
+        &options.preset,
+        replicates,
+        study,
+    )?);
+    progress.steps.inc(1);
+    Ok(End::Finished {
+        ran: tally.ran,
+        kept: tally.kept,
+        report,
+    })
+}
+
+/// One set of replicates: the baseline, or a sensitivity variant.
+struct Run<'a> {
+    dir: PathBuf,
+    /// How its steps are named in messages (`physics.x@low/`; empty for the baseline).
+    label: String,
+    sim: &'a std::collections::BTreeMap<String, f64>,
+    /// The baseline's directory, whose replicates' steps may be reused.
+    reuse: Option<&'a Path>,
+}
+
+#[derive(Default)]
+struct Steps {
+    ran: Vec<String>,
+    kept: Vec<String>,
+}
+
+/// Runs every replicate of `run`; the step it was interrupted in, if it was.
+fn run_replicates(
+    run: &Run,
+    options: &Options,
+    stop: &AtomicBool,
+    progress: &Progress,
+    tally: &mut Steps,
+) -> Result<Option<String>, ReproduceError> {
+    let replicates = options.replicates.max(1);
     for r in 1..=replicates {
-        let dir = replicate_dir(out, r);
+        let dir = replicate_dir(&run.dir, r);
+        let reuse = run.reuse.map(|base| replicate_dir(base, r));
         let ctx = steps::Context {
             out: &dir,
             replicate: r,
+            sim: run.sim,
+            reuse: reuse.as_deref(),
             preset: &options.preset,
             backend: &options.backend,
             stop,
             bar: &progress.work,
         };
         for (k, step) in Step::ALL.iter().copied().enumerate() {
-            let name = format!("replicate-{r:02}/{}", step.name());
+            let name = format!("{}replicate-{r:02}/{}", run.label, step.name());
             progress.steps.set_message(format!(
-                "replicate {r} of {replicates}, step {} of {}: {}",
+                "{}replicate {r} of {replicates}, step {} of {}: {}",
+                run.label,
                 k + 1,
                 Step::ALL.len(),
                 step.title()
             ));
             match run_step(&ctx, step, progress)? {
-                StepEnd::Ran => ran.push(name),
-                StepEnd::Kept => kept.push(name),
-                StepEnd::Interrupted => return Ok(End::Interrupted { step: name }),
+                StepEnd::Ran => tally.ran.push(name),
+                StepEnd::Kept => tally.kept.push(name),
+                StepEnd::Interrupted => return Ok(Some(name)),
             }
             progress.steps.inc(1);
         }
     }
-    progress.steps.set_message(format!(
-        "step {steps_in_all} of {steps_in_all}: the findings report"
-    ));
-    let report = Box::new(page::write_findings(out, &options.preset, replicates)?);
-    progress.steps.inc(1);
-    Ok(End::Finished { ran, kept, report })
+    Ok(None)
+}
+
+/// `to` as a copy of the finished step `from`, its files hard-linked where the file system
+/// allows (a finished step's files are never written again) and copied where not.
+fn link_tree(from: &Path, to: &Path) -> Result<(), ReproduceError> {
+    std::fs::create_dir_all(to).map_err(io(to))?;
+    for entry in std::fs::read_dir(from).map_err(io(from))? {
+        let path = entry.map_err(io(from))?.path();
+        let target = to.join(path.file_name().expect("a directory entry has a name"));
+        if path.is_dir() {
+            link_tree(&path, &target)?;
+        } else if std::fs::hard_link(&path, &target).is_err() {
+            std::fs::copy(&path, &target).map_err(io(&target))?;
+        }
+    }
+    Ok(())
 }
 
 enum StepEnd {
@@ -246,6 +345,15 @@ fn run_step(
     let inputs = sha256_text(&step.inputs(ctx)?);
     if read_record(&dir).is_some_and(|r| r.inputs_sha256 == inputs) {
         return Ok(StepEnd::Kept);
+    }
+    if let Some(from) = ctx.reuse.map(|r| r.join(step.dir())) {
+        if read_record(&from).is_some_and(|r| r.inputs_sha256 == inputs) {
+            if dir.exists() {
+                std::fs::remove_dir_all(&dir).map_err(io(&dir))?;
+            }
+            link_tree(&from, &dir)?;
+            return Ok(StepEnd::Kept);
+        }
     }
     // A step interrupted with the same inputs carries on (a batch keeps its trials); one
     // whose inputs changed starts again.

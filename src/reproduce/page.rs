@@ -150,6 +150,10 @@ fn single_rate(m: &Measure) -> Option<(u64, u64)> {
 /// The value of a measure as the report shows it: a rate as a percentage with its counts,
 /// anything else as a number; its interval; what it rests on.
 pub fn show(m: &Measure) -> String {
+    if matches!(m.basis, Basis::Counts(_)) && single_rate(m).is_none() {
+        // a difference of rates, in percentage points
+        return points(m.value, m.interval);
+    }
     if let Some((k, n)) = single_rate(m) {
         let pct = |x: f64| format!("{:.0}", 100.0 * x);
         let mut s = format!("{} %", pct(m.value));
@@ -170,6 +174,16 @@ pub fn show(m: &Measure) -> String {
     s
 }
 
+/// A difference of rates in percentage points, with its interval.
+fn points(value: f64, interval: Option<(f64, f64)>) -> String {
+    let pp = |x: f64| format!("{:+.0}", 100.0 * x);
+    let mut s = format!("{} pp", pp(value));
+    if let Some((lo, hi)) = interval {
+        s += &format!(" [{}, {}]", pp(lo), pp(hi));
+    }
+    s
+}
+
 /// Our side of a row, in the rule's terms: the values it compares and, for a comparison,
 /// the difference with its interval.
 fn ours(j: &Judged) -> String {
@@ -186,9 +200,19 @@ fn ours(j: &Judged) -> String {
         .collect::<Vec<_>>()
         .join(" vs ");
     if let [c] = j.comparisons.as_slice() {
-        s += &format!("; difference {}", number(c.difference));
-        if let Some((lo, hi)) = c.interval {
-            s += &format!(" [{}, {}]", number(lo), number(hi));
+        let rates = [&c.metric, &c.than].iter().all(|k| {
+            j.ours
+                .get(k.as_str())
+                .and_then(|m| m.as_ref())
+                .is_some_and(|m| matches!(m.basis, Basis::Counts(_)))
+        });
+        if rates {
+            s += &format!("; difference {}", points(c.difference, c.interval));
+        } else {
+            s += &format!("; difference {}", number(c.difference));
+            if let Some((lo, hi)) = c.interval {
+                s += &format!(" [{}, {}]", number(lo), number(hi));
+            }
         }
     }
     s
@@ -247,7 +271,7 @@ fn ordered(judged: &[Judged]) -> Vec<&Judged> {
     rows
 }
 
-const COLUMNS: [&str; 8] = [
+const COLUMNS: [&str; 9] = [
     "verdict",
     "finding",
     "paper",
@@ -255,10 +279,19 @@ const COLUMNS: [&str; 8] = [
     "replicates holding",
     "paper's effect",
     "standing",
+    "sensitivity",
     "id",
 ];
 
-fn cells(j: &Judged) -> [String; 8] {
+fn sensitivity(j: &Judged) -> String {
+    match &j.sensitive_to {
+        None => "-".into(),
+        Some(v) if v.is_empty() => "robust".into(),
+        Some(v) => format!("fragile ({})", v.join(", ")),
+    }
+}
+
+fn cells(j: &Judged) -> [String; 9] {
     [
         j.reproduced.label().to_string(),
         j.finding.measured.clone(),
@@ -267,6 +300,7 @@ fn cells(j: &Judged) -> [String; 8] {
         held_in(j),
         paper_effect(j),
         standing(j),
+        sensitivity(j),
         j.finding.id.clone(),
     ]
 }
@@ -486,8 +520,30 @@ pub fn write_findings(
     out: &Path,
     preset: &Preset,
     replicates: u32,
+    study: Option<&[super::sensitivity::Variant]>,
 ) -> Result<Written, ReproduceError> {
-    let (judged, measures, loaded) = judge_replicates(out, replicates);
+    let (mut judged, measures, loaded) = judge_replicates(out, replicates);
+    let mut sensitivity_md = None;
+    if let Some(variants) = study {
+        let outcomes: Vec<super::sensitivity::Outcome> = variants
+            .iter()
+            .map(|v| {
+                let (here, _, _) = judge_replicates(&v.dir(out), replicates);
+                super::sensitivity::compare(v.clone(), &judged, &here)
+            })
+            .collect();
+        super::sensitivity::mark_fragile(&mut judged, &outcomes);
+        let md = super::sensitivity::markdown(&judged, &outcomes);
+        let path = out.join("sensitivity.md");
+        std::fs::write(&path, &md).map_err(io(&path))?;
+        let path = out.join("sensitivity.json");
+        std::fs::write(
+            &path,
+            serde_json::to_string_pretty(&outcomes).expect("outcomes serialise"),
+        )
+        .map_err(io(&path))?;
+        sensitivity_md = Some(md);
+    }
     let (held_out, calibrated) = held_out_and_calibrated(&judged);
     let truth_agreement = crate::outcome::truth_agreement(
         loaded
@@ -544,7 +600,11 @@ pub fn write_findings(
     };
     let md_tables = crate::report::render(&tables, crate::report::Format::Md)
         .map_err(|e| ReproduceError::step("findings", e))?;
-    let md = markdown(*preset, &judged, &written, &md_tables);
+    let mut md = markdown(*preset, &judged, &written, &md_tables);
+    if let Some(table) = &sensitivity_md {
+        md += "\n";
+        md += &table.replacen("# Sensitivity", "## Sensitivity", 1);
+    }
     std::fs::write(&written.md, md).map_err(io(&written.md))?;
     let json = serde_json::json!({
         "preset": preset.name(),
@@ -566,4 +626,35 @@ pub fn write_findings(
     std::fs::write(&written.html, page).map_err(io(&written.html))?;
     written.figures.retain(|p| p.exists());
     Ok(written)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::reproduce::evidence::Count;
+
+    #[test]
+    fn values_read_in_the_papers_units() {
+        assert_eq!(show(&Measure::proportion(37, 50)), "74 % [60, 84] (37/50)");
+        let drop = Measure::counts(vec![
+            Count {
+                coef: 1.0,
+                k: 36,
+                n: 40,
+            },
+            Count {
+                coef: -1.0,
+                k: 31,
+                n: 40,
+            },
+        ]);
+        assert!(show(&drop).starts_with("+12 pp ["), "{}", show(&drop));
+        let f1 = Measure::of_replicates(vec![0.88, 0.87, 0.89], Some((0.0, 1.0)));
+        assert!(
+            show(&f1).starts_with("0.880 [") && show(&f1).ends_with("(mean of 3 replicates)"),
+            "{}",
+            show(&f1)
+        );
+        assert_eq!(show(&Measure::exact(15.0)), "15.0");
+    }
 }

@@ -124,6 +124,13 @@ pub struct Context<'a> {
     pub out: &'a Path,
     /// Which replicate (1-based): it sets every trial and learner seed.
     pub replicate: u32,
+    /// Simulator parameters set for the batch steps whose rig has them (a sensitivity
+    /// variant); empty for the baseline.
+    pub sim: &'a std::collections::BTreeMap<String, f64>,
+    /// A finished replicate of the same seeds to take a step from when its inputs are the
+    /// same (a sensitivity variant takes the steps its parameter does not touch from the
+    /// baseline).
+    pub reuse: Option<&'a Path>,
     pub preset: &'a Preset,
     pub backend: &'a Backend,
     pub stop: &'a AtomicBool,
@@ -240,9 +247,41 @@ impl Step {
         }
     }
 
-    /// Protocol files of a batch step in replicate `r`, by sub-directory ("" for the
-    /// step's own).
-    fn protocols(self, c: &Counts, r: u32) -> Vec<(&'static str, String)> {
+    /// Whether the step's rig is the slip rail (else the hand).
+    fn on_the_rail(self) -> bool {
+        matches!(self, Step::RailCollect | Step::RailOnline)
+    }
+
+    /// The `[sim]` table of the step's protocols: the parameters its rig has.
+    fn sim_table(self, sim: &std::collections::BTreeMap<String, f64>) -> String {
+        let mine: Vec<String> = sim
+            .iter()
+            .filter(|(k, _)| self.on_the_rail() || !k.starts_with("rail."))
+            .map(|(k, v)| format!("\"{k}\" = {v:?}\n"))
+            .collect();
+        if mine.is_empty() {
+            String::new()
+        } else {
+            format!("\n[sim]\n{}", mine.concat())
+        }
+    }
+
+    /// Protocol files of a batch step in replicate `r` with simulator parameters `sim`, by
+    /// sub-directory ("" for the step's own).
+    fn protocols(
+        self,
+        c: &Counts,
+        r: u32,
+        sim: &std::collections::BTreeMap<String, f64>,
+    ) -> Vec<(&'static str, String)> {
+        let table = self.sim_table(sim);
+        self.base_protocols(c, r)
+            .into_iter()
+            .map(|(sub, text)| (sub, text + &table))
+            .collect()
+    }
+
+    fn base_protocols(self, c: &Counts, r: u32) -> Vec<(&'static str, String)> {
         let training = quoted(&TRAINING_OBJECTS);
         let seed = |base: u32| trial_seed(base, r);
         let [s13, s23, s24, s25, s26, s27, s28, s29, s30] =
@@ -362,7 +401,7 @@ impl Step {
             )),
             _ => {}
         }
-        for (sub, protocol) in self.protocols(&c, ctx.replicate) {
+        for (sub, protocol) in self.protocols(&c, ctx.replicate, ctx.sim) {
             text.push_str(&format!("[{sub}]\n{protocol}"));
         }
         if let Backend::Real { hand, rail, .. } = ctx.backend {
@@ -391,7 +430,7 @@ impl Step {
             Step::RailModel => rail_model(ctx, &c, dir).map(|_| true),
             Step::HandModels => hand_models(ctx, dir).map(|_| true),
             _ => {
-                for (sub, protocol) in self.protocols(&c, ctx.replicate) {
+                for (sub, protocol) in self.protocols(&c, ctx.replicate, ctx.sim) {
                     let batch_dir = if sub.is_empty() {
                         dir.to_path_buf()
                     } else {
@@ -730,7 +769,12 @@ mod tests {
         }
         for preset in [Preset::Quick, Preset::Paper] {
             for step in Step::ALL {
-                for (sub, text) in step.protocols(&preset.counts(), 2) {
+                let sim = [
+                    ("physics.finger_stiffness_n_per_mm".to_string(), 1.2),
+                    ("rail.rail_mu".to_string(), 0.1),
+                ]
+                .into();
+                for (sub, text) in step.protocols(&preset.counts(), 2, &sim) {
                     let d = dir.path().join(step.dir()).join(sub);
                     std::fs::create_dir_all(&d).unwrap();
                     let p = d.join("protocol.toml");
@@ -748,7 +792,7 @@ mod tests {
         let seeds = |r: u32| -> Vec<String> {
             Step::ALL
                 .iter()
-                .flat_map(|s| s.protocols(&Preset::Paper.counts(), r))
+                .flat_map(|s| s.protocols(&Preset::Paper.counts(), r, &Default::default()))
                 .map(|(_, text)| {
                     text.lines()
                         .find(|l| l.starts_with("seed = "))

@@ -68,10 +68,7 @@ fn safe_sim_devices(
 /// The simulated world a planned trial starts in: what `tmo sim serve` is reset to between
 /// trials, and what the sim backend builds.
 pub fn world_for(plan: &Plan, planned: &PlannedTrial) -> Result<SimConfig, BatchError> {
-    let base = SimConfig {
-        seed: planned.seed,
-        ..SimConfig::default()
-    };
+    let base = sim_base(plan, planned)?;
     let options = PresetOptions {
         object: Some(planned.object.clone()),
         grasp_deg: planned.grasp_deg,
@@ -105,6 +102,32 @@ pub fn world_for(plan: &Plan, planned: &PlannedTrial) -> Result<SimConfig, Batch
             on_table_rig(&base, planned, 0.04)?
         }
     })
+    .and_then(|mut config| {
+        // again, for the parameters of the rig the preset built (`rail.*`)
+        set_sim_parameters(&mut config, plan)?;
+        Ok(config)
+    })
+}
+
+/// The default world with the trial's seed and the protocol's `[sim]` parameters.
+fn sim_base(plan: &Plan, planned: &PlannedTrial) -> Result<SimConfig, BatchError> {
+    let mut base = SimConfig {
+        seed: planned.seed,
+        ..SimConfig::default()
+    };
+    set_sim_parameters(&mut base, plan)?;
+    Ok(base)
+}
+
+fn set_sim_parameters(config: &mut SimConfig, plan: &Plan) -> Result<(), BatchError> {
+    config
+        .set_parameters(plan.sim.iter().map(|(k, v)| (k.as_str(), *v)))
+        .map_err(|e| {
+            BatchError::SimRig(tmo_hal::sim::SimError::Config {
+                origin: format!("{} [sim]", plan.source.display()),
+                message: e.to_string(),
+            })
+        })
 }
 
 /// Runs one planned trial on the simulator and returns its log.
@@ -116,10 +139,7 @@ pub fn run_sim_trial(
     stop: &std::sync::atomic::AtomicBool,
     live: Option<&crate::live::LiveView>,
 ) -> Result<Trial, BatchError> {
-    let base = SimConfig {
-        seed: planned.seed,
-        ..SimConfig::default()
-    };
+    let base = sim_base(plan, planned)?;
     let mut rng = trial_rng(planned);
     let online = match (plan.mode, planned.model, planned.strategy) {
         (Mode::Online, Some(m), Some(strategy)) => Some(Online {
@@ -296,5 +316,38 @@ pub(crate) fn finish_trial(
             &plan.source,
             &plan.source_text,
         )],
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn world(protocol: &str) -> SimConfig {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("p.toml");
+        std::fs::write(&path, protocol).unwrap();
+        let plan = crate::protocol::load(&path, 3).unwrap();
+        let planned = &crate::runner::batch::expand(&plan)[0];
+        world_for(&plan, planned).unwrap()
+    }
+
+    #[test]
+    fn a_protocols_simulator_parameters_reach_the_world_of_its_rig() {
+        let sim = "\n[sim]\n\"rail.rail_mu\" = 0.1\n\"physics.finger_stiffness_n_per_mm\" = 1.2\n";
+        let rail = world(&format!("kind = \"rail_catch\"\nmode = \"collect\"\n{sim}"));
+        assert_eq!(rail.physics.finger_stiffness_n_per_mm, 1.2);
+        assert!(matches!(rail.rig, RigSetup::Rail(ref r) if r.rail_mu == 0.1));
+        let hand = world(&format!(
+            "kind = \"hand_release\"\nmode = \"collect\"\n{sim}"
+        ));
+        assert_eq!(hand.physics.finger_stiffness_n_per_mm, 1.2);
+        assert!(matches!(hand.rig, RigSetup::Hand(_)));
+        // and none set: the defaults
+        let plain = world("kind = \"hand_release\"\nmode = \"collect\"\n");
+        assert_eq!(
+            plain.physics.finger_stiffness_n_per_mm,
+            SimConfig::default().physics.finger_stiffness_n_per_mm
+        );
     }
 }

@@ -233,6 +233,118 @@ impl SimConfig {
     }
 }
 
+/// Every number in `v` by its dotted name, arrays by element (`arm.start_mm[2]`).
+pub(crate) fn flatten_numbers(prefix: &str, v: &serde_json::Value, out: &mut Vec<(String, f64)>) {
+    match v {
+        serde_json::Value::Object(map) => {
+            for (k, x) in map {
+                let name = if prefix.is_empty() {
+                    k.clone()
+                } else {
+                    format!("{prefix}.{k}")
+                };
+                flatten_numbers(&name, x, out);
+            }
+        }
+        serde_json::Value::Array(items) => {
+            for (i, x) in items.iter().enumerate() {
+                flatten_numbers(&format!("{prefix}[{i}]"), x, out);
+            }
+        }
+        serde_json::Value::Number(n) => {
+            if let Some(x) = n.as_f64() {
+                out.push((prefix.to_string(), x));
+            }
+        }
+        _ => {}
+    }
+}
+
+/// The slot a dotted name (`physics.x`, `arm.start_mm[2]`) names in `v`.
+fn slot<'v>(v: &'v mut serde_json::Value, name: &str) -> Option<&'v mut serde_json::Value> {
+    let mut at = v;
+    for part in name.split('.') {
+        let (key, index) = match part.split_once('[') {
+            Some((k, rest)) => (k, Some(rest.strip_suffix(']')?.parse::<usize>().ok()?)),
+            None => (part, None),
+        };
+        at = at.as_object_mut()?.get_mut(key)?;
+        if let Some(i) = index {
+            at = at.as_array_mut()?.get_mut(i)?;
+        }
+    }
+    at.is_number().then_some(at)
+}
+
+impl SimConfig {
+    /// The simulator's parameters with their default values, by the names
+    /// `data/parameters.toml` records them under: every numeric field but the seed and the
+    /// trial's own setup (object, grasp, masses: the protocol sets those), and the rail
+    /// rig's fields as `rail.*`.
+    pub fn parameters() -> Vec<(String, f64)> {
+        let mut config = serde_json::to_value(SimConfig::default()).expect("a config serialises");
+        let map = config.as_object_mut().expect("a config is a table");
+        map.remove("seed");
+        map.remove("rig");
+        let mut out = Vec::new();
+        flatten_numbers("", &config, &mut out);
+        let rail = serde_json::to_value(RailSetup::default()).expect("a rail setup serialises");
+        flatten_numbers("rail", &rail, &mut out);
+        out
+    }
+
+    /// Sets the named parameters (names as [`SimConfig::parameters`] gives them). `rail.*`
+    /// parameters apply to the rail rig and are passed over on the hand. The result is
+    /// checked as [`SimConfig::check`] does.
+    pub fn set_parameters<'a>(
+        &mut self,
+        values: impl IntoIterator<Item = (&'a str, f64)>,
+    ) -> Result<(), ConfigProblem> {
+        let mut v = serde_json::to_value(&*self).expect("a config serialises");
+        let rail = matches!(self.rig, RigSetup::Rail(_));
+        for (name, value) in values {
+            let unknown = || ConfigProblem {
+                field: name.to_string(),
+                value: value.to_string(),
+                expected: "a simulator parameter (`tmo sim parameters` lists them)".into(),
+            };
+            let path = match name.strip_prefix("rail.") {
+                Some(field) if RailSetup::default_has(field) => {
+                    if !rail {
+                        continue;
+                    }
+                    format!("rig.{field}")
+                }
+                Some(_) => return Err(unknown()),
+                None if name.starts_with("rig.") || name == "seed" => return Err(unknown()),
+                None => name.to_string(),
+            };
+            let at = slot(&mut v, &path).ok_or_else(unknown)?;
+            *at = serde_json::Value::from(value);
+        }
+        let mut updated: SimConfig = serde_json::from_value(v).map_err(|e| ConfigProblem {
+            field: "sim".into(),
+            value: String::new(),
+            expected: e.to_string(),
+        })?;
+        if let (RigSetup::Hand(_), RigSetup::Hand(_)) = (&self.rig, &updated.rig) {
+            updated.rig = self.rig.clone();
+        }
+        updated.check()?;
+        *self = updated;
+        Ok(())
+    }
+}
+
+impl RailSetup {
+    fn default_has(field: &str) -> bool {
+        serde_json::to_value(RailSetup::default())
+            .ok()
+            .and_then(|v| v.get(field).map(serde_json::Value::is_number))
+            .unwrap_or(false)
+    }
+}
+
 /// Which rig is built.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(tag = "kind", rename_all = "snake_case")]
@@ -560,6 +672,51 @@ mod tests {
             ..SimConfig::default()
         };
         rail.check().unwrap();
+    }
+
+    #[test]
+    fn named_parameters_are_set_and_checked() {
+        let names: Vec<String> = SimConfig::parameters()
+            .into_iter()
+            .map(|(n, _)| n)
+            .collect();
+        assert!(names.contains(&"physics.finger_stiffness_n_per_mm".to_string()));
+        assert!(names.contains(&"arm.start_mm[2]".to_string()));
+        assert!(names.contains(&"rail.rail_mu".to_string()));
+        let mut hand = SimConfig::default();
+        hand.set_parameters([
+            ("physics.finger_stiffness_n_per_mm", 1.2),
+            ("arm.start_mm[2]", 250.0),
+            ("rail.rail_mu", 0.1),
+        ])
+        .unwrap();
+        assert_eq!(hand.physics.finger_stiffness_n_per_mm, 1.2);
+        assert_eq!(hand.arm.start_mm[2], 250.0);
+        // the rail's parameter is passed over on the hand
+        assert_eq!(hand.rig, SimConfig::default().rig);
+        let mut rail = SimConfig {
+            rig: RigSetup::Rail(RailSetup::default()),
+            ..SimConfig::default()
+        };
+        rail.set_parameters([("rail.rail_mu", 0.1)]).unwrap();
+        assert!(matches!(rail.rig, RigSetup::Rail(ref r) if r.rail_mu == 0.1));
+        // unknown names and values the simulator cannot stand for are refused by name
+        for (name, value) in [
+            ("physics.stiffness", 1.0),
+            ("rail.object", 1.0),
+            ("seed", 3.0),
+            ("arm.start_mm[3]", 1.0),
+            ("rig.grasp_deg", 180.0),
+        ] {
+            let e = SimConfig::default()
+                .set_parameters([(name, value)])
+                .unwrap_err();
+            assert_eq!(e.field, name, "{e}");
+        }
+        let e = SimConfig::default()
+            .set_parameters([("physics.gravity_m_s2", -1.0)])
+            .unwrap_err();
+        assert_eq!(e.field, "physics.gravity_m_s2");
     }
 
     #[test]

@@ -105,45 +105,15 @@ pub fn built_in() -> Vec<ParameterRecord> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::sim::{ObjectLibrary, RailSetup, RigSetup, SimConfig};
+    use crate::sim::{ObjectLibrary, RigSetup, SimConfig};
 
-    /// Every number in `v` by its dotted name (arrays by element), as `SimConfig::check`
-    /// names fields.
-    fn flatten(prefix: &str, v: &serde_json::Value, out: &mut Vec<(String, f64)>) {
-        match v {
-            serde_json::Value::Object(map) => {
-                for (k, x) in map {
-                    let name = if prefix.is_empty() {
-                        k.clone()
-                    } else {
-                        format!("{prefix}.{k}")
-                    };
-                    flatten(&name, x, out);
-                }
-            }
-            serde_json::Value::Array(items) => {
-                for (i, x) in items.iter().enumerate() {
-                    flatten(&format!("{prefix}[{i}]"), x, out);
-                }
-            }
-            serde_json::Value::Number(n) => out.push((prefix.to_string(), n.as_f64().unwrap())),
-            _ => {}
-        }
+    fn simulator_fields() -> Vec<(String, f64)> {
+        SimConfig::parameters()
     }
 
-    /// The simulator's parameters as it runs them: every field of the default
-    /// configuration but the seed and the trial's own setup (object, grasp, masses: the
-    /// protocol sets those), and the rail rig's fields as `rail.*`.
-    fn simulator_fields() -> Vec<(String, f64)> {
-        let mut config = serde_json::to_value(SimConfig::default()).unwrap();
-        let map = config.as_object_mut().unwrap();
-        map.remove("seed");
-        map.remove("rig");
-        let mut out = Vec::new();
-        flatten("", &config, &mut out);
-        let rail = serde_json::to_value(RailSetup::default()).unwrap();
-        flatten("rail", &rail, &mut out);
-        out
+    /// Every number in `v` by its dotted name (arrays by element).
+    fn flatten(prefix: &str, v: &serde_json::Value, out: &mut Vec<(String, f64)>) {
+        super::super::config::flatten_numbers(prefix, v, out)
     }
 
     #[test]
