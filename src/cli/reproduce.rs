@@ -106,8 +106,19 @@ pub fn run(args: ReproduceArgs) -> Result<u8> {
                 options.out.display()
             );
         }
-        let report =
-            reproduce::page::write_findings(&options.out, &preset, options.replicates, None)?;
+        let variants = match &options.sensitivity {
+            Some(only) => Some(
+                reproduce::sensitivity::variants(&tmo_hal::sim::parameters::built_in(), only)
+                    .map_err(anyhow::Error::msg)?,
+            ),
+            None => None,
+        };
+        let report = reproduce::page::write_findings(
+            &options.out,
+            &preset,
+            options.replicates,
+            variants.as_deref(),
+        )?;
         print_report(&report, &options);
         return Ok(0);
     }

@@ -164,14 +164,22 @@ pub fn show(m: &Measure) -> String {
     }
     let mut s = number(m.value);
     if let Some((lo, hi)) = m.interval {
-        s += &format!(" [{}, {}]", number(lo), number(hi));
+        s += &format!(" [{}, {}]", like(m.value, lo), like(m.value, hi));
     }
-    match (&m.basis, m.n) {
-        (Basis::Replicates(v), _) => s += &format!(" (mean of {} replicates)", v.len()),
-        (_, Some(n)) => s += &format!(" (n={n})"),
-        _ => {}
+    // a mean over trials says over how many; a mean over replicates has its own column
+    if let (Basis::Samples(_), Some(n)) = (&m.basis, m.n) {
+        s += &format!(" (n={n})");
     }
     s
+}
+
+/// `x` with as many decimals as `number` gives `value`.
+fn like(value: f64, x: f64) -> String {
+    if value.abs() >= 10.0 {
+        format!("{x:.1}")
+    } else {
+        format!("{x:.3}")
+    }
 }
 
 /// A difference of rates in percentage points, with its interval.
@@ -211,7 +219,7 @@ fn ours(j: &Judged) -> String {
         } else {
             s += &format!("; difference {}", number(c.difference));
             if let Some((lo, hi)) = c.interval {
-                s += &format!(" [{}, {}]", number(lo), number(hi));
+                s += &format!(" [{}, {}]", like(c.difference, lo), like(c.difference, hi));
             }
         }
     }
@@ -291,6 +299,20 @@ fn sensitivity(j: &Judged) -> String {
     }
 }
 
+/// Whether the page has a sensitivity column (a study was run).
+fn studied(judged: &[Judged]) -> bool {
+    judged.iter().any(|j| j.sensitive_to.is_some())
+}
+
+/// The columns and cells the page shows: all but the sensitivity column when no study ran.
+fn shown<T: Clone>(row: &[T], judged: &[Judged]) -> Vec<T> {
+    row.iter()
+        .enumerate()
+        .filter(|(i, _)| studied(judged) || *i != 7)
+        .map(|(_, c)| c.clone())
+        .collect()
+}
+
 fn cells(j: &Judged) -> [String; 9] {
     [
         j.reproduced.label().to_string(),
@@ -353,17 +375,18 @@ fn markdown(preset: Preset, judged: &[Judged], w: &Written, tables: &str) -> Str
     for c in caveats(preset, judged, w) {
         out += &format!("- {c}\n");
     }
+    let columns = shown(&COLUMNS, judged);
     out += &format!(
         "\n| {} | details |\n|{}\n",
-        COLUMNS.join(" | "),
-        " --- |".repeat(COLUMNS.len() + 1)
+        columns.join(" | "),
+        " --- |".repeat(columns.len() + 1)
     );
     let mut central = true;
     for j in ordered(judged) {
         if central && !j.finding.central {
             central = false;
         }
-        let mut row: Vec<String> = cells(j).to_vec();
+        let mut row: Vec<String> = shown(&cells(j), judged);
         if j.finding.central {
             row[1] = format!("**{}**", row[1]);
         }
@@ -413,12 +436,12 @@ fn html_page(
     body += "</ul>\n";
     let table = |title: &str, rows: &[&Judged]| {
         let mut t = format!("<h2>{title}</h2>\n<table>\n<tr>");
-        for c in COLUMNS {
+        for c in shown(&COLUMNS, judged) {
             t += &format!("<th>{}</th>", html::escape(c));
         }
         t += "</tr>\n";
         for j in rows {
-            let c = cells(j);
+            let c = shown(&cells(j), judged);
             t += &format!(
                 "<tr><td class=\"{}\"><b>{}</b></td><td>{}<div class=\"details\">{}</div></td>",
                 verdict_class(j.reproduced),
@@ -650,11 +673,15 @@ mod tests {
         ]);
         assert!(show(&drop).starts_with("+12 pp ["), "{}", show(&drop));
         let f1 = Measure::of_replicates(vec![0.88, 0.87, 0.89], Some((0.0, 1.0)));
-        assert!(
-            show(&f1).starts_with("0.880 [") && show(&f1).ends_with("(mean of 3 replicates)"),
-            "{}",
-            show(&f1)
-        );
+        assert!(show(&f1).starts_with("0.880 [0.8"), "{}", show(&f1));
         assert_eq!(show(&Measure::exact(15.0)), "15.0");
+        // an interval reads with its value's decimals
+        let d = Measure::mean_of(vec![9.5, 11.0, 12.5, 10.0, 13.0]).unwrap();
+        assert!(
+            show(&d).starts_with("11.2 [") && show(&d).ends_with("(n=5)"),
+            "{}",
+            show(&d)
+        );
+        assert!(!show(&d).contains(".000"), "{}", show(&d));
     }
 }
