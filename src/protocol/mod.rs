@@ -186,42 +186,11 @@ pub struct Plan {
 /// The `[sim]` table's numbers by dotted name (`physics.finger_stiffness_n_per_mm`,
 /// `arm.start_mm[2]`), or the name of the first entry that is not a number.
 fn sim_parameters(table: &toml::Table) -> Result<std::collections::BTreeMap<String, f64>, String> {
-    fn walk(
-        prefix: &str,
-        v: &toml::Value,
-        out: &mut std::collections::BTreeMap<String, f64>,
-    ) -> Result<(), String> {
-        match v {
-            toml::Value::Table(t) => {
-                for (k, x) in t {
-                    let name = if prefix.is_empty() {
-                        k.clone()
-                    } else {
-                        format!("{prefix}.{k}")
-                    };
-                    walk(&name, x, out)?;
-                }
-            }
-            toml::Value::Array(items) => {
-                for (i, x) in items.iter().enumerate() {
-                    walk(&format!("{prefix}[{i}]"), x, out)?;
-                }
-            }
-            toml::Value::Float(f) => {
-                out.insert(prefix.to_string(), *f);
-            }
-            toml::Value::Integer(i) => {
-                out.insert(prefix.to_string(), *i as f64);
-            }
-            _ => return Err(prefix.to_string()),
-        }
-        Ok(())
+    let v = serde_json::to_value(table).map_err(|_| "sim".to_string())?;
+    match tmo_hal::sim::config::numbers_by_name(&v) {
+        (numbers, others) if others.is_empty() => Ok(numbers.into_iter().collect()),
+        (_, others) => Err(others[0].clone()),
     }
-    let mut out = std::collections::BTreeMap::new();
-    for (k, v) in table {
-        walk(k, v, &mut out)?;
-    }
-    Ok(out)
 }
 
 impl Plan {

@@ -36,6 +36,12 @@ pub struct Count {
     pub n: u64,
 }
 
+impl Count {
+    pub fn new(coef: f64, k: u64, n: u64) -> Self {
+        Self { coef, k, n }
+    }
+}
+
 /// What a measure was computed from.
 #[derive(Debug, Clone, PartialEq, Default)]
 pub enum Basis {
@@ -368,30 +374,8 @@ mod tests {
 
     #[test]
     fn a_difference_of_differences_widens_with_every_term() {
-        let one = Measure::counts(vec![
-            Count {
-                coef: 1.0,
-                k: 36,
-                n: 40,
-            },
-            Count {
-                coef: -1.0,
-                k: 31,
-                n: 40,
-            },
-        ]);
-        let other = Measure::counts(vec![
-            Count {
-                coef: 1.0,
-                k: 38,
-                n: 40,
-            },
-            Count {
-                coef: -1.0,
-                k: 37,
-                n: 40,
-            },
-        ]);
+        let one = Measure::counts(vec![Count::new(1.0, 36, 40), Count::new(-1.0, 31, 40)]);
+        let other = Measure::counts(vec![Count::new(1.0, 38, 40), Count::new(-1.0, 37, 40)]);
         let (d, iv) = difference(&one, &other);
         let (lo, hi) = iv.unwrap();
         let (olo, ohi) = one.interval.unwrap();

@@ -659,18 +659,7 @@ mod tests {
     #[test]
     fn values_read_in_the_papers_units() {
         assert_eq!(show(&Measure::proportion(37, 50)), "74 % [60, 84] (37/50)");
-        let drop = Measure::counts(vec![
-            Count {
-                coef: 1.0,
-                k: 36,
-                n: 40,
-            },
-            Count {
-                coef: -1.0,
-                k: 31,
-                n: 40,
-            },
-        ]);
+        let drop = Measure::counts(vec![Count::new(1.0, 36, 40), Count::new(-1.0, 31, 40)]);
         assert!(show(&drop).starts_with("+12 pp ["), "{}", show(&drop));
         let f1 = Measure::of_replicates(vec![0.88, 0.87, 0.89], Some((0.0, 1.0)));
         assert!(show(&f1).starts_with("0.880 [0.8"), "{}", show(&f1));

@@ -233,31 +233,36 @@ impl SimConfig {
     }
 }
 
-/// Every number in `v` by its dotted name, arrays by element (`arm.start_mm[2]`).
-pub(crate) fn flatten_numbers(prefix: &str, v: &serde_json::Value, out: &mut Vec<(String, f64)>) {
-    match v {
-        serde_json::Value::Object(map) => {
-            for (k, x) in map {
-                let name = if prefix.is_empty() {
-                    k.clone()
-                } else {
-                    format!("{prefix}.{k}")
-                };
-                flatten_numbers(&name, x, out);
+/// Every number in `v` by its dotted name, arrays by element (`arm.start_mm[2]`), and the
+/// names of the leaves that are not numbers.
+pub fn numbers_by_name(v: &serde_json::Value) -> (Vec<(String, f64)>, Vec<String>) {
+    fn walk(prefix: &str, v: &serde_json::Value, out: &mut (Vec<(String, f64)>, Vec<String>)) {
+        match v {
+            serde_json::Value::Object(map) => {
+                for (k, x) in map {
+                    let name = if prefix.is_empty() {
+                        k.clone()
+                    } else {
+                        format!("{prefix}.{k}")
+                    };
+                    walk(&name, x, out);
+                }
             }
-        }
-        serde_json::Value::Array(items) => {
-            for (i, x) in items.iter().enumerate() {
-                flatten_numbers(&format!("{prefix}[{i}]"), x, out);
+            serde_json::Value::Array(items) => {
+                for (i, x) in items.iter().enumerate() {
+                    walk(&format!("{prefix}[{i}]"), x, out);
+                }
             }
+            serde_json::Value::Number(n) => match n.as_f64() {
+                Some(x) => out.0.push((prefix.to_string(), x)),
+                None => out.1.push(prefix.to_string()),
+            },
+            _ => out.1.push(prefix.to_string()),
         }
-        serde_json::Value::Number(n) => {
-            if let Some(x) = n.as_f64() {
-                out.push((prefix.to_string(), x));
-            }
-        }
-        _ => {}
     }
+    let mut out = (Vec::new(), Vec::new());
+    walk("", v, &mut out);
+    out
 }
 
 /// The slot a dotted name (`physics.x`, `arm.start_mm[2]`) names in `v`.
@@ -286,10 +291,14 @@ impl SimConfig {
         let map = config.as_object_mut().expect("a config is a table");
         map.remove("seed");
         map.remove("rig");
-        let mut out = Vec::new();
-        flatten_numbers("", &config, &mut out);
+        let mut out = numbers_by_name(&config).0;
         let rail = serde_json::to_value(RailSetup::default()).expect("a rail setup serialises");
-        flatten_numbers("rail", &rail, &mut out);
+        out.extend(
+            numbers_by_name(&rail)
+                .0
+                .into_iter()
+                .map(|(name, x)| (format!("rail.{name}"), x)),
+        );
         out
     }
 

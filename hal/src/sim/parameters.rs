@@ -111,11 +111,6 @@ mod tests {
         SimConfig::parameters()
     }
 
-    /// Every number in `v` by its dotted name (arrays by element).
-    fn flatten(prefix: &str, v: &serde_json::Value, out: &mut Vec<(String, f64)>) {
-        super::super::config::flatten_numbers(prefix, v, out)
-    }
-
     #[test]
     fn the_shipped_records_parse() {
         let records = built_in();
@@ -157,9 +152,7 @@ mod tests {
             serde_json::to_value(ObjectLibrary::built_in().iter().collect::<Vec<_>>()).unwrap();
         for object in library.as_array().unwrap() {
             let name = object["name"].as_str().unwrap();
-            let mut fields = Vec::new();
-            flatten("", object, &mut fields);
-            for (field, value) in fields {
+            for (field, value) in crate::sim::config::numbers_by_name(object).0 {
                 let own = records
                     .iter()
                     .find(|r| r.name == format!("objects.{name}.{field}"));
