@@ -42,6 +42,10 @@ pub struct ReproduceArgs {
     /// seeds, and say which verdicts change (`sensitivity.md`, and a column of the page).
     #[arg(long)]
     sensitivity: bool,
+    /// Replicates (and sensitivity variants) run side by side (default: one per core). The
+    /// results are the same whatever the number; a real rig runs one at a time.
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=256))]
+    jobs: Option<u32>,
     /// With --sensitivity: vary only these parameters (comma-separated names).
     #[arg(long, value_delimiter = ',', requires = "sensitivity")]
     sensitivity_parameters: Vec<String>,
@@ -95,6 +99,10 @@ pub fn run(args: ReproduceArgs) -> Result<u8> {
         sensitivity: args
             .sensitivity
             .then(|| args.sensitivity_parameters.clone()),
+        jobs: args.jobs.map_or_else(
+            || std::thread::available_parallelism().map_or(1, |n| n.get()),
+            |j| j as usize,
+        ),
     };
     if args.findings_only {
         let first = reproduce::replicate_dir(&options.out, 1);

@@ -82,6 +82,10 @@ pub struct Options {
     /// `Some` to run the sensitivity study too: the parameters to vary (none named: every
     /// physical parameter).
     pub sensitivity: Option<Vec<String>>,
+    /// Replicates (and variants) run side by side, each on its own thread; 1 on a real rig.
+    /// A replicate's results do not depend on it: every replicate has its own seeds and
+    /// directory.
+    pub jobs: usize,
     pub resume: bool,
     pub backend: Backend,
 }
@@ -214,29 +218,33 @@ pub fn reproduce(
     let runs = 1 + variants.len();
     let steps_in_all = Step::ALL.len() * replicates as usize * runs + 1;
     progress.steps.set_length(steps_in_all as u64);
-    let mut tally = Steps::default();
+    let tally = std::sync::Mutex::new(Steps::default());
     let none = Default::default();
-    let baseline = Run {
+    let baseline = [Run {
         dir: out.clone(),
         label: String::new(),
         sim: &none,
         reuse: None,
-    };
-    if let Some(step) = run_replicates(&baseline, options, stop, progress, &mut tally)? {
+    }];
+    if let Some(step) = run_all(&baseline, options, stop, progress, &tally)? {
         return Ok(End::Interrupted { step });
     }
-    for v in &variants {
-        let sim = v.sim();
-        let run = Run {
+    // The variants start once the baseline is finished: they take its steps.
+    let sims: Vec<_> = variants.iter().map(|v| v.sim()).collect();
+    let variant_runs: Vec<Run> = variants
+        .iter()
+        .zip(&sims)
+        .map(|(v, sim)| Run {
             dir: v.dir(out),
             label: format!("{}/", v.dir_name()),
-            sim: &sim,
+            sim,
             reuse: Some(out),
-        };
-        if let Some(step) = run_replicates(&run, options, stop, progress, &mut tally)? {
-            return Ok(End::Interrupted { step });
-        }
+        })
+        .collect();
+    if let Some(step) = run_all(&variant_runs, options, stop, progress, &tally)? {
+        return Ok(End::Interrupted { step });
     }
+    let tally = tally.into_inner().expect("no worker panicked");
     progress.steps.set_message(format!(
         "step {steps_in_all} of {steps_in_all}: the findings report"
     ));
@@ -271,44 +279,107 @@ struct Steps {
     kept: Vec<String>,
 }
 
-/// Runs every replicate of `run`; the step it was interrupted in, if it was.
-fn run_replicates(
-    run: &Run,
+/// Runs every replicate of every run, `options.jobs` at a time; the step one was
+/// interrupted in, if one was. With several jobs the first job's work shows on the work
+/// bar; the others run with hidden bars.
+fn run_all(
+    runs: &[Run],
     options: &Options,
     stop: &AtomicBool,
     progress: &Progress,
-    tally: &mut Steps,
+    tally: &std::sync::Mutex<Steps>,
+) -> Result<Option<String>, ReproduceError> {
+    let jobs: Vec<(&Run, u32)> = runs
+        .iter()
+        .flat_map(|run| (1..=options.replicates.max(1)).map(move |r| (run, r)))
+        .collect();
+    let workers = if options.backend == Backend::Sim {
+        options.jobs.clamp(1, jobs.len().max(1))
+    } else {
+        1
+    };
+    let next = std::sync::atomic::AtomicUsize::new(0);
+    let results: Vec<Result<Option<String>, ReproduceError>> = std::thread::scope(|scope| {
+        let handles: Vec<_> = (0..workers)
+            .map(|w| {
+                let (jobs, next) = (&jobs, &next);
+                scope.spawn(move || {
+                    let bar = if w == 0 {
+                        progress.work.clone()
+                    } else {
+                        indicatif::ProgressBar::hidden()
+                    };
+                    let mut ended = Vec::new();
+                    loop {
+                        let i = next.fetch_add(1, Ordering::Relaxed);
+                        let Some(&(run, r)) = jobs.get(i) else { break };
+                        let result = run_replicate(run, r, options, stop, progress, &bar, tally);
+                        let halt = !matches!(result, Ok(None));
+                        ended.push((i, result));
+                        if halt || stop.load(Ordering::Relaxed) {
+                            break;
+                        }
+                    }
+                    ended
+                })
+            })
+            .collect();
+        let mut ended: Vec<_> = handles
+            .into_iter()
+            .flat_map(|h| h.join().expect("a reproduce worker panicked"))
+            .collect();
+        ended.sort_by_key(|(i, _)| *i);
+        ended.into_iter().map(|(_, r)| r).collect()
+    });
+    for result in results {
+        if let Some(step) = result? {
+            return Ok(Some(step));
+        }
+    }
+    Ok(None)
+}
+
+/// Runs replicate `r` of `run`; the step it was interrupted in, if it was.
+fn run_replicate(
+    run: &Run,
+    r: u32,
+    options: &Options,
+    stop: &AtomicBool,
+    progress: &Progress,
+    bar: &indicatif::ProgressBar,
+    tally: &std::sync::Mutex<Steps>,
 ) -> Result<Option<String>, ReproduceError> {
     let replicates = options.replicates.max(1);
-    for r in 1..=replicates {
-        let dir = replicate_dir(&run.dir, r);
-        let reuse = run.reuse.map(|base| replicate_dir(base, r));
-        let ctx = steps::Context {
-            out: &dir,
-            replicate: r,
-            sim: run.sim,
-            reuse: reuse.as_deref(),
-            preset: &options.preset,
-            backend: &options.backend,
-            stop,
-            bar: &progress.work,
-        };
-        for (k, step) in Step::ALL.iter().copied().enumerate() {
-            let name = format!("{}replicate-{r:02}/{}", run.label, step.name());
-            progress.steps.set_message(format!(
-                "{}replicate {r} of {replicates}, step {} of {}: {}",
-                run.label,
-                k + 1,
-                Step::ALL.len(),
-                step.title()
-            ));
-            match run_step(&ctx, step, progress)? {
-                StepEnd::Ran => tally.ran.push(name),
-                StepEnd::Kept => tally.kept.push(name),
-                StepEnd::Interrupted => return Ok(Some(name)),
-            }
-            progress.steps.inc(1);
+    let dir = replicate_dir(&run.dir, r);
+    let reuse = run.reuse.map(|base| replicate_dir(base, r));
+    let ctx = steps::Context {
+        out: &dir,
+        replicate: r,
+        sim: run.sim,
+        reuse: reuse.as_deref(),
+        preset: &options.preset,
+        backend: &options.backend,
+        stop,
+        bar,
+    };
+    for (k, step) in Step::ALL.iter().copied().enumerate() {
+        let name = format!("{}replicate-{r:02}/{}", run.label, step.name());
+        progress.steps.set_message(format!(
+            "{}replicate {r} of {replicates}, step {} of {}: {}",
+            run.label,
+            k + 1,
+            Step::ALL.len(),
+            step.title()
+        ));
+        let end = run_step(&ctx, step, bar)?;
+        let mut t = tally.lock().expect("no worker panicked");
+        match end {
+            StepEnd::Ran => t.ran.push(name),
+            StepEnd::Kept => t.kept.push(name),
+            StepEnd::Interrupted => return Ok(Some(name)),
         }
+        drop(t);
+        progress.steps.inc(1);
     }
     Ok(None)
 }
@@ -339,7 +410,7 @@ enum StepEnd {
 fn run_step(
     ctx: &steps::Context,
     step: Step,
-    progress: &Progress,
+    bar: &indicatif::ProgressBar,
 ) -> Result<StepEnd, ReproduceError> {
     let dir = ctx.out.join(step.dir());
     let inputs = sha256_text(&step.inputs(ctx)?);
@@ -364,9 +435,9 @@ fn run_step(
     }
     std::fs::create_dir_all(&dir).map_err(io(&dir))?;
     std::fs::write(dir.join("step.inputs"), &inputs).map_err(io(&dir))?;
-    progress.work.reset();
-    progress.work.set_length(0);
-    progress.work.set_message("");
+    bar.reset();
+    bar.set_length(0);
+    bar.set_message("");
     let started = std::time::Instant::now();
     let finished = step.run(ctx, &dir)?;
     if !finished || ctx.stop.load(Ordering::Relaxed) {
