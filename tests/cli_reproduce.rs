@@ -246,6 +246,51 @@ fn a_reproduction_killed_mid_way_resumes_without_rerunning_finished_steps() {
         caught["ours"]["rail.online.caught.1fr"]["n"], 40,
         "{caught}"
     );
+
+    // the two replicates ran side by side (one job per core); one at a time gives the same
+    // trials, sweep and models
+    ok(&tmo(
+        d,
+        &[
+            "reproduce",
+            "--out",
+            "seq",
+            "--replicates",
+            "2",
+            "--jobs",
+            "1",
+        ],
+    ));
+    for r in ["replicate-01", "replicate-02"] {
+        for file in [
+            "04_rail_online/outcomes.json",
+            "07_hand_online/outcomes.json",
+            "08_hand_objects/all/outcomes.json",
+            "11_first_time_lift/can/outcomes.json",
+        ] {
+            let read = |out: &str| std::fs::read_to_string(d.join(out).join(r).join(file)).unwrap();
+            assert_eq!(read("r"), read("seq"), "{r}/{file}");
+        }
+        // the fitted models (their files also name the training logs, which record when
+        // they were made)
+        let model = |out: &str| -> serde_json::Value {
+            let text =
+                std::fs::read_to_string(d.join(out).join(r).join("06_hand_models/global.json"))
+                    .unwrap();
+            let v: serde_json::Value = serde_json::from_str(&text).unwrap();
+            serde_json::json!([v["models"], v["hyperparameters"], v["labels"]])
+        };
+        assert_eq!(model("r"), model("seq"), "{r} model");
+        // the sweep's rows but their timing column
+        let rows = |out: &str| -> Vec<String> {
+            std::fs::read_to_string(d.join(out).join(r).join("02_rail_sweep/sweep.csv"))
+                .unwrap()
+                .lines()
+                .map(|l| l.rsplit_once(',').unwrap().0.to_string())
+                .collect()
+        };
+        assert_eq!(rows("r"), rows("seq"), "{r} sweep");
+    }
 }
 
 /// "N step(s) run, M already done" from reproduce's output.

@@ -121,6 +121,27 @@ pub const FP_COLOUR: RGBColor = RGBColor(230, 145, 56);
 pub const FN_COLOUR: RGBColor = RGBColor(200, 40, 40);
 
 /// A safe file name part.
+/// What a figure shows, as a caption: the paper's figure it stands for and the findings
+/// (docs/paper_findings.toml ids) it bears on; `None` for a file name this module does not
+/// make.
+pub fn caption(file_stem: &str) -> Option<String> {
+    let fig5 = |classifier: &str| {
+        format!("Fig. 5: test macro F1 of the {classifier} over the down-sampling d (static frames kept) and n_slip (slip frames labelled per slip); the paper's best cells lie at n_slip 11-15. Findings sf-offline-order, sf-best-n-slip, sf-best-d, sf-few-frames-trail-off, sf-svm-wins-cells.")
+    };
+    Some(match file_stem {
+        "fig4a_pin_speed" => "Fig. 4a: how the magnitude of the mean pin velocity is spread over the static and the slip frames of the rail's training trials, with the threshold classifier's T. In the paper the static class has a long tail reaching into the slip class, so no threshold separates them. Findings sf-pin-speed-tail, sf-threshold-misses-slip.".to_string(),
+        "fig4b_pin_velocities" => "Fig. 4b: example pin velocity fields either side of T: slip above it (i) and below it (ii, late slip frames whose velocities have shrunk), static above it (iii, a grip change with a mean component) and below it (iv). Finding sf-threshold-misses-slip.".to_string(),
+        "fig5_f1_svm_rbf" => fig5("SVM with an RBF kernel"),
+        "fig5_f1_logreg" => fig5("logistic regression"),
+        "fig5_f1_threshold" => fig5("threshold on the mean pin speed"),
+        "hand_outcomes" => "Fig. 7: TP, FP and FN of the global and the local classifiers over the strategies, with the hand at 0 and at 180 deg (the paper: the local classifier loses TPs at 180 deg, the global hardly). Findings wh-global-beats-local, wh-global-generalises, wh-fn-local-rotated, wh-fp-sensitive-strategy.".to_string(),
+        "hand_slip_distance" => "Fig. 8: slip distance D before the regrasp caught the object, by strategy, scope and grasp (the paper: 16-45 mm, smallest for 1Fr2Sen). Findings wh-distance, wh-distance-sensitive-smallest, wh-distance-local-rotated.".to_string(),
+        "fig9_lift_heights" => "First-time lift: object and hand heights through lifts, as the paper's pickup figure shows them (a lift succeeds when the hand rises noticeably before the object). The paper's Fig. 9, the eleven objects' scores, is the objects table above. Findings lift-all-lifted, lift-cat.".to_string(),
+        stem if stem.starts_with("fig10_lift_by_mass") => "Fig. 10: first-time lift by mass: slips per lift and overgrasp (how far past the least lifting grasp the hand closed; the paper: 39 % at 100-300 g, 105 % above). Findings lift-slips-rise-with-mass, lift-overgrasp-light, lift-overgrasp-heavy.".to_string(),
+        _ => return None,
+    })
+}
+
 pub fn slug(s: &str) -> String {
     s.chars()
         .map(|c| if c.is_ascii_alphanumeric() { c } else { '_' })

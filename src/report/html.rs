@@ -52,10 +52,16 @@ pub fn figures(paths: &[PathBuf]) -> String {
         let name = p
             .file_name()
             .map_or(String::new(), |n| n.to_string_lossy().into_owned());
+        let stem = p
+            .file_stem()
+            .map_or(String::new(), |n| n.to_string_lossy().into_owned());
+        let caption = match crate::plots::caption(&stem) {
+            Some(c) => format!("{} <span class=\"details\">({})</span>", escape(&c), escape(&name)),
+            None => escape(&name),
+        };
         out += &format!(
-            "<figure>{}<figcaption>{}</figcaption></figure>\n",
-            &svg[start..],
-            escape(&name)
+            "<figure>{}<figcaption>{caption}</figcaption></figure>\n",
+            &svg[start..]
         );
     }
     out
