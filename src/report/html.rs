@@ -56,7 +56,11 @@ pub fn figures(paths: &[PathBuf]) -> String {
             .file_stem()
             .map_or(String::new(), |n| n.to_string_lossy().into_owned());
         let caption = match crate::plots::caption(&stem) {
-            Some(c) => format!("{} <span class=\"details\">({})</span>", escape(&c), escape(&name)),
+            Some(c) => format!(
+                "{} <span class=\"details\">({})</span>",
+                escape(&c),
+                escape(&name)
+            ),
             None => escape(&name),
         };
         out += &format!(

@@ -226,8 +226,13 @@ pub fn reproduce(
         sim: &none,
         reuse: None,
     }];
-    if let Some(step) = run_all(&baseline, options, stop, progress, &tally)? {
-        return Ok(End::Interrupted { step });
+    for result in run_all(&baseline, options, stop, progress, &tally, false)
+        .into_iter()
+        .flatten()
+    {
+        if let Some(step) = result? {
+            return Ok(End::Interrupted { step });
+        }
     }
     // The variants start once the baseline is finished: they take its steps.
     let sims: Vec<_> = variants.iter().map(|v| v.sim()).collect();
@@ -241,8 +246,22 @@ pub fn reproduce(
             reuse: Some(out),
         })
         .collect();
-    if let Some(step) = run_all(&variant_runs, options, stop, progress, &tally)? {
-        return Ok(End::Interrupted { step });
+    // A variant whose world the rig cannot run (a grasp past the hand's limits, say) is a
+    // result of the study, not a reason to stop it: its error is kept in its directory.
+    let results = run_all(&variant_runs, options, stop, progress, &tally, true);
+    let per_run = options.replicates.max(1) as usize;
+    for (run, results) in variant_runs.iter().zip(results.chunks(per_run)) {
+        let failed = run.dir.join(sensitivity::FAILED);
+        match results.iter().flatten().find_map(|r| r.as_ref().err()) {
+            Some(e) => std::fs::write(&failed, e.to_string()).map_err(io(&failed))?,
+            None if failed.exists() => std::fs::remove_file(&failed).map_err(io(&failed))?,
+            None => {}
+        }
+    }
+    for result in results.into_iter().flatten() {
+        if let Ok(Some(step)) = result {
+            return Ok(End::Interrupted { step });
+        }
     }
     let tally = tally.into_inner().expect("no worker panicked");
     progress.steps.set_message(format!(
@@ -279,16 +298,18 @@ struct Steps {
     kept: Vec<String>,
 }
 
-/// Runs every replicate of every run, `options.jobs` at a time; the step one was
-/// interrupted in, if one was. With several jobs the first job's work shows on the work
-/// bar; the others run with hidden bars.
+/// Runs every replicate of every run, `options.jobs` at a time, and gives each one's end
+/// in run and replicate order (`None` for one never started: an error stops the runs
+/// unless `keep_going`, and an interruption stops them). With several jobs the
+/// first job's work shows on the work bar; the others run with hidden bars.
 fn run_all(
     runs: &[Run],
     options: &Options,
     stop: &AtomicBool,
     progress: &Progress,
     tally: &std::sync::Mutex<Steps>,
-) -> Result<Option<String>, ReproduceError> {
+    keep_going: bool,
+) -> Vec<Option<JobEnd>> {
     let jobs: Vec<(&Run, u32)> = runs
         .iter()
         .flat_map(|run| (1..=options.replicates.max(1)).map(move |r| (run, r)))
@@ -299,7 +320,7 @@ fn run_all(
         1
     };
     let next = std::sync::atomic::AtomicUsize::new(0);
-    let results: Vec<Result<Option<String>, ReproduceError>> = std::thread::scope(|scope| {
+    std::thread::scope(|scope| {
         let handles: Vec<_> = (0..workers)
             .map(|w| {
                 let (jobs, next) = (&jobs, &next);
@@ -314,7 +335,10 @@ fn run_all(
                         let i = next.fetch_add(1, Ordering::Relaxed);
                         let Some(&(run, r)) = jobs.get(i) else { break };
                         let result = run_replicate(run, r, options, stop, progress, &bar, tally);
-                        let halt = !matches!(result, Ok(None));
+                        let halt = match &result {
+                            Ok(interrupted) => interrupted.is_some(),
+                            Err(_) => !keep_going,
+                        };
                         ended.push((i, result));
                         if halt || stop.load(Ordering::Relaxed) {
                             break;
@@ -328,16 +352,16 @@ fn run_all(
             .into_iter()
             .flat_map(|h| h.join().expect("a reproduce worker panicked"))
             .collect();
-        ended.sort_by_key(|(i, _)| *i);
-        ended.into_iter().map(|(_, r)| r).collect()
-    });
-    for result in results {
-        if let Some(step) = result? {
-            return Ok(Some(step));
+        let mut all: Vec<Option<JobEnd>> = (0..jobs.len()).map(|_| None).collect();
+        for (i, r) in ended.drain(..) {
+            all[i] = Some(r);
         }
-    }
-    Ok(None)
+        all
+    })
 }
+
+/// How one replicate of one run ended: `Ok(Some(step))` where it was interrupted.
+type JobEnd = Result<Option<String>, ReproduceError>;
 
 /// Runs replicate `r` of `run`; the step it was interrupted in, if it was.
 fn run_replicate(

@@ -551,7 +551,11 @@ pub fn write_findings(
         let outcomes: Vec<super::sensitivity::Outcome> = variants
             .iter()
             .map(|v| {
-                let (here, _, _) = judge_replicates(&v.dir(out), replicates);
+                let dir = v.dir(out);
+                if let Ok(why) = std::fs::read_to_string(dir.join(super::sensitivity::FAILED)) {
+                    return super::sensitivity::failed(v.clone(), why);
+                }
+                let (here, _, _) = judge_replicates(&dir, replicates);
                 super::sensitivity::compare(v.clone(), &judged, &here)
             })
             .collect();

@@ -12,6 +12,9 @@ use tmo_hal::sim::SimConfig;
 
 use super::findings::{Judged, Reproduced};
 
+/// The file in a variant's directory that says why it could not be run to the end.
+pub const FAILED: &str = "failed.txt";
+
 /// One end of one parameter's plausible range.
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
 pub struct Variant {
@@ -96,6 +99,17 @@ pub struct Outcome {
     pub variant: Variant,
     /// Findings whose verdict differs from the baseline's: (baseline, here).
     pub changed: BTreeMap<String, (Reproduced, Reproduced)>,
+    /// Why the variant could not be run to the end (its findings are then not compared).
+    pub failed: Option<String>,
+}
+
+/// The outcome of a variant that could not be run to the end.
+pub fn failed(variant: Variant, why: String) -> Outcome {
+    Outcome {
+        variant,
+        changed: BTreeMap::new(),
+        failed: Some(why),
+    }
 }
 
 /// Compares a variant's verdicts with the baseline's.
@@ -108,7 +122,11 @@ pub fn compare(variant: Variant, baseline: &[Judged], here: &[Judged]) -> Outcom
                 .then(|| (b.finding.id.clone(), (b.reproduced, h.reproduced)))
         })
         .collect();
-    Outcome { variant, changed }
+    Outcome {
+        variant,
+        changed,
+        failed: None,
+    }
 }
 
 /// Marks each baseline finding with the variants that change its verdict (empty: robust).
@@ -142,6 +160,20 @@ pub fn markdown(baseline: &[Judged], outcomes: &[Outcome]) -> String {
             .len(),
         outcomes.iter().filter(|o| !o.changed.is_empty()).count()
     );
+    let failed: Vec<String> = outcomes
+        .iter()
+        .filter_map(|o| {
+            o.failed
+                .as_ref()
+                .map(|why| format!("- {} = {}: {why}\n", o.variant.parameter, o.variant.value))
+        })
+        .collect();
+    if !failed.is_empty() {
+        s += &format!(
+            "These variants could not be run to the end (the simulated rig cannot work there, a result in itself), and are left out of the table:\n\n{}\n",
+            failed.concat()
+        );
+    }
     if ids.is_empty() {
         s += "No verdict changed.\n";
         return s;
@@ -241,6 +273,23 @@ mod tests {
             .find(|j| j.finding.id == "sf-rail-caught")
             .unwrap();
         assert_eq!(caught.sensitive_to, Some(vec!["rail.rail_mu@high".into()]));
+        let mut with_failure = outcomes.clone();
+        with_failure.push(failed(
+            Variant {
+                parameter: "physics.finger_stiffness_n_per_mm".into(),
+                end: "low",
+                value: 0.2,
+                default: 0.5,
+            },
+            "step hand_collect: out of limits".into(),
+        ));
+        let md = markdown(&baseline, &with_failure);
+        assert!(
+            md.contains(
+                "- physics.finger_stiffness_n_per_mm = 0.2: step hand_collect: out of limits"
+            ),
+            "{md}"
+        );
         let md = markdown(&baseline, &outcomes);
         assert!(md.contains("| sf-rail-caught |"), "{md}");
         assert!(md.contains("yes -> no"), "{md}");
