@@ -1,5 +1,6 @@
-//! `tmo reproduce` on the simulator: the quick preset end to end, and a reproduction killed
-//! mid-way that `--resume` finishes without rerunning its finished steps.
+//! `tmo reproduce` on the simulator: the quick preset end to end, a reproduction killed
+//! mid-way that `--resume` finishes without rerunning its finished steps, and the same
+//! reproduction as shards joined by `tmo reproduce merge`.
 
 mod common;
 
@@ -247,20 +248,51 @@ fn a_reproduction_killed_mid_way_resumes_without_rerunning_finished_steps() {
         "{caught}"
     );
 
-    // the two replicates ran side by side (one job per core); one at a time gives the same
-    // trials, sweep and models
-    ok(&tmo(
+    // the two replicates ran side by side (one job per core); run one at a time as two
+    // shards and merged, they give the same trials, sweep, models and findings
+    for k in ["1", "2"] {
+        let out = ok(&tmo(
+            d,
+            &[
+                "reproduce",
+                "--out",
+                &format!("part{k}"),
+                "--replicates",
+                "2",
+                "--jobs",
+                "1",
+                "--shard",
+                &format!("{k}/2"),
+            ],
+        ));
+        assert!(out.contains(&format!("shard {k}/2")), "{out}");
+    }
+    // parts missing or altered are refused, and nothing is written
+    let e = fails(&tmo(d, &["reproduce", "merge", "part1", "--out", "seq"]));
+    assert!(e.contains("2/2 not given"), "{e}");
+    let e = fails(&tmo(
         d,
-        &[
-            "reproduce",
-            "--out",
-            "seq",
-            "--replicates",
-            "2",
-            "--jobs",
-            "1",
-        ],
+        &["reproduce", "merge", "part1", "part1", "--out", "seq"],
     ));
+    assert!(e.contains("are both shard 1/2"), "{e}");
+    let touched = d.join("part2/replicate-02/09_rice_pour/outcomes.json");
+    let original = std::fs::read(&touched).unwrap();
+    let mut altered = original.clone();
+    altered[10] ^= 1;
+    std::fs::write(&touched, &altered).unwrap();
+    let e = fails(&tmo(
+        d,
+        &["reproduce", "merge", "part1", "part2", "--out", "seq"],
+    ));
+    assert!(e.contains("09_rice_pour") && e.contains("changed"), "{e}");
+    assert!(!d.join("seq").exists());
+    std::fs::write(&touched, &original).unwrap();
+    let out = ok(&tmo(
+        d,
+        &["reproduce", "merge", "part2", "part1", "--out", "seq"],
+    ));
+    assert!(out.contains("merged 2 shards (2 jobs"), "{out}");
+    assert!(out.contains("held-out findings:"), "{out}");
     for r in ["replicate-01", "replicate-02"] {
         for file in [
             "04_rail_online/outcomes.json",
@@ -291,6 +323,21 @@ fn a_reproduction_killed_mid_way_resumes_without_rerunning_finished_steps() {
         };
         assert_eq!(rows("r"), rows("seq"), "{r} sweep");
     }
+    // the findings but the time to classify a frame, which is measured anew each run
+    let findings = |out: &str| -> serde_json::Value {
+        let text = std::fs::read_to_string(d.join(out).join("findings.json")).unwrap();
+        let mut v: serde_json::Value = serde_json::from_str(&text).unwrap();
+        v["findings"]
+            .as_array_mut()
+            .unwrap()
+            .retain(|f| f["id"] != "sf-classify-time");
+        v["measures"]
+            .as_object_mut()
+            .unwrap()
+            .retain(|k, _| !k.contains("classify"));
+        v
+    };
+    assert_eq!(findings("r"), findings("seq"));
 }
 
 /// "N step(s) run, M already done" from reproduce's output.

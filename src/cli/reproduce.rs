@@ -6,6 +6,7 @@ use std::sync::Arc;
 
 use anyhow::{Context, Result};
 use tmo::reproduce::{self, Backend, End, Options, Preset, Progress};
+use tmo::shard::Shard;
 
 use super::run::EXIT_INTERRUPTED;
 
@@ -25,7 +26,10 @@ pub enum BackendArg {
 }
 
 #[derive(clap::Args)]
+#[command(args_conflicts_with_subcommands = true)]
 pub struct ReproduceArgs {
+    #[command(subcommand)]
+    command: Option<ReproduceCommand>,
     /// How much to run: `quick` (a few trials a cell, one replicate, about 20 s) or `paper`
     /// (the paper's counts, five replicates, about 15 min each on 2 cores).
     #[arg(long, value_enum, default_value = "quick")]
@@ -46,6 +50,11 @@ pub struct ReproduceArgs {
     /// results are the same whatever the number; a real rig runs one at a time.
     #[arg(long, value_parser = clap::value_parser!(u32).range(1..=256))]
     jobs: Option<u32>,
+    /// Run only part K of N of the plan (the replicates, and with --sensitivity each
+    /// variant's replicates, dealt out in turn), e.g. one per cluster job;
+    /// `tmo reproduce merge` joins the parts and writes the findings.
+    #[arg(long, value_name = "K/N")]
+    shard: Option<Shard>,
     /// With --sensitivity: vary only these parameters (comma-separated names).
     #[arg(long, value_delimiter = ',', requires = "sensitivity")]
     sensitivity_parameters: Vec<String>,
@@ -69,7 +78,27 @@ pub struct ReproduceArgs {
     unattended: bool,
 }
 
+#[derive(clap::Subcommand)]
+enum ReproduceCommand {
+    /// Join the parts of a sharded reproduction (`tmo reproduce --shard K/N`) into one and
+    /// write its findings report.
+    Merge(MergeArgs),
+}
+
+#[derive(clap::Args)]
+struct MergeArgs {
+    /// Every shard's --out directory.
+    #[arg(required = true)]
+    shards: Vec<PathBuf>,
+    /// Where the joined reproduction and its findings report go (it must hold none yet).
+    #[arg(long, default_value = "results/paper")]
+    out: PathBuf,
+}
+
 pub fn run(args: ReproduceArgs) -> Result<u8> {
+    if let Some(ReproduceCommand::Merge(m)) = args.command {
+        return merge(m);
+    }
     let backend = match args.backend {
         BackendArg::Sim => Backend::Sim,
         BackendArg::Real => {
@@ -95,6 +124,7 @@ pub fn run(args: ReproduceArgs) -> Result<u8> {
             .replicates
             .unwrap_or_else(|| preset.default_replicates()),
         resume: args.resume,
+        shard: args.shard,
         backend,
         sensitivity: args
             .sensitivity
@@ -174,7 +204,43 @@ pub fn run(args: ReproduceArgs) -> Result<u8> {
             );
             print_report(&report, &options);
         }
+        End::Shard { ran, kept, record } => {
+            println!(
+                "reproduce ({} preset), shard {}: {} step(s) run, {} already done, in {:.1} s; {} job(s) of the plan",
+                options.preset.name(),
+                record.shard,
+                ran.len(),
+                kept.len(),
+                started.elapsed().as_secs_f64(),
+                record.jobs.len()
+            );
+            println!(
+                "wrote {} and the shard's step outputs under {}; join the shards with `tmo reproduce merge`",
+                options.out.join(reproduce::shards::RECORD).display(),
+                options.out.display()
+            );
+        }
     }
+    Ok(0)
+}
+
+fn merge(args: MergeArgs) -> Result<u8> {
+    let merged = reproduce::shards::merge(&args.shards, &args.out)?;
+    println!(
+        "merged {} shards ({} jobs; the longest shard took {:.1} s)",
+        merged.shards, merged.jobs, merged.longest_shard_s
+    );
+    println!("{}", merged.report.summary_line());
+    if let Some(line) = merged.report.agreement_line() {
+        println!("{line}");
+    }
+    println!(
+        "wrote {} (open it in a browser), {}, {} and every replicate's step outputs under {}",
+        merged.report.html.display(),
+        merged.report.md.display(),
+        merged.report.json.display(),
+        args.out.display()
+    );
     Ok(0)
 }
 

@@ -14,6 +14,7 @@ pub mod findings;
 pub mod measure;
 pub mod page;
 pub mod sensitivity;
+pub mod shards;
 pub mod steps;
 
 use std::path::{Path, PathBuf};
@@ -42,6 +43,8 @@ pub enum ReproduceError {
     Step { step: &'static str, message: String },
     #[error(transparent)]
     Findings(#[from] findings::FindingsError),
+    #[error(transparent)]
+    Merge(#[from] shards::MergeError),
 }
 
 impl ReproduceError {
@@ -86,6 +89,9 @@ pub struct Options {
     /// A replicate's results do not depend on it: every replicate has its own seeds and
     /// directory.
     pub jobs: usize,
+    /// Run only this part of the replicate (x variant) plan, for `tmo reproduce merge` to
+    /// join with the other parts.
+    pub shard: Option<crate::shard::Shard>,
     pub resume: bool,
     pub backend: Backend,
 }
@@ -134,6 +140,12 @@ pub enum End {
     Interrupted {
         /// The step, as `replicate-01/rail_sweep`.
         step: String,
+    },
+    /// A shard finished its part; `tmo reproduce merge` writes the findings.
+    Shard {
+        ran: Vec<String>,
+        kept: Vec<String>,
+        record: Box<shards::ShardRecord>,
     },
 }
 
@@ -186,18 +198,34 @@ fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), ReproduceError> {
 }
 
 /// Runs every step the preset asks for in each replicate (and, for a sensitivity study,
-/// again in each variant), then writes the findings report.
+/// again in each variant), then writes the findings report; a shard runs its part of
+/// that plan and writes its record instead.
 pub fn reproduce(
     options: &Options,
     stop: &AtomicBool,
     progress: &Progress,
 ) -> Result<End, ReproduceError> {
+    let started = std::time::Instant::now();
     let out = &options.out;
     let replicates = options.replicates.max(1);
-    let has_steps = (1..=replicates.max(99)).any(|r| replicate_dir(out, r).exists())
+    let has_steps = out.join(shards::RECORD).exists()
+        || std::fs::read_dir(out).is_ok_and(|mut entries| {
+            entries.any(|e| {
+                e.is_ok_and(|e| {
+                    let name = e.file_name().to_string_lossy().into_owned();
+                    name.starts_with("replicate-") || name == "sensitivity"
+                })
+            })
+        })
         || Step::ALL.iter().any(|s| out.join(s.dir()).exists());
     if has_steps && !options.resume {
         return Err(ReproduceError::AlreadyThere(out.clone()));
+    }
+    if options.shard.is_some() && options.backend != Backend::Sim {
+        return Err(ReproduceError::step(
+            "reproduce",
+            "--shard splits a reproduction over processes that each drive their own simulated rig: a real rig runs it whole",
+        ));
     }
     let variants = match &options.sensitivity {
         None => Vec::new(),
@@ -215,17 +243,44 @@ pub fn reproduce(
     std::fs::create_dir_all(out).map_err(io(out))?;
     let _lock =
         crate::lock::OutputLock::acquire(out).map_err(|e| ReproduceError::step("reproduce", e))?;
-    let runs = 1 + variants.len();
-    let steps_in_all = Step::ALL.len() * replicates as usize * runs + 1;
-    progress.steps.set_length(steps_in_all as u64);
-    let tally = std::sync::Mutex::new(Steps::default());
+    // A shard's record is written last: one left from an earlier run of it no longer
+    // stands once the shard runs again.
+    let record_path = out.join(shards::RECORD);
+    if record_path.exists() {
+        std::fs::remove_file(&record_path).map_err(io(&record_path))?;
+    }
+
     let none = Default::default();
-    let baseline = [Run {
+    let sims: Vec<_> = variants.iter().map(|v| v.sim()).collect();
+    let runs: Vec<Run> = std::iter::once(Run {
         dir: out.clone(),
         label: String::new(),
         sim: &none,
         reuse: None,
-    }];
+    })
+    .chain(variants.iter().zip(&sims).map(|(v, sim)| Run {
+        dir: v.dir(out),
+        label: format!("{}/", v.dir_name()),
+        sim,
+        // the variants take the baseline's steps their parameter does not touch
+        reuse: Some(out),
+    }))
+    .collect();
+    // The plan: the baseline's replicates, then each variant's; a shard takes its part.
+    let plan: Vec<(&Run, u32)> = runs
+        .iter()
+        .flat_map(|run| (1..=replicates).map(move |r| (run, r)))
+        .collect();
+    let mine: Vec<(&Run, u32)> = match options.shard {
+        Some(shard) => shard.select(plan),
+        None => plan,
+    };
+    let (baseline, variant_jobs): (Vec<_>, Vec<_>) =
+        mine.iter().partition(|(run, _)| run.reuse.is_none());
+    let report_steps = usize::from(options.shard.is_none());
+    let steps_in_all = Step::ALL.len() * mine.len() + report_steps;
+    progress.steps.set_length(steps_in_all as u64);
+    let tally = std::sync::Mutex::new(Steps::default());
     for result in run_all(&baseline, options, stop, progress, &tally, false)
         .into_iter()
         .flatten()
@@ -234,26 +289,28 @@ pub fn reproduce(
             return Ok(End::Interrupted { step });
         }
     }
-    // The variants start once the baseline is finished: they take its steps.
-    let sims: Vec<_> = variants.iter().map(|v| v.sim()).collect();
-    let variant_runs: Vec<Run> = variants
-        .iter()
-        .zip(&sims)
-        .map(|(v, sim)| Run {
-            dir: v.dir(out),
-            label: format!("{}/", v.dir_name()),
-            sim,
-            reuse: Some(out),
-        })
-        .collect();
-    // A variant whose world the rig cannot run (a grasp past the hand's limits, say) is a
-    // result of the study, not a reason to stop it: its error is kept in its directory.
-    let results = run_all(&variant_runs, options, stop, progress, &tally, true);
-    let per_run = options.replicates.max(1) as usize;
-    for (run, results) in variant_runs.iter().zip(results.chunks(per_run)) {
+    // The variants start once the baseline is finished: they take its steps. A variant
+    // whose world the rig cannot run (a grasp past the hand's limits, say) is a result of
+    // the study, not a reason to stop it: its error is kept in its directory.
+    let results = run_all(&variant_jobs, options, stop, progress, &tally, true);
+    let mut failed_runs: Vec<(&Path, String)> = Vec::new();
+    for ((run, _), result) in variant_jobs.iter().zip(&results) {
+        if let Some(Err(e)) = result {
+            if !failed_runs.iter().any(|(d, _)| *d == run.dir) {
+                failed_runs.push((&run.dir, e.to_string()));
+            }
+        }
+    }
+    for run in runs.iter().skip(1) {
+        if !variant_jobs.iter().any(|(r, _)| r.dir == run.dir) {
+            continue;
+        }
         let failed = run.dir.join(sensitivity::FAILED);
-        match results.iter().flatten().find_map(|r| r.as_ref().err()) {
-            Some(e) => std::fs::write(&failed, e.to_string()).map_err(io(&failed))?,
+        match failed_runs.iter().find(|(d, _)| *d == run.dir) {
+            Some((_, why)) => {
+                std::fs::create_dir_all(&run.dir).map_err(io(&run.dir))?;
+                std::fs::write(&failed, why).map_err(io(&failed))?
+            }
             None if failed.exists() => std::fs::remove_file(&failed).map_err(io(&failed))?,
             None => {}
         }
@@ -264,6 +321,34 @@ pub fn reproduce(
         }
     }
     let tally = tally.into_inner().expect("no worker panicked");
+    if let Some(shard) = options.shard {
+        let record = shards::ShardRecord {
+            shard: shard.to_string(),
+            plan: shards::ShardPlan::new(options, &variants),
+            jobs: mine
+                .iter()
+                .map(|(run, r)| shards::ShardJob {
+                    dir: job_dir_name(run, *r),
+                    failed: failed_runs
+                        .iter()
+                        .find(|(d, _)| *d == run.dir)
+                        .map(|(_, why)| why.clone()),
+                })
+                .collect(),
+            wall_s: started.elapsed().as_secs_f64(),
+        };
+        write_atomic(
+            &record_path,
+            serde_json::to_string_pretty(&record)
+                .expect("a shard record serialises")
+                .as_bytes(),
+        )?;
+        return Ok(End::Shard {
+            ran: tally.ran,
+            kept: tally.kept,
+            record: Box::new(record),
+        });
+    }
     progress.steps.set_message(format!(
         "step {steps_in_all} of {steps_in_all}: the findings report"
     ));
@@ -282,6 +367,16 @@ pub fn reproduce(
     })
 }
 
+/// A job's directory relative to the output directory: `replicate-01`, or
+/// `sensitivity/<parameter>@low/replicate-01`.
+fn job_dir_name(run: &Run, r: u32) -> String {
+    let mut name = run.label.clone();
+    if !name.is_empty() {
+        name.insert_str(0, "sensitivity/");
+    }
+    name + &format!("replicate-{r:02}")
+}
+
 /// One set of replicates: the baseline, or a sensitivity variant.
 struct Run<'a> {
     dir: PathBuf,
@@ -298,22 +393,18 @@ struct Steps {
     kept: Vec<String>,
 }
 
-/// Runs every replicate of every run, `options.jobs` at a time, and gives each one's end
-/// in run and replicate order (`None` for one never started: an error stops the runs
+/// Runs the jobs (a replicate of a run each), `options.jobs` at a time, and gives each
+/// one's end in their order (`None` for one never started: an error stops the runs
 /// unless `keep_going`, and an interruption stops them). With several jobs the
 /// first job's work shows on the work bar; the others run with hidden bars.
 fn run_all(
-    runs: &[Run],
+    jobs: &[&(&Run, u32)],
     options: &Options,
     stop: &AtomicBool,
     progress: &Progress,
     tally: &std::sync::Mutex<Steps>,
     keep_going: bool,
 ) -> Vec<Option<JobEnd>> {
-    let jobs: Vec<(&Run, u32)> = runs
-        .iter()
-        .flat_map(|run| (1..=options.replicates.max(1)).map(move |r| (run, r)))
-        .collect();
     let workers = if options.backend == Backend::Sim {
         options.jobs.clamp(1, jobs.len().max(1))
     } else {
@@ -323,7 +414,7 @@ fn run_all(
     std::thread::scope(|scope| {
         let handles: Vec<_> = (0..workers)
             .map(|w| {
-                let (jobs, next) = (&jobs, &next);
+                let next = &next;
                 scope.spawn(move || {
                     let bar = if w == 0 {
                         progress.work.clone()
@@ -333,7 +424,7 @@ fn run_all(
                     let mut ended = Vec::new();
                     loop {
                         let i = next.fetch_add(1, Ordering::Relaxed);
-                        let Some(&(run, r)) = jobs.get(i) else { break };
+                        let Some(&&(run, r)) = jobs.get(i) else { break };
                         let result = run_replicate(run, r, options, stop, progress, &bar, tally);
                         let halt = match &result {
                             Ok(interrupted) => interrupted.is_some(),

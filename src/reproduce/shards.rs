@@ -1,0 +1,382 @@
+//! A reproduction split over processes or cluster jobs: `tmo reproduce --shard K/N` runs
+//! part K of the plan (the baseline's replicates, then each sensitivity variant's, dealt
+//! out in turn) into its own directory and leaves a record of it; `tmo reproduce merge`
+//! checks that the records are the N parts of one plan, each finished and unaltered, and
+//! joins them into the directory a single run writes, with its findings report.
+//!
+//! A replicate's steps depend on each other, so a replicate is the smallest part; its
+//! seeds depend only on its number, so where it runs does not change what it computes.
+
+use std::path::{Path, PathBuf};
+
+use super::{
+    digest_dir, io, link_tree, read_record, replicate_dir, sensitivity, Options, ReproduceError,
+    Step,
+};
+use crate::shard::Shard;
+
+/// The record a finished shard leaves in its directory.
+pub const RECORD: &str = "shard.json";
+
+/// What every part of one reproduction shares.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct ShardPlan {
+    pub preset: String,
+    pub replicates: u32,
+    /// The parameters asked for with `--sensitivity-parameters` (empty: all); `None`
+    /// without `--sensitivity`.
+    pub sensitivity: Option<Vec<String>>,
+    /// The variants' directory names, in plan order.
+    pub variants: Vec<String>,
+    pub tmo_version: String,
+    pub git_revision: String,
+}
+
+impl ShardPlan {
+    pub fn new(options: &Options, variants: &[sensitivity::Variant]) -> Self {
+        let (tmo_version, git_revision) = crate::trial::TrialMeta::code_version();
+        Self {
+            preset: options.preset.name().into(),
+            replicates: options.replicates.max(1),
+            sensitivity: options.sensitivity.clone(),
+            variants: variants.iter().map(|v| v.dir_name()).collect(),
+            tmo_version,
+            git_revision,
+        }
+    }
+
+    /// Every job of the plan, as directories under the output directory, in plan order.
+    pub fn jobs(&self) -> Vec<String> {
+        let runs = std::iter::once(String::new())
+            .chain(self.variants.iter().map(|v| format!("sensitivity/{v}/")));
+        runs.flat_map(|run| (1..=self.replicates).map(move |r| format!("{run}replicate-{r:02}")))
+            .collect()
+    }
+}
+
+/// One job a shard ran.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct ShardJob {
+    /// Its directory under the shard's (and the merged) output directory.
+    pub dir: String,
+    /// Why its variant could not be run to the end, if it could not.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub failed: Option<String>,
+}
+
+/// `shard.json`.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct ShardRecord {
+    /// "K/N".
+    pub shard: String,
+    pub plan: ShardPlan,
+    pub jobs: Vec<ShardJob>,
+    pub wall_s: f64,
+}
+
+#[derive(Debug, thiserror::Error)]
+pub enum MergeError {
+    #[error("no shard directories given")]
+    NoShards,
+    #[error("{dir}: no finished shard here (no {RECORD}): run `tmo reproduce --shard K/N --out {dir}`, or finish it with --resume")]
+    NotAShard { dir: PathBuf },
+    #[error("{path}: not a shard record ({message})")]
+    BadRecord { path: PathBuf, message: String },
+    #[error("{a} and {b} are both shard {shard}")]
+    Doubled {
+        a: PathBuf,
+        b: PathBuf,
+        shard: String,
+    },
+    #[error("{dir} is shard {shard}, another shard is of {count}")]
+    OtherCount {
+        dir: PathBuf,
+        shard: String,
+        count: usize,
+    },
+    #[error("{dir} is a shard of another reproduction than {first} ({what} differ)")]
+    Mixed {
+        dir: PathBuf,
+        first: PathBuf,
+        what: &'static str,
+    },
+    #[error("shard(s) {0} not given")]
+    Missing(String),
+    #[error("{dir}: shard {shard} should hold {expected:?}, its record lists {found:?}")]
+    WrongJobs {
+        dir: PathBuf,
+        shard: String,
+        expected: Vec<String>,
+        found: Vec<String>,
+    },
+    #[error("{dir}: step {step} is not finished: finish the shard with --resume")]
+    Unfinished { dir: PathBuf, step: &'static str },
+    #[error("{dir}: its files changed after the step finished (their SHA-256 is not the one step.json records): run the shard again")]
+    Altered { dir: PathBuf },
+    #[error("{0}: {1}")]
+    Plan(String, String),
+}
+
+fn read(dir: &Path) -> Result<ShardRecord, MergeError> {
+    let path = dir.join(RECORD);
+    let text = std::fs::read_to_string(&path).map_err(|_| MergeError::NotAShard {
+        dir: dir.to_path_buf(),
+    })?;
+    serde_json::from_str(&text).map_err(|e| MergeError::BadRecord {
+        path,
+        message: e.to_string(),
+    })
+}
+
+/// What `merge` did.
+#[derive(Debug)]
+pub struct Merged {
+    pub shards: usize,
+    pub jobs: usize,
+    /// The longest shard's own time: the reproduction's wall time when the shards ran side
+    /// by side.
+    pub longest_shard_s: f64,
+    pub report: super::page::Written,
+}
+
+/// Joins the finished shards in `dirs` into `out` (which must hold no reproduction yet)
+/// and writes the findings report there.
+pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<Merged, ReproduceError> {
+    let parts = check_parts(dirs)?;
+    let plan = parts[0].1.plan.clone();
+    let preset = match plan.preset.as_str() {
+        "paper" => super::Preset::Paper,
+        "quick" => super::Preset::Quick,
+        other => {
+            return Err(
+                MergeError::Plan("preset".into(), format!("unknown preset `{other}`")).into(),
+            )
+        }
+    };
+    let variants = match &plan.sensitivity {
+        None => Vec::new(),
+        Some(only) => sensitivity::variants(&tmo_hal::sim::parameters::built_in(), only)
+            .map_err(|e| MergeError::Plan("sensitivity".into(), e))?,
+    };
+    if variants.iter().map(|v| v.dir_name()).collect::<Vec<_>>() != plan.variants {
+        return Err(MergeError::Plan(
+            "sensitivity".into(),
+            "this build of tmo varies other parameters than the shards did: merge with the build that ran them".into(),
+        )
+        .into());
+    }
+    // Every job finished, and its files are the ones its steps recorded.
+    for (dir, record) in &parts {
+        for job in record.jobs.iter().filter(|j| j.failed.is_none()) {
+            let from = dir.join(&job.dir);
+            for step in Step::ALL {
+                let step_dir = from.join(step.dir());
+                let done = read_record(&step_dir).ok_or(MergeError::Unfinished {
+                    dir: from.clone(),
+                    step: step.name(),
+                })?;
+                if digest_dir(&step_dir)? != done.outputs_sha256 {
+                    return Err(MergeError::Altered { dir: step_dir }.into());
+                }
+            }
+        }
+    }
+    let taken = std::fs::read_dir(out).is_ok_and(|mut e| e.next().is_some());
+    if taken {
+        return Err(ReproduceError::AlreadyThere(out.to_path_buf()));
+    }
+    std::fs::create_dir_all(out).map_err(io(out))?;
+    let _lock =
+        crate::lock::OutputLock::acquire(out).map_err(|e| ReproduceError::step("merge", e))?;
+    for (dir, record) in &parts {
+        for job in &record.jobs {
+            let from = dir.join(&job.dir);
+            let to = out.join(&job.dir);
+            if let Some(why) = &job.failed {
+                let run = to.parent().expect("a job sits in its run's directory");
+                std::fs::create_dir_all(run).map_err(io(run))?;
+                let path = run.join(sensitivity::FAILED);
+                std::fs::write(&path, why).map_err(io(&path))?;
+            }
+            if from.is_dir() {
+                link_tree(&from, &to)?;
+            }
+        }
+    }
+    let study = (!variants.is_empty()).then_some(variants.as_slice());
+    let report = super::page::write_findings(out, &preset, plan.replicates, study)?;
+    debug_assert!(replicate_dir(out, 1).exists());
+    Ok(Merged {
+        shards: parts.len(),
+        jobs: parts.iter().map(|(_, r)| r.jobs.len()).sum(),
+        longest_shard_s: parts.iter().map(|(_, r)| r.wall_s).fold(0.0, f64::max),
+        report,
+    })
+}
+
+/// The shards' records, in shard order, once they are checked to be every part of one
+/// plan exactly once.
+fn check_parts(dirs: &[PathBuf]) -> Result<Vec<(PathBuf, ShardRecord)>, MergeError> {
+    let mut parts: Vec<(PathBuf, Shard, ShardRecord)> = Vec::new();
+    for dir in dirs {
+        let record = read(dir)?;
+        let shard: Shard = record
+            .shard
+            .parse()
+            .map_err(|e: crate::shard::ShardError| MergeError::BadRecord {
+                path: dir.join(RECORD),
+                message: e.to_string(),
+            })?;
+        if let Some((other, _, _)) = parts.iter().find(|(_, s, _)| s.index == shard.index) {
+            return Err(MergeError::Doubled {
+                a: dir.clone(),
+                b: other.clone(),
+                shard: record.shard,
+            });
+        }
+        if let Some((first, s, first_record)) = parts.first() {
+            if s.count != shard.count {
+                return Err(MergeError::OtherCount {
+                    dir: dir.clone(),
+                    shard: record.shard,
+                    count: s.count,
+                });
+            }
+            let (a, b) = (&first_record.plan, &record.plan);
+            let what = if a.tmo_version != b.tmo_version || a.git_revision != b.git_revision {
+                Some("the builds of tmo")
+            } else if a.preset != b.preset || a.replicates != b.replicates {
+                Some("the preset or the replicates")
+            } else if a != b {
+                Some("the sensitivity studies")
+            } else {
+                None
+            };
+            if let Some(what) = what {
+                return Err(MergeError::Mixed {
+                    dir: dir.clone(),
+                    first: first.clone(),
+                    what,
+                });
+            }
+        }
+        parts.push((dir.clone(), shard, record));
+    }
+    let count = parts.first().ok_or(MergeError::NoShards)?.1.count;
+    let missing: Vec<String> = (1..=count)
+        .filter(|k| !parts.iter().any(|(_, s, _)| s.index == *k))
+        .map(|k| format!("{k}/{count}"))
+        .collect();
+    if !missing.is_empty() {
+        return Err(MergeError::Missing(missing.join(", ")));
+    }
+    parts.sort_by_key(|(_, s, _)| s.index);
+    let all = parts[0].2.plan.jobs();
+    for (dir, shard, record) in &parts {
+        let expected = shard.select(all.clone());
+        let found: Vec<String> = record.jobs.iter().map(|j| j.dir.clone()).collect();
+        if expected != found {
+            return Err(MergeError::WrongJobs {
+                dir: dir.clone(),
+                shard: record.shard.clone(),
+                expected,
+                found,
+            });
+        }
+    }
+    Ok(parts.into_iter().map(|(d, _, r)| (d, r)).collect())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn record(shard: &str, plan: &ShardPlan) -> ShardRecord {
+        let s: Shard = shard.parse().unwrap();
+        ShardRecord {
+            shard: shard.into(),
+            plan: plan.clone(),
+            jobs: s
+                .select(plan.jobs())
+                .into_iter()
+                .map(|dir| ShardJob { dir, failed: None })
+                .collect(),
+            wall_s: 1.0,
+        }
+    }
+
+    fn plan() -> ShardPlan {
+        ShardPlan {
+            preset: "quick".into(),
+            replicates: 2,
+            sensitivity: Some(vec!["rail.rail_mu".into()]),
+            variants: vec!["rail.rail_mu@low".into(), "rail.rail_mu@high".into()],
+            tmo_version: "0".into(),
+            git_revision: "abc".into(),
+        }
+    }
+
+    fn write(root: &Path, name: &str, r: &ShardRecord) -> PathBuf {
+        let d = root.join(name);
+        std::fs::create_dir_all(&d).unwrap();
+        std::fs::write(d.join(RECORD), serde_json::to_string(r).unwrap()).unwrap();
+        d
+    }
+
+    #[test]
+    fn the_plan_lists_the_baseline_then_each_variant_replicate_by_replicate() {
+        assert_eq!(
+            plan().jobs(),
+            [
+                "replicate-01",
+                "replicate-02",
+                "sensitivity/rail.rail_mu@low/replicate-01",
+                "sensitivity/rail.rail_mu@low/replicate-02",
+                "sensitivity/rail.rail_mu@high/replicate-01",
+                "sensitivity/rail.rail_mu@high/replicate-02",
+            ]
+        );
+    }
+
+    #[test]
+    fn parts_are_refused_when_missing_doubled_mixed_or_of_another_count() {
+        let root = tempfile::tempdir().unwrap();
+        let p = plan();
+        let one = write(root.path(), "a", &record("1/3", &p));
+        let two = write(root.path(), "b", &record("2/3", &p));
+        let three = write(root.path(), "c", &record("3/3", &p));
+        let parts = check_parts(&[three.clone(), one.clone(), two.clone()]).unwrap();
+        let order: Vec<&str> = parts.iter().map(|(_, r)| r.shard.as_str()).collect();
+        assert_eq!(order, ["1/3", "2/3", "3/3"]);
+
+        let e = check_parts(&[one.clone(), two.clone()]).unwrap_err();
+        assert!(matches!(&e, MergeError::Missing(m) if m == "3/3"), "{e}");
+        let e = check_parts(&[one.clone(), one.clone(), three.clone()]).unwrap_err();
+        assert!(matches!(e, MergeError::Doubled { .. }), "{e}");
+        let other = write(root.path(), "d", &record("2/4", &p));
+        let e = check_parts(&[one.clone(), other]).unwrap_err();
+        assert!(matches!(e, MergeError::OtherCount { .. }), "{e}");
+        let mut q = p.clone();
+        q.git_revision = "def".into();
+        let mixed = write(root.path(), "e", &record("2/3", &q));
+        let e = check_parts(&[one.clone(), mixed, three.clone()]).unwrap_err();
+        assert!(
+            matches!(e, MergeError::Mixed { what, .. } if what.contains("builds")),
+            "{e}"
+        );
+        let mut q = p.clone();
+        q.replicates = 3;
+        let mixed = write(root.path(), "f", &record("2/3", &q));
+        let e = check_parts(&[one.clone(), mixed, three.clone()]).unwrap_err();
+        assert!(matches!(e, MergeError::Mixed { .. }), "{e}");
+        // a record listing another part's jobs
+        let mut wrong = record("2/3", &p);
+        wrong.jobs.pop();
+        let wrong = write(root.path(), "g", &wrong);
+        let e = check_parts(&[one, wrong, three]).unwrap_err();
+        assert!(matches!(e, MergeError::WrongJobs { .. }), "{e}");
+        let e = check_parts(&[root.path().join("nowhere")]).unwrap_err();
+        assert!(matches!(e, MergeError::NotAShard { .. }), "{e}");
+        assert!(matches!(check_parts(&[]), Err(MergeError::NoShards)));
+    }
+}
