@@ -16,6 +16,7 @@ use tmo::slip::metrics::macro_f1;
 use tmo::slip::scaler::Scaler;
 use tmo::slip::svm::SvmParams;
 use tmo::slip::Class;
+use tmo_learn::Label;
 
 fn main() {
     let ds = common::hand_release_rows(1, |_| 0.0);
@@ -45,7 +46,10 @@ fn main() {
         let t0 = Instant::now();
         let model = params.fit(ds.dim, &xs, &ds.y).unwrap();
         let secs = t0.elapsed().as_secs_f64();
-        let predicted: Vec<Class> = xs.chunks_exact(ds.dim).map(|r| model.predict(r)).collect();
+        let predicted: Vec<Class> = xs
+            .chunks_exact(ds.dim)
+            .map(|r| Class::from_positive(model.predict(r)))
+            .collect();
         let f1 = macro_f1(&ds.y, &predicted);
         println!(
             "  C = {c:>7}: {secs:>8.3} s, {:>9} iterations, {} support vectors, training macro F1 {f1:.4}{}",

@@ -138,15 +138,15 @@ fn main() {
         together_s / alone_s
     );
     // Classes only (as a test set or held-out fold is scored): rows the slip support
-    // vectors alone show static are not summed over the rest (see StaticBound).
-    match model.static_bound() {
+    // vectors alone show static are not summed over the rest (see NegativeBound).
+    match model.negative_bound() {
         None => println!(
             "  classes: this model has no static bound (rho <= 0 or mostly slip support vectors)"
         ),
         Some(bound) => {
             let (bounded, bounded_s, spared) = one_thread.install(|| {
                 let t0 = Instant::now();
-                let sure = bound.surely_static(&all);
+                let sure = bound.surely_negative(&all);
                 let left: Vec<f32> = all
                     .chunks_exact(ds.dim)
                     .zip(&sure)

@@ -1,24 +1,23 @@
 //! Slip detection: features from pin frames, labels from the marker track, classifiers and
 //! their scores (SPEC.md, "Slip detection method"). Usable without any hardware.
 
-pub mod bayes;
-pub mod cholesky;
 pub mod cross_validation;
 pub mod dataset;
 pub mod evaluation;
 pub mod features;
 pub mod labels;
-pub mod logreg;
 pub mod metrics;
 pub mod model;
-pub mod scaler;
 pub mod search_range;
-pub mod svm;
 pub mod sweep;
 pub mod sweep_file;
 pub mod threshold;
 pub mod tuning;
 pub mod warm;
+
+// The classifiers themselves live in `tmo-learn`; they are re-exported here under the names
+// the rest of the application has always used.
+pub use tmo_learn::{bayes, cholesky, logreg, scaler, svm};
 
 /// The two classes of a frame.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize)]
@@ -26,4 +25,19 @@ pub mod warm;
 pub enum Class {
     Static,
     Slip,
+}
+
+/// Slip is the class the classifiers learn to detect.
+impl tmo_learn::Label for Class {
+    fn is_positive(self) -> bool {
+        self == Class::Slip
+    }
+
+    fn from_positive(positive: bool) -> Self {
+        if positive {
+            Class::Slip
+        } else {
+            Class::Static
+        }
+    }
 }

@@ -16,6 +16,7 @@ use super::svm::{SvmModel, SvmParams};
 use super::threshold::ThresholdModel;
 use super::warm::WarmStart;
 use super::Class;
+use tmo_learn::Label;
 
 pub const MODEL_FORMAT: &str = "tmo-slip-model";
 pub const MODEL_FORMAT_VERSION: u32 = 1;
@@ -121,7 +122,13 @@ pub enum TrainError {
     Empty { for_sensor: String },
     #[error(transparent)]
     Threshold(#[from] super::threshold::ThresholdError),
-    #[error(transparent)]
+    /// The SVM's one-class error in this application's words (static and slip rows).
+    #[error("{}", match .0 {
+        super::svm::SvmError::OneClass { negative_rows, positive_rows } => format!(
+            "training data needs rows of both classes (static {negative_rows}, slip {positive_rows})"
+        ),
+        e => e.to_string(),
+    })]
     Svm(#[from] super::svm::SvmError),
     #[error(transparent)]
     LogReg(#[from] super::logreg::LogRegError),
@@ -271,7 +278,7 @@ impl SensorModel {
         const PIECE: usize = 512;
         // An RBF SVM spares rows its slip support vectors show static (same classes).
         let svm = match &self.classifier {
-            Classifier::Svm(m) => Some(m.slip_scoring()),
+            Classifier::Svm(m) => Some(m.positive_scoring()),
             _ => None,
         };
         rows.par_chunks(PIECE)
@@ -280,9 +287,8 @@ impl SensorModel {
                 match &svm {
                     Some(svm) => {
                         let x = self.scaled_rows(data, piece);
-                        let slip = svm.slip(x).into_iter();
-                        slip.map(|s| if s { Class::Slip } else { Class::Static })
-                            .collect()
+                        let slip = svm.positive(x).into_iter();
+                        slip.map(Class::from_positive).collect()
                     }
                     _ => piece
                         .iter()
@@ -1156,14 +1162,14 @@ mod tests {
     #[test]
     fn rows_an_svm_surely_calls_static_are_predicted_as_one_at_a_time() {
         // a few slip rows in a static cloud, so the model's slip support vectors bound most
-        // rows (see StaticBound), and rows near the slip rows, which they do not
+        // rows (see NegativeBound), and rows near the slip rows, which they do not
         let (n, dim) = (1200, 6);
         let (x, y) = crate::slip::svm::noisy_classes(n, dim, 17, 9, 2.0, 1.5);
         let ds = Dataset {
             dim,
             trial_ids: vec!["t0".into()],
             x,
-            y,
+            y: y.into_iter().map(Class::from_positive).collect(),
             trial: vec![0; n],
             sensor: vec![0; n],
             seq: (0..n as u64).collect(),
@@ -1179,10 +1185,14 @@ mod tests {
         let Classifier::Svm(svm) = &model.classifier else {
             unreachable!()
         };
-        let bound = svm.static_bound().expect("a bound for this model");
+        let bound = svm.negative_bound().expect("a bound for this model");
         let rows: Vec<usize> = (0..n).collect();
         let scaled = model.scaled_rows(&ds, &rows);
-        let sure = bound.surely_static(&scaled).iter().filter(|s| **s).count();
+        let sure = bound
+            .surely_negative(&scaled)
+            .iter()
+            .filter(|s| **s)
+            .count();
         assert!(sure > n / 4 && sure < n, "{sure} of {n} rows surely static");
         let mut scratch = Vec::new();
         let one_at_a_time: Vec<Class> = rows

@@ -1,10 +1,10 @@
-//! Rows an RBF model surely calls static, found from its slip support vectors alone.
+//! Rows an RBF model surely calls negative, found from its positive support vectors alone.
 //!
 //! Why: scoring a test set or a held-out fold needs only each row's class, and most rows
-//! are static rows far from any slip. A decision is `P - N - rho`, where `P` sums the terms
-//! of the support vectors with positive coefficients (slip rows, usually a small share) and
+//! are negative rows far from any positive one. A decision is `P - N - rho`, where `P` sums the terms
+//! of the support vectors with positive coefficients (the positive class's rows, usually the smaller share) and
 //! `N >= 0` the rest. When `rho > 0` and `P` (computed) falls short of `rho` by more than
-//! rounding can explain, the full decision is not positive, so the row is static without
+//! rounding can explain, the full decision is not positive, so the row is negative without
 //! summing the other support vectors.
 //!
 //! The bound is exact about the class, not a tolerance: both sums add the very same `f32`
@@ -23,20 +23,20 @@ const FACTOR_SLACK: f64 = 2.0;
 /// Covers the absolute (not relative) rounding of sums of subnormal `f32` terms.
 const SUBNORMAL_SLACK: f64 = 1e-30;
 
-/// The slip support vectors of a model, to tell rows it surely calls static.
+/// The positive support vectors of a model, to tell rows it surely calls negative.
 #[derive(Debug, Clone)]
-pub struct StaticBound {
+pub struct NegativeBound {
     positive: SvmModel,
-    /// A row is surely static when its computed `P` times this is below `rho`.
+    /// A row is surely negative when its computed `P` times this is below `rho`.
     factor: f64,
     rho: f64,
 }
 
 impl SvmModel {
-    /// The bound for this model, when it can pay: an RBF model with `rho > 0` whose slip
+    /// The bound for this model, when it can pay: an RBF model with `rho > 0` whose positive
     /// support vectors are at most half of them (else their sum costs as much as the
     /// decision it would save).
-    pub fn static_bound(&self) -> Option<StaticBound> {
+    pub fn negative_bound(&self) -> Option<NegativeBound> {
         if self.weights.is_some() || self.rho <= 0.0 {
             return None;
         }
@@ -72,7 +72,7 @@ impl SvmModel {
         // Terms per f32 lane (the longer of the two sums) and the 64 lanes' f64 sum.
         let lane_terms = self.coef32.len().div_ceil(super::kernel::BLOCK) as f64;
         let worst = lane_terms * f64::from(f32::EPSILON) / 2.0 + 64.0 * f64::EPSILON;
-        Some(StaticBound {
+        Some(NegativeBound {
             positive,
             factor: 1.0 + FACTOR_SLACK * 2.0 * worst,
             rho: self.rho,
@@ -80,10 +80,10 @@ impl SvmModel {
     }
 }
 
-impl StaticBound {
-    /// For each row of `xs` (row-major, scaled), whether the model surely calls it static
+impl NegativeBound {
+    /// For each row of `xs` (row-major, scaled), whether the model surely calls it negative
     /// (its decision is not positive); `false` means the full decision must tell.
-    pub fn surely_static(&self, xs: &[f32]) -> Vec<bool> {
+    pub fn surely_negative(&self, xs: &[f32]) -> Vec<bool> {
         let mut positive = vec![0.0; xs.len() / self.positive.dim];
         self.positive.decisions(xs, &mut positive);
         positive
@@ -94,41 +94,41 @@ impl StaticBound {
 }
 
 /// Whether each row's decision is positive, for scoring many rows in pieces (possibly in
-/// parallel): rows the model's [`StaticBound`] shows static are spared the full sum while
+/// parallel): rows the model's [`NegativeBound`] shows negative are spared the full sum while
 /// the bound keeps sparing at least half the rows it is tried on (else its own sum only
 /// adds work). Which pieces try it may vary between runs; the answers do not.
 #[derive(Debug)]
-pub struct SlipScoring<'a> {
+pub struct PositiveScoring<'a> {
     model: &'a SvmModel,
-    bound: Option<StaticBound>,
+    bound: Option<NegativeBound>,
     tried: AtomicUsize,
     spared: AtomicUsize,
 }
 
 impl SvmModel {
-    pub fn slip_scoring(&self) -> SlipScoring<'_> {
-        SlipScoring {
+    pub fn positive_scoring(&self) -> PositiveScoring<'_> {
+        PositiveScoring {
             model: self,
-            bound: self.static_bound(),
+            bound: self.negative_bound(),
             tried: AtomicUsize::new(0),
             spared: AtomicUsize::new(0),
         }
     }
 }
 
-impl SlipScoring<'_> {
+impl PositiveScoring<'_> {
     /// Rows tried before judging the bound, and the share of them it must spare.
     const TRIAL_ROWS: usize = 2048;
     const MIN_SPARED_SHARE: f64 = 0.5;
 
     /// For each row of `xs` (row-major, scaled; reused as scratch), whether the model's
     /// decision is positive, as [`SvmModel::decisions`] would say.
-    pub fn slip(&self, mut xs: Vec<f32>) -> Vec<bool> {
+    pub fn positive(&self, mut xs: Vec<f32>) -> Vec<bool> {
         let dim = self.model.dim;
         let n = xs.len() / dim;
         let sure = match &self.bound {
             Some(bound) if self.bound_pays() => {
-                let sure = bound.surely_static(&xs);
+                let sure = bound.surely_negative(&xs);
                 self.tried.fetch_add(n, Ordering::Relaxed);
                 let spared = sure.iter().filter(|s| **s).count();
                 self.spared.fetch_add(spared, Ordering::Relaxed);
@@ -161,14 +161,14 @@ impl SlipScoring<'_> {
 
 #[cfg(test)]
 mod tests {
-    use crate::slip::svm::SvmParams;
+    use crate::svm::SvmParams;
 
     #[test]
-    fn rows_surely_static_are_those_the_full_decision_calls_static() {
-        // A few slip rows in a cloud of static ones, as in a test set: most rows are far
-        // from every slip row.
+    fn rows_surely_negative_are_those_the_full_decision_calls_negative() {
+        // A few positive rows in a cloud of negative ones, as in a test set: most rows are far
+        // from every positive row.
         let (n, dim) = (900, 6);
-        let (x, y) = crate::slip::svm::noisy_classes(n, dim, 17, 9, 2.0, 1.5);
+        let (x, y) = crate::svm::noisy_classes(n, dim, 17, 9, 2.0, 1.5);
         let mut checked = 0;
         for (c, gamma) in [(1.0, 0.5), (10.0, 2.0), (100.0, 0.1)] {
             let model = SvmParams::rbf(c, gamma)
@@ -176,18 +176,18 @@ mod tests {
                 .unwrap()
                 .fit(dim, &x, &y)
                 .unwrap();
-            let Some(bound) = model.static_bound() else {
+            let Some(bound) = model.negative_bound() else {
                 continue;
             };
-            // the training rows, then rows on a line from the static cloud out past the
-            // slip rows, where the slip rows' sum alone crosses rho
+            // the training rows, then rows on a line from the negative cloud out past the
+            // positive rows, where the positive rows' sum alone crosses rho
             let mut scored = x.clone();
             for step in 0..2000 {
                 let t = -2.0 + 8.0 * step as f32 / 2000.0;
                 scored.extend((0..dim).map(|_| 1.5 * t));
             }
             let rows = scored.len() / dim;
-            let sure = bound.surely_static(&scored);
+            let sure = bound.surely_negative(&scored);
             let mut full = vec![0.0; rows];
             model.decisions(&scored, &mut full);
             for (i, (s, d)) in sure.iter().zip(&full).enumerate() {

@@ -2,9 +2,9 @@
 //! the optimality conditions: the answer meets [`smo::solve`]'s stopping rule on all rows,
 //! with far fewer full-length kernel rows.
 //!
-//! Why: on the sweep's largest cells (151k rows, 1.6k of them slip, about 6k support
+//! Why: on tmo's slip sweep's largest cells (151k rows, 1.6k of them positive, about 6k support
 //! vectors) SMO's first few thousand steps each compute two kernel rows over nearly all
-//! rows before shrinking sets the far-away static rows aside, and the gradient of the rows
+//! rows before shrinking sets the far-away negative rows aside, and the gradient of the rows
 //! set aside is rebuilt twice at the end. Most rows never become support vectors. Here SMO
 //! runs on the rows that can matter (the smaller class, the warm start's support vectors and
 //! an even sample of the rest); one pass over the other rows then gives their gradients at
@@ -23,7 +23,7 @@ use super::smo::{
 use super::DualStart;
 
 /// Problems with fewer rows are solved whole: below these the full-length rows are cheap
-/// and the extra passes do not pay. Measured on the sweep's cells at n_slip 13-15 (the
+/// and the extra passes do not pay. Measured on tmo's slip sweep's cells at n_slip 13-15 (the
 /// first of a chain starts cold, the others from their neighbour with its margins): cold,
 /// 61k rows took 6.4 s screened against 5.3 s whole, 106k 9.6 s against 14.6 s; from a
 /// neighbour, 31k rows 1.8 s against 2.2 s, 61k 2.9 s against 3.9 s, 151k 4.7 s against
@@ -37,7 +37,7 @@ pub const MIN_ROWS_WITH_HINT: usize = 25_000;
 const FIRST_SUBSET: usize = 20_000;
 
 /// How far beyond the margin (`y f(x) = 1`) a neighbouring fit may have put a row that the
-/// first subset still takes. Margins crowd near 1 on the sweep's features: at d 1, n_slip
+/// first subset still takes. Margins crowd near 1 on tmo's slip sweep's features: at d 1, n_slip
 /// 15, 0.1 took 17k of 151k rows and left 4 to add; 0.25 took 67k.
 const START_SLACK: f64 = 0.1;
 
@@ -182,7 +182,7 @@ impl Band {
     }
 
     /// Whether a row outside the subset (at `alpha = 0`) with label `y` and gradient `g`
-    /// keeps to the band: it may only move up (a slip row) or only down (a static row).
+    /// keeps to the band: it may only move up (a positive row) or only down (a negative row).
     fn holds(&self, y: i8, g: f64) -> bool {
         match y {
             1 => -g <= self.upper,
@@ -439,7 +439,7 @@ mod tests {
     const KERNEL: Kernel = Kernel::Rbf { gamma: 0.5 };
     const TOLERANCE: f64 = 1e-3;
 
-    /// An imbalanced, overlapping problem like the sweep's: one positive row in ten.
+    /// An imbalanced, overlapping problem like tmo's slip sweep's: one positive row in ten.
     fn problem(n: usize, dim: usize) -> (Vec<f32>, Vec<i8>) {
         let mut state = 11u64;
         let mut next = || {
@@ -600,7 +600,7 @@ mod tests {
             }
         }
         // A band that the tenth-worst row outside the subset just keeps to at the reference,
-        // so that some rows break it (all slip rows, the smaller class, are in the subset).
+        // so that some rows break it (all positive rows, the smaller class, are in the subset).
         let (mut slip, mut stat): (Vec<f64>, Vec<f64>) = (Vec::new(), Vec::new());
         for t in size..n {
             match p.y[t] {
@@ -653,8 +653,8 @@ mod tests {
         // The subset's m and M, from well inside the tolerance to just under it, either way.
         for (m, big_m) in [(0.2, 0.2), (0.2, 0.5), (0.2004, 0.2), (0.2 + 0.999e-3, 0.2)] {
             let band = Band::around((m, big_m), TOLERANCE);
-            // The worst rows the band allows: a slip row at its upper end (value -G), a
-            // static row at its lower end (value G).
+            // The worst rows the band allows: a positive row at its upper end (value -G), a
+            // negative row at its lower end (value G).
             assert!(band.holds(1, -band.upper) && band.holds(-1, band.lower));
             assert!(!band.holds(1, -band.upper - 1e-9) && !band.holds(-1, band.lower - 1e-9));
             let gap = f64::max(m, band.upper) - f64::min(big_m, band.lower);

@@ -207,14 +207,14 @@ fn rbf_sums_wide_tile(
 
 #[cfg(test)]
 mod tests {
-    use crate::slip::svm::SvmParams;
+    use crate::svm::SvmParams;
 
     #[test]
     fn rows_summed_together_get_the_values_each_gets_alone() {
         // 7 features (not a multiple of anything), 300 rows of two overlapping classes:
         // some hundred support vectors, so the last block is part-filled.
         let (n, dim) = (300, 7);
-        let (x, y) = crate::slip::svm::noisy_classes(n, dim, 5, 3, 1.0, 0.5);
+        let (x, y) = crate::svm::noisy_classes(n, dim, 5, 3, 1.0, 0.5);
         let model = SvmParams::rbf(1.0, 0.3)
             .check()
             .unwrap()

@@ -24,7 +24,7 @@
 use rayon::prelude::*;
 
 use super::smo::Solution;
-use crate::slip::cholesky;
+use crate::cholesky;
 
 /// Rows per parallel chunk when building the Newton system.
 const CHUNK: usize = 2048;
@@ -468,7 +468,7 @@ pub(super) mod tests {
 
     /// Two overlapping noisy blobs in 5 dimensions with correlated features (as pin
     /// velocities are), so that many rows end at C.
-    pub(in crate::slip::svm) fn overlapping(n: usize) -> (Vec<f32>, Vec<i8>) {
+    pub(in crate::svm) fn overlapping(n: usize) -> (Vec<f32>, Vec<i8>) {
         let mut state = 7u64;
         let mut rand = || {
             state = state

@@ -254,8 +254,8 @@ mod avx2 {
     }
 
     /// The labels (as f64) of the four variables from `base`, and a mask of those that may
-    /// move up (`up`) or down: a slip variable may move up unless at its upper bound (1)
-    /// and down unless at its lower bound (0), a static one the other way round; so the
+    /// move up (`up`) or down: a positive variable may move up unless at its upper bound (1)
+    /// and down unless at its lower bound (0), a negative one the other way round; so the
     /// excluded bound is `(1 + y) / 2` moving up, `(1 - y) / 2` moving down.
     ///
     /// # Safety

@@ -13,7 +13,7 @@
 //! that owning them costs less than smartcore's dense-matrix conversions.
 
 use super::cholesky;
-use super::Class;
+use crate::Label;
 
 /// Relative size below which a change of the objective is rounding (a sum of about 10^5
 /// terms in f64, each good to about 1e-16).
@@ -267,7 +267,7 @@ fn cholesky_solve(a: &mut [f64], b: &mut [f64], m: usize) -> Result<(), LogRegEr
 }
 
 impl ValidLogRegParams {
-    pub fn fit(&self, dim: usize, x: &[f32], y: &[Class]) -> Result<LogRegModel, LogRegError> {
+    pub fn fit(&self, dim: usize, x: &[f32], y: &[impl Label]) -> Result<LogRegModel, LogRegError> {
         self.fit_from(dim, x, y, None)
     }
 
@@ -278,18 +278,18 @@ impl ValidLogRegParams {
         &self,
         dim: usize,
         x: &[f32],
-        y: &[Class],
+        y: &[impl Label],
         start: Option<&[f64]>,
     ) -> Result<LogRegModel, LogRegError> {
         let p = self.0;
         let n = y.len();
-        let slip = y.iter().filter(|c| **c == Class::Slip).count();
-        if slip == 0 || slip == n {
+        let positive = y.iter().filter(|c| c.is_positive()).count();
+        if positive == 0 || positive == n {
             return Err(LogRegError::OneClass);
         }
         let signs: Vec<f64> = y
             .iter()
-            .map(|c| if *c == Class::Slip { 1.0 } else { -1.0 })
+            .map(|c| if c.is_positive() { 1.0 } else { -1.0 })
             .collect();
         let m = dim + 1; // weights then intercept
         let mut theta = match start {
@@ -414,7 +414,7 @@ impl ValidLogRegParams {
 }
 
 impl LogRegModel {
-    /// `w.x + b`; positive means slip.
+    /// `w.x + b`; positive means the positive class.
     pub fn decision(&self, x: &[f32]) -> f64 {
         self.intercept
             + self
@@ -425,12 +425,9 @@ impl LogRegModel {
                 .sum::<f64>()
     }
 
-    pub fn predict(&self, x: &[f32]) -> Class {
-        if self.decision(x) > 0.0 {
-            Class::Slip
-        } else {
-            Class::Static
-        }
+    /// Whether one row is of the positive class: its decision value is above zero.
+    pub fn predict(&self, x: &[f32]) -> bool {
+        self.decision(x) > 0.0
     }
 }
 
@@ -508,17 +505,9 @@ mod tests {
 
     #[test]
     fn one_feature_optimum_has_zero_gradient() {
-        // y = slip for x > 0.3, with overlap
+        // y positive for x > 0.3, with overlap
         let x: Vec<f32> = (0..40).map(|i| i as f32 / 40.0).collect();
-        let y: Vec<Class> = (0..40)
-            .map(|i| {
-                if (i * 7) % 40 > 12 && i > 8 {
-                    Class::Slip
-                } else {
-                    Class::Static
-                }
-            })
-            .collect();
+        let y: Vec<bool> = (0..40).map(|i| (i * 7) % 40 > 12 && i > 8).collect();
         let c = 2.0;
         let m = LogRegParams::new(c)
             .check()
@@ -528,7 +517,7 @@ mod tests {
         // gradient of the objective at the optimum
         let (mut gw, mut gb) = (m.weights[0], 0.0);
         for (xi, yi) in x.iter().zip(&y) {
-            let s = if *yi == Class::Slip { 1.0 } else { -1.0 };
+            let s = if *yi { 1.0 } else { -1.0 };
             let z = m.decision(&[*xi]);
             let g = -s * sigmoid(-s * z) * c;
             gw += g * f64::from(*xi);
@@ -563,7 +552,7 @@ mod tests {
             for _ in 0..3 {
                 x.push(c + 2.0 * rand());
             }
-            y.push(if slip { Class::Slip } else { Class::Static });
+            y.push(slip);
         }
         let p = LogRegParams::new(2.0).check().unwrap();
         let cold = p.fit(3, &x, &y).unwrap();

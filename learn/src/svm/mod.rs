@@ -21,7 +21,7 @@
 //! (A comparison before that used scikit-learn's default 200 MB cache, which thrashes at
 //! these sizes and made libsvm look slower than it is.)
 //!
-//! Decision values follow scikit-learn's sign: positive means slip.
+//! Decision values follow scikit-learn's sign: positive means the positive class.
 //!
 //! Where a sweep's RBF time goes, and why it is near its floor (the README's fixed grid, 150
 //! RBF cells, counted and profiled 2026-11-26): 179 G kernel values of 60 features each.
@@ -32,7 +32,7 @@
 //! dot products run at the core's rate (38 G multiply-adds/s, one thread, multiply then
 //! add as libsvm) and the exponential and sums add about half again: 2.3 ns a value, some
 //! 200 s of two cores. The decisions are small differences of large sums (slip terms
-//! about 844 against static terms about 845 at a static row), so no bound spares a row.
+//! about 844 against static terms about 845 at a negative row), so no bound spares a row.
 //! Measured and not kept: `bfloat16` dot products (AVX512-BF16, 2.9x the `f32` rate) in
 //! scoring alone took the RBF cells from 253 to 226 s but moved 119 of 150 cells' test
 //! macro F1, by up to 0.010; a stopping tolerance of 1e-2 took them to 230 s and moved 65
@@ -48,10 +48,10 @@ pub mod screening;
 mod select;
 pub mod smo;
 
-pub use bound::{SlipScoring, StaticBound};
+pub use bound::{NegativeBound, PositiveScoring};
 pub use kernel::Kernel;
 
-use super::Class;
+use crate::Label;
 use kernel::{dot, BLOCK};
 
 /// Hyperparameters as given; [`SvmParams::check`] turns them into [`ValidSvmParams`].
@@ -125,10 +125,10 @@ pub enum SvmError {
         value: f64,
         expected: &'static str,
     },
-    #[error("training data needs rows of both classes (static {static_rows}, slip {slip_rows})")]
+    #[error("training data needs rows of both classes (negative {negative_rows}, positive {positive_rows})")]
     OneClass {
-        static_rows: usize,
-        slip_rows: usize,
+        negative_rows: usize,
+        positive_rows: usize,
     },
     #[error("training rows have {got} values, expected a multiple of {dim}")]
     Shape { got: usize, dim: usize },
@@ -190,7 +190,7 @@ impl ValidSvmParams {
     }
 
     /// Fits on `x` (row-major, `dim` wide) and labels `y`.
-    pub fn fit(&self, dim: usize, x: &[f32], y: &[Class]) -> Result<SvmModel, SvmError> {
+    pub fn fit(&self, dim: usize, x: &[f32], y: &[impl Label]) -> Result<SvmModel, SvmError> {
         self.fit_from(dim, x, y, None).map(|(model, _)| model)
     }
 
@@ -201,23 +201,23 @@ impl ValidSvmParams {
         &self,
         dim: usize,
         x: &[f32],
-        y: &[Class],
+        y: &[impl Label],
         start: Option<&DualStart>,
     ) -> Result<(SvmModel, DualStart), SvmError> {
         let p = &self.0;
         if dim == 0 || x.len() != dim * y.len() {
             return Err(SvmError::Shape { got: x.len(), dim });
         }
-        let slip_rows = y.iter().filter(|c| **c == Class::Slip).count();
-        if slip_rows == 0 || slip_rows == y.len() {
+        let positive_rows = y.iter().filter(|c| c.is_positive()).count();
+        if positive_rows == 0 || positive_rows == y.len() {
             return Err(SvmError::OneClass {
-                static_rows: y.len() - slip_rows,
-                slip_rows,
+                negative_rows: y.len() - positive_rows,
+                positive_rows,
             });
         }
         let signs: Vec<i8> = y
             .iter()
-            .map(|c| if *c == Class::Slip { 1 } else { -1 })
+            .map(|c| if c.is_positive() { 1 } else { -1 })
             .collect();
         let n = y.len();
         let (solution, margin) = match p.kernel {
@@ -312,7 +312,7 @@ impl SvmModel {
         self.dual_coef.len()
     }
 
-    /// `sum_i coef_i K(sv_i, x) - rho`; positive means slip.
+    /// `sum_i coef_i K(sv_i, x) - rho`; positive means the positive class.
     pub fn decision(&self, x: &[f32]) -> f64 {
         if let Some(w) = &self.weights {
             return w.iter().zip(x).map(|(a, b)| a * f64::from(*b)).sum::<f64>() - self.rho;
@@ -347,26 +347,23 @@ impl SvmModel {
         }
     }
 
-    pub fn predict(&self, x: &[f32]) -> Class {
-        if self.decision(x) > 0.0 {
-            Class::Slip
-        } else {
-            Class::Static
-        }
+    /// Whether one row is of the positive class: its decision value is above zero.
+    pub fn predict(&self, x: &[f32]) -> bool {
+        self.decision(x) > 0.0
     }
 }
 
-/// Test rows: `n` rows of `dim` features, every `slip_every`-th row slip, each feature
-/// `spread` times a seeded uniform draw in `[-1, 1)`, slip rows shifted by `shift`.
-#[cfg(test)]
-pub(crate) fn noisy_classes(
+/// Synthetic rows for tests and benches (as scikit-learn's `make_classification`): `n`
+/// rows of `dim` features, every `positive_every`-th row positive, each feature `spread`
+/// times a seeded uniform draw in `[-1, 1)`, positive rows shifted by `shift`.
+pub fn noisy_classes(
     n: usize,
     dim: usize,
     seed: u64,
-    slip_every: usize,
+    positive_every: usize,
     spread: f32,
     shift: f32,
-) -> (Vec<f32>, Vec<Class>) {
+) -> (Vec<f32>, Vec<bool>) {
     let mut state = seed;
     let mut next = || {
         state = state
@@ -374,21 +371,9 @@ pub(crate) fn noisy_classes(
             .wrapping_add(1442695040888963407);
         ((state >> 40) as f32 / (1u64 << 24) as f32) * 2.0 - 1.0
     };
-    let y: Vec<Class> = (0..n)
-        .map(|i| match i % slip_every {
-            0 => Class::Slip,
-            _ => Class::Static,
-        })
-        .collect();
+    let y: Vec<bool> = (0..n).map(|i| i % positive_every == 0).collect();
     let x = (0..n * dim)
-        .map(|k| {
-            spread * next()
-                + if y[k / dim] == Class::Slip {
-                    shift
-                } else {
-                    0.0
-                }
-        })
+        .map(|k| spread * next() + if y[k / dim] { shift } else { 0.0 })
         .collect();
     (x, y)
 }
@@ -398,7 +383,7 @@ mod tests {
     use super::*;
 
     /// Two noisy blobs: slip around (+1, +1), static around (-1, -1), plus a ring case.
-    fn blobs(n: usize) -> (Vec<f32>, Vec<Class>) {
+    fn blobs(n: usize) -> (Vec<f32>, Vec<bool>) {
         let mut state = 99u64;
         let mut rand = || {
             state = state
@@ -412,7 +397,7 @@ mod tests {
             let c = if slip { 1.0 } else { -1.0 };
             x.push(c + 1.5 * rand());
             x.push(c + 1.5 * rand());
-            y.push(if slip { Class::Slip } else { Class::Static });
+            y.push(slip);
         }
         (x, y)
     }
@@ -462,10 +447,7 @@ mod tests {
         // end at C, where SMO's pair steps grow with C (issue 15 #23: 10 M steps and a gap
         // of 23 at C = 20 on the simulator's rows; here SMO took 2.6 M steps).
         let (x, signs) = linear_ipm::tests::overlapping(3000);
-        let y: Vec<Class> = signs
-            .iter()
-            .map(|s| if *s > 0 { Class::Slip } else { Class::Static })
-            .collect();
+        let y: Vec<bool> = signs.iter().map(|s| *s > 0).collect();
         let m = SvmParams::linear(1000.0)
             .check()
             .unwrap()
@@ -572,7 +554,7 @@ mod tests {
         let e = SvmParams::linear(1.0)
             .check()
             .unwrap()
-            .fit(1, &[0.0, 1.0], &[Class::Static, Class::Static])
+            .fit(1, &[0.0, 1.0], &[false, false])
             .unwrap_err();
         assert!(matches!(e, SvmError::OneClass { .. }));
     }
