@@ -13,6 +13,7 @@ pub mod real;
 pub mod sim;
 pub mod traits;
 pub mod types;
+pub mod wire;
 
 pub use error::{Error, ErrorKind, ErrorType};
 pub use traits::{Arm, Clock, Hand, MarkerTracker, TactileSensor};

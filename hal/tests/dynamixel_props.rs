@@ -2,7 +2,7 @@
 //! stuffing and any chunking; no byte stream crashes the decoder.
 
 use proptest::prelude::*;
-use tmo_hal::real::dynamixel::{Decoder, Packet};
+use tmo_hal::wire::dynamixel::{Decoder, Packet};
 
 fn packet() -> impl Strategy<Value = Packet> {
     (

@@ -2,7 +2,7 @@
 //! survive any chunking and any garbage around them.
 
 use proptest::prelude::*;
-use tmo_hal::real::jevois::{format_fine2, parse_line, LineReader, Message};
+use tmo_hal::wire::jevois::{format_fine2, parse_line, LineReader, Message};
 
 fn points() -> impl Strategy<Value = Vec<[f32; 2]>> {
     prop::collection::vec([-1000.0f32..1000.0, -1000.0f32..1000.0], 0..40)

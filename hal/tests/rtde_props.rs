@@ -2,7 +2,7 @@
 //! the TCP stream; no byte stream or payload crashes the decoders.
 
 use proptest::prelude::*;
-use tmo_hal::real::rtde::{
+use tmo_hal::wire::rtde::{
     decode_values, encode_values, ClientMessage, Framer, ServerMessage, Value, VarType,
 };
 

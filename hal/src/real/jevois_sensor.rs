@@ -9,8 +9,8 @@ use std::sync::{Arc, Mutex};
 use std::time::Instant;
 
 use super::clock::RealClock;
-use super::jevois::{LineReader, Message, ReaderStats};
 use super::watched::{open_camera_port, Watched};
+use crate::wire::jevois::{LineReader, Message, ReaderStats};
 use crate::{ErrorKind, ErrorType, PinFrame, TactileSensor};
 
 #[derive(Debug, thiserror::Error)]

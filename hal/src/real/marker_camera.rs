@@ -9,9 +9,9 @@ use std::sync::mpsc;
 use std::time::Instant;
 
 use super::clock::RealClock;
-use super::jevois::{LineReader, Message};
 use super::jevois_sensor::CameraError;
 use super::watched::{open_camera_port, Watched};
+use crate::wire::jevois::{LineReader, Message};
 use crate::{ErrorType, MarkerSample, MarkerTracker};
 
 /// Height above the camera's optical axis of a marker at camera-frame `y`, mm.
@@ -136,7 +136,7 @@ impl MarkerTracker for MarkerCamera {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::real::jevois::parse_line;
+    use crate::wire::jevois::parse_line;
 
     #[test]
     fn both_markers_make_a_sample_and_strangers_are_ignored() {

@@ -2,7 +2,7 @@
 //! `dynamixel2` crate. Positions are normalised per servo: 0 at `min` (open), 1 at `max`
 //! (closed), so a servo mounted the other way round simply has `max < min`.
 
-use super::dynamixel::address;
+use crate::wire::dynamixel::address;
 use crate::{ErrorKind, ErrorType, Hand, HandPositions, HAND_ACTUATORS};
 
 /// Current units of the X series, mA per count.

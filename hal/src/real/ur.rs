@@ -11,11 +11,11 @@ use std::io::{Read, Write};
 use std::net::{SocketAddr, TcpStream, ToSocketAddrs};
 use std::time::{Duration, Instant};
 
-use super::rtde::{
+use crate::wire::rtde::{
     decode_values, ClientMessage, Framer, RtdeError, ServerMessage, Value, VarType,
     PROTOCOL_VERSION,
 };
-use super::urscript::Command;
+use crate::wire::urscript::Command;
 use crate::{Arm, ErrorKind, ErrorType, Pose};
 
 /// Outputs the arm backend asks RTDE for.

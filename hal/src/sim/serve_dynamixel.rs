@@ -10,8 +10,8 @@ use std::os::fd::OwnedFd;
 use std::path::PathBuf;
 
 use super::SimHand;
-use crate::real::dynamixel::{address, instruction, Decoder, Packet, BROADCAST_ID};
 use crate::real::model_o::{ModelOConfig, MA_PER_CURRENT_UNIT};
+use crate::wire::dynamixel::{address, instruction, Decoder, Packet, BROADCAST_ID};
 use crate::{Hand, HAND_ACTUATORS};
 
 /// XM430-W350's model number, as a ping reports it.

@@ -15,8 +15,8 @@ use super::serve_control::ControlPort;
 use super::serve_dynamixel::PtyServoBus;
 use super::serve_ur::UrEmulator;
 use super::{SimConfig, SimMarkerTracker, SimRig, SimTactileSensor};
-use crate::real::jevois::{format_detail3, format_fine2};
 use crate::types::{HandPositions, MarkerSample, PinFrame, Pose};
+use crate::wire::jevois::{format_detail3, format_fine2};
 use crate::{Arm, Clock, Hand, MarkerTracker, TactileSensor};
 
 /// One fingertip camera on a pseudo-terminal: clients open [`PtyCamera::path`] as they

@@ -8,8 +8,8 @@ use std::net::{TcpListener, TcpStream};
 use std::sync::atomic::AtomicBool;
 
 use super::SimRig;
-use crate::real::rtde::{encode_values, ClientMessage, Framer, ServerMessage, Value};
-use crate::real::urscript::{parse_line, Command};
+use crate::wire::rtde::{encode_values, ClientMessage, Framer, ServerMessage, Value};
+use crate::wire::urscript::{parse_line, Command};
 use crate::Arm;
 
 /// What the emulated controller says it is (a CB3 at 125 Hz).
