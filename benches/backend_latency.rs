@@ -29,10 +29,10 @@ use tmo::slip::model::ModelFile;
 use tmo_hal::real::clock::RealClock;
 use tmo_hal::real::jevois_sensor::JevoisSensor;
 use tmo_hal::real::model_o::{ModelOConfig, ModelOHand};
-use tmo_hal::sim::serve_jevois::open_pty;
 use tmo_hal::wire::dynamixel::{instruction, Decoder, Packet};
 use tmo_hal::wire::jevois::format_fine2;
 use tmo_hal::{Clock, Hand, TactileSensor};
+use tmo_sim::serve::open_pty;
 
 const PINS: usize = 30;
 const TRIALS: usize = 200;

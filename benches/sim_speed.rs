@@ -8,8 +8,8 @@ use std::time::Instant;
 
 use tmo::scenario::{Devices, Script};
 use tmo::sim_presets::{self, Preset, PresetOptions};
-use tmo_hal::sim::{SimConfig, SimRig};
 use tmo_hal::{Clock, TactileSensor};
+use tmo_sim::{SimConfig, SimRig};
 
 fn rig(seed: u64) -> (SimRig, Script) {
     let base = SimConfig {

@@ -8,7 +8,7 @@ use std::collections::BTreeMap;
 
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-use tmo_hal::sim::{SimConfig, SimRig};
+use tmo_sim::{SimConfig, SimRig};
 
 use crate::scenario::{Devices, ScenarioError, Script};
 use crate::sim_presets::{self, Preset, PresetOptions};
@@ -69,7 +69,7 @@ impl CollectSpec {
 #[derive(Debug, thiserror::Error)]
 pub enum CollectError {
     #[error(transparent)]
-    Sim(#[from] tmo_hal::sim::SimError),
+    Sim(#[from] tmo_sim::SimError),
     #[error(transparent)]
     Scenario(#[from] ScenarioError),
 }
@@ -101,8 +101,8 @@ pub fn hand_release_rig(
     let (mut config, _) = sim_presets::build(Preset::Release, options, base.clone())?;
     let closure = sim_presets::holding_closure(base, &object, extra_mass_g, safety)?;
     let contact = sim_presets::contact_closure(base, &object)?;
-    if let tmo_hal::sim::RigSetup::Hand(h) = &mut config.rig {
-        h.start = tmo_hal::sim::ObjectStart::OnTable;
+    if let tmo_sim::RigSetup::Hand(h) = &mut config.rig {
+        h.start = tmo_sim::ObjectStart::OnTable;
         h.extra_mass_g = extra_mass_g;
         h.initial_closure = (contact - 0.02).max(0.0);
     }

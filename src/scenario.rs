@@ -75,16 +75,16 @@ pub struct Devices<C, H, A, M, S> {
 
 /// The simulated rig's devices.
 pub type SimDevices = Devices<
-    tmo_hal::sim::SimClock,
-    tmo_hal::sim::SimHand,
-    tmo_hal::sim::SimArm,
-    tmo_hal::sim::SimMarkerTracker,
-    tmo_hal::sim::SimTactileSensor,
+    tmo_sim::SimClock,
+    tmo_sim::SimHand,
+    tmo_sim::SimArm,
+    tmo_sim::SimMarkerTracker,
+    tmo_sim::SimTactileSensor,
 >;
 
 impl SimDevices {
     /// Every device of `rig`, each a handle onto the same simulation.
-    pub fn of_sim(rig: &tmo_hal::sim::SimRig) -> Self {
+    pub fn of_sim(rig: &tmo_sim::SimRig) -> Self {
         Devices {
             clock: rig.clock(),
             hand: rig.hand(),

@@ -1,8 +1,6 @@
 //! Ready-made simulated scenarios for `tmo sim trace`: a rig set-up plus a script.
 
-use tmo_hal::sim::{
-    HandSetup, ObjectLibrary, ObjectStart, RailSetup, RigSetup, SimConfig, SimError,
-};
+use tmo_sim::{HandSetup, ObjectLibrary, ObjectStart, RailSetup, RigSetup, SimConfig, SimError};
 
 use crate::scenario::Script;
 
@@ -69,7 +67,7 @@ pub fn holding_closure(
     let p = &base.physics;
     let weight = (spec.mass_g + extra_mass_g) / 1000.0 * p.gravity_m_s2;
     let thumb_force = safety * weight * (1.0 + p.thumb_load_bias.abs()) / (2.0 * spec.mu_static);
-    let law = tmo_hal::sim::nominal_contact_law(p, &spec);
+    let law = tmo_sim::nominal_contact_law(p, &spec);
     let travel = 0.5 * (law.travel_mm(thumb_force) + law.travel_mm(thumb_force / 2.0));
     // Closing from open, each finger trails its motor by half the tendon's free play.
     let trail = 0.5 * base.servo.backlash;

@@ -4,8 +4,8 @@
 use std::fs;
 use std::path::{Path, PathBuf};
 
-use tmo_hal::sim::{SimConfig, TruthState};
 use tmo_hal::{MarkerSample, PinFrame};
+use tmo_sim::{SimConfig, TruthState};
 
 #[derive(Debug, thiserror::Error)]
 pub enum TraceError {

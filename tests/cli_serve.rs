@@ -353,7 +353,7 @@ fn rail_catch_runs_on_the_real_backend_against_the_served_rail_rig() {
 /// `tmo run pour.toml --backend real --hardware rig.toml --out OUT` in `d` with a terminal
 /// for its stdin: the process, and the terminal's keyboard end.
 fn run_at_terminal(d: &Path, out: &str) -> (std::process::Child, std::fs::File) {
-    let (keys, terminal, terminal_path) = tmo_hal::sim::serve_jevois::open_pty().unwrap();
+    let (keys, terminal, terminal_path) = tmo_sim::serve::open_pty().unwrap();
     let stdin = std::fs::File::options()
         .read(true)
         .write(true)
@@ -407,7 +407,7 @@ fn an_operator_at_a_terminal_sets_each_trial_up() {
     let planned = tmo::runner::batch::expand(&plan);
 
     let (mut run, mut keys) = run_at_terminal(d, "pour");
-    let mut world = tmo_hal::sim::serve_control::SimControlClient::connect(&control).unwrap();
+    let mut world = tmo_sim::serve::control::SimControlClient::connect(&control).unwrap();
     let mut prompts = Vec::new();
     for line in BufReader::new(run.stderr.take().unwrap()).lines() {
         let line = line.unwrap();

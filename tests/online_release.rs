@@ -12,7 +12,7 @@ use tmo::slip::dataset::{Dataset, LabelSpec, Scope};
 use tmo::slip::features::FeatureSpec;
 use tmo::slip::labels::OnsetSpec;
 use tmo::slip::model::{ClassifierKind, Hyperparameters, ModelFile, TrainSpec};
-use tmo_hal::sim::{SimConfig, SimRig};
+use tmo_sim::{SimConfig, SimRig};
 
 const OBJECTS: [&str; 5] = [
     "crisps_can",

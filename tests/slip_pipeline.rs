@@ -8,7 +8,7 @@ use tmo::slip::metrics::Confusion;
 use tmo::slip::threshold::ThresholdModel;
 use tmo::slip::Class;
 use tmo::trial::Trial;
-use tmo_hal::sim::SimConfig;
+use tmo_sim::SimConfig;
 
 fn collect(n: u64) -> Vec<Trial> {
     let objects = [

@@ -6,7 +6,7 @@ use tmo::collect::{collect_trial, trial_seed, CollectRig, CollectSpec};
 use tmo::slip::dataset::{Dataset, LabelSpec};
 use tmo::slip::features::FeatureSpec;
 use tmo::slip::labels::OnsetSpec;
-use tmo_hal::sim::SimConfig;
+use tmo_sim::SimConfig;
 
 /// `grasp_deg(i)` is trial `i`'s hand roll; `seed` the batch seed.
 #[allow(dead_code)] // each bench compiles this module on its own and uses part of it

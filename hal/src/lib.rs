@@ -6,11 +6,10 @@
 //! runner) can react to "timeout" or "out of limits" without knowing the backend.
 //!
 //! Traits only do I/O. Building a backend (opening ports, loading a log, building a simulated
-//! world) is the job of that backend's constructor; see [`sim::SimRig`].
+//! world) is the job of that backend's constructor (the simulated rig is the `tmo-sim` crate's).
 
 pub mod error;
 pub mod real;
-pub mod sim;
 pub mod traits;
 pub mod types;
 pub mod wire;

@@ -146,7 +146,7 @@ pub fn run(args: ReproduceArgs) -> Result<u8> {
         }
         let variants = match &options.sensitivity {
             Some(only) => Some(
-                reproduce::sensitivity::variants(&tmo_hal::sim::parameters::built_in(), only)
+                reproduce::sensitivity::variants(&tmo_sim::parameters::built_in(), only)
                     .map_err(anyhow::Error::msg)?,
             ),
             None => None,

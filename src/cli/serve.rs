@@ -13,11 +13,11 @@ use anyhow::{Context, Result};
 use tmo::hardware::ServedSimulator;
 use tmo::sim_presets::{Preset, PresetOptions};
 use tmo_hal::real::model_o::ModelOConfig;
-use tmo_hal::sim::serve_control::ControlPort;
-use tmo_hal::sim::serve_dynamixel::PtyServoBus;
-use tmo_hal::sim::serve_jevois::{serve_controlled, PtyCamera, PtyMarkerCamera, ServedDevices};
-use tmo_hal::sim::serve_ur::UrEmulator;
-use tmo_hal::sim::{HandSetup, ObjectStart, RigSetup, SimConfig, SimRig};
+use tmo_sim::serve::control::ControlPort;
+use tmo_sim::serve::dynamixel::PtyServoBus;
+use tmo_sim::serve::UrEmulator;
+use tmo_sim::serve::{serve_controlled, PtyCamera, PtyMarkerCamera, ServedDevices};
+use tmo_sim::{HandSetup, ObjectStart, RigSetup, SimConfig, SimRig};
 
 #[derive(clap::Args)]
 pub struct ServeArgs {
@@ -238,7 +238,7 @@ pub fn serve_cmd(args: ServeArgs) -> Result<()> {
     };
     let tap = live
         .as_mut()
-        .map(|v| v as &mut dyn tmo_hal::sim::serve_jevois::ServeTap);
+        .map(|v| v as &mut dyn tmo_sim::serve::ServeTap);
     serve_controlled(&rig, &mut devices, Some(&mut control), tap, &stop)?;
     let ur = devices.ur.map(|u| u.stats).unwrap_or_default();
     let sent: u64 = devices.cameras.iter().map(|c| c.sent_lines).sum();

@@ -8,7 +8,7 @@ use tmo::collect::{self, CollectRig, CollectSpec};
 use tmo::scenario::Devices;
 use tmo::sim_presets::{self, Preset, PresetOptions};
 use tmo::trace;
-use tmo_hal::sim::{FaultRates, ObjectLibrary, SimConfig, SimRig};
+use tmo_sim::{FaultRates, ObjectLibrary, SimConfig, SimRig};
 
 #[derive(Subcommand)]
 pub enum SimCommand {
@@ -17,7 +17,7 @@ pub enum SimCommand {
     /// Lists the object library.
     Objects,
     /// Lists the simulator's parameters: value, unit, plausible range, where the value
-    /// comes from, and the findings it was calibrated against (hal/data/parameters.toml).
+    /// comes from, and the findings it was calibrated against (sim/data/parameters.toml).
     Parameters,
     /// Records collect-mode trials (no reaction to slip) as training data.
     Collect(CollectArgs),
@@ -102,7 +102,7 @@ pub fn run(command: SimCommand) -> Result<()> {
 
 fn list_parameters() -> std::io::Result<()> {
     use std::io::Write;
-    let records = tmo_hal::sim::parameters::built_in();
+    let records = tmo_sim::parameters::built_in();
     let mut out = std::io::stdout().lock();
     writeln!(
         out,
@@ -135,7 +135,7 @@ fn list_parameters() -> std::io::Result<()> {
         .filter(|r| !r.calibrated_against.is_empty())
         .count();
     eprintln!(
-        "{} parameters, {calibrated} of them calibrated against findings (hal/data/parameters.toml)",
+        "{} parameters, {calibrated} of them calibrated against findings (sim/data/parameters.toml)",
         records.len()
     );
     Ok(())

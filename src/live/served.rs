@@ -2,8 +2,8 @@
 //! on the same channels a trial log has (pins, markers, the hand's and arm's state), so the
 //! layout in `docs/foxglove/` shows a served rig as it shows a trial.
 
-use tmo_hal::sim::serve_jevois::ServeTap;
 use tmo_hal::{HandPositions, MarkerSample, PinFrame, Pose};
+use tmo_sim::serve::ServeTap;
 
 use super::LiveView;
 use crate::runner::state::state_events;

@@ -187,7 +187,7 @@ pub struct Plan {
 /// `arm.start_mm[2]`), or the name of the first entry that is not a number.
 fn sim_parameters(table: &toml::Table) -> Result<std::collections::BTreeMap<String, f64>, String> {
     let v = serde_json::to_value(table).map_err(|_| "sim".to_string())?;
-    match tmo_hal::sim::config::numbers_by_name(&v) {
+    match tmo_sim::config::numbers_by_name(&v) {
         (numbers, others) if others.is_empty() => Ok(numbers.into_iter().collect()),
         (_, others) => Err(others[0].clone()),
     }
@@ -377,7 +377,7 @@ pub fn validate(
             message,
         }
     };
-    let library = tmo_hal::sim::ObjectLibrary::built_in();
+    let library = tmo_sim::ObjectLibrary::built_in();
 
     if file.repetitions == 0 {
         return Err(err("repetitions", "expected at least 1".into()));
@@ -625,10 +625,10 @@ pub fn validate(
         .map_err(|name| err(&format!("sim.{name}"), "expected a number".into()))?;
     // Checked on both rigs, so that a value neither can stand for is refused here.
     for rig in [
-        tmo_hal::sim::RigSetup::Hand(Default::default()),
-        tmo_hal::sim::RigSetup::Rail(Default::default()),
+        tmo_sim::RigSetup::Hand(Default::default()),
+        tmo_sim::RigSetup::Rail(Default::default()),
     ] {
-        let mut config = tmo_hal::sim::SimConfig {
+        let mut config = tmo_sim::SimConfig {
             rig,
             ..Default::default()
         };

@@ -236,7 +236,7 @@ pub fn reproduce(
                     "a sensitivity study varies the simulator's parameters: it runs on --backend sim only",
                 ));
             }
-            sensitivity::variants(&tmo_hal::sim::parameters::built_in(), only)
+            sensitivity::variants(&tmo_sim::parameters::built_in(), only)
                 .map_err(|e| ReproduceError::step("sensitivity", e))?
         }
     };

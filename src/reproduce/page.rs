@@ -331,7 +331,7 @@ fn cells(j: &Judged) -> [String; 9] {
 fn caveats(preset: Preset, judged: &[Judged], w: &Written) -> Vec<String> {
     let mut out = vec![
         "A verdict is **yes** only where the claim holds with its 95 % interval clear of the rule's margin, **no** where the opposite holds that way, and **not resolved** where the interval straddles it (docs/reproduce.md). \"Replicates holding\" counts the replicates in which the claim held at the measured values alone.".to_string(),
-        "A **calibrated** finding is one a simulator value was chosen while looking at (hal/data/parameters.toml); it is not evidence that the simulator predicts it, and is counted apart.".to_string(),
+        "A **calibrated** finding is one a simulator value was chosen while looking at (sim/data/parameters.toml); it is not evidence that the simulator predicts it, and is counted apart.".to_string(),
     ];
     let unresolved: Vec<&str> = judged
         .iter()
@@ -527,7 +527,7 @@ pub fn judge_replicates(out: &Path, replicates: u32) -> (Vec<Judged>, Measures, 
     });
     let measures = super::evidence::pool(&per_replicate, &from_trials);
     let mut judged = judge_all(&paper(), &measures, &per_replicate);
-    let records = tmo_hal::sim::parameters::built_in();
+    let records = tmo_sim::parameters::built_in();
     mark_calibrated(
         &mut judged,
         records

@@ -1,5 +1,5 @@
 //! What each finding hinges on: every physical parameter of the simulator set in turn to
-//! the low and the high end of its plausible range (`hal/data/parameters.toml`), the
+//! the low and the high end of its plausible range (`sim/data/parameters.toml`), the
 //! reproduction run again with the same seeds (steps the parameter does not touch are taken
 //! from the baseline), and each finding's verdict compared with the baseline's. A finding
 //! whose verdict changes anywhere inside its parameters' plausible ranges is fragile.
@@ -7,8 +7,8 @@
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
-use tmo_hal::sim::parameters::{Basis, ParameterRecord};
-use tmo_hal::sim::SimConfig;
+use tmo_sim::parameters::{Basis, ParameterRecord};
+use tmo_sim::SimConfig;
 
 use super::findings::{Judged, Reproduced};
 
@@ -219,7 +219,7 @@ mod tests {
 
     #[test]
     fn every_physical_parameter_is_varied_at_both_ends_and_conventions_are_not() {
-        let records = tmo_hal::sim::parameters::built_in();
+        let records = tmo_sim::parameters::built_in();
         let all = variants(&records, &[]).unwrap();
         let names: std::collections::BTreeSet<&str> =
             all.iter().map(|v| v.parameter.as_str()).collect();

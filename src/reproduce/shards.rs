@@ -155,7 +155,7 @@ pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<Merged, ReproduceError> {
     };
     let variants = match &plan.sensitivity {
         None => Vec::new(),
-        Some(only) => sensitivity::variants(&tmo_hal::sim::parameters::built_in(), only)
+        Some(only) => sensitivity::variants(&tmo_sim::parameters::built_in(), only)
             .map_err(|e| MergeError::Plan("sensitivity".into(), e))?,
     };
     if variants.iter().map(|v| v.dir_name()).collect::<Vec<_>>() != plan.variants {

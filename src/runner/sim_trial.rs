@@ -2,7 +2,7 @@
 //! runner behind the safety limits, and the trial log with its provenance.
 
 use rand::Rng;
-use tmo_hal::sim::{HandSetup, ObjectStart, RigSetup, SimConfig, SimRig};
+use tmo_sim::{HandSetup, ObjectStart, RigSetup, SimConfig, SimRig};
 
 use super::batch::{BatchError, PlannedTrial};
 use super::calibrate::run_calibration;
@@ -47,11 +47,11 @@ fn safe_sim_devices(
     rig: &SimRig,
     limits: &SafetyLimits,
 ) -> Devices<
-    tmo_hal::sim::SimClock,
-    SafeHand<tmo_hal::sim::SimHand>,
-    SafeArm<tmo_hal::sim::SimArm>,
-    tmo_hal::sim::SimMarkerTracker,
-    tmo_hal::sim::SimTactileSensor,
+    tmo_sim::SimClock,
+    SafeHand<tmo_sim::SimHand>,
+    SafeArm<tmo_sim::SimArm>,
+    tmo_sim::SimMarkerTracker,
+    tmo_sim::SimTactileSensor,
 > {
     let limits = *limits;
     Devices {
@@ -123,7 +123,7 @@ fn set_sim_parameters(config: &mut SimConfig, plan: &Plan) -> Result<(), BatchEr
     config
         .set_parameters(plan.sim.iter().map(|(k, v)| (k.as_str(), *v)))
         .map_err(|e| {
-            BatchError::SimRig(tmo_hal::sim::SimError::Config {
+            BatchError::SimRig(tmo_sim::SimError::Config {
                 origin: format!("{} [sim]", plan.source.display()),
                 message: e.to_string(),
             })
@@ -230,7 +230,7 @@ pub fn run_sim_trial(
 }
 
 /// The ground truth the truth verdict reads (empty text for "never").
-pub(crate) fn put_truth(put: &mut impl FnMut(&str, String), events: &tmo_hal::sim::TruthEvents) {
+pub(crate) fn put_truth(put: &mut impl FnMut(&str, String), events: &tmo_sim::TruthEvents) {
     let time = |t: Option<f64>| t.map_or(String::new(), |t| format!("{t:.4}"));
     put(
         "sim_truth_slip_onsets_s",

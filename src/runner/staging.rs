@@ -8,7 +8,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::mpsc;
 use std::time::Duration;
 
-use tmo_hal::sim::serve_control::SimControlClient;
+use tmo_sim::serve::control::SimControlClient;
 
 use super::batch::{BatchError, PlannedTrial};
 use super::sim_trial::world_for;

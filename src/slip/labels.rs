@@ -177,9 +177,9 @@ pub fn slip_end(
 /// fingers: half its length along the slip axis (the contact spans its length about the
 /// grasp point). `None` for objects the library does not know.
 pub fn max_slide_for(object: &str) -> Option<f64> {
-    static LIBRARY: std::sync::OnceLock<tmo_hal::sim::ObjectLibrary> = std::sync::OnceLock::new();
+    static LIBRARY: std::sync::OnceLock<tmo_sim::ObjectLibrary> = std::sync::OnceLock::new();
     LIBRARY
-        .get_or_init(tmo_hal::sim::ObjectLibrary::built_in)
+        .get_or_init(tmo_sim::ObjectLibrary::built_in)
         .get(object)
         .ok()
         .map(|o| o.length_mm / 2.0)

@@ -152,7 +152,7 @@ pub enum BatchError {
     )]
     NoGraspOnHardware(&'static str, String),
     #[error(transparent)]
-    Staging(#[from] tmo_hal::sim::serve_control::ControlError),
+    Staging(#[from] tmo_sim::serve::control::ControlError),
     #[error("{field} = {value} asks for more than the hardware file's {limit_field} ({limit})")]
     BeyondHardware {
         field: &'static str,
@@ -163,7 +163,7 @@ pub enum BatchError {
     #[error(transparent)]
     Sim(#[from] CollectError),
     #[error(transparent)]
-    SimRig(#[from] tmo_hal::sim::SimError),
+    SimRig(#[from] tmo_sim::SimError),
     #[error(transparent)]
     Scenario(#[from] ScenarioError),
     #[error("{path}: {source}")]

@@ -9,10 +9,10 @@ use std::io::{Read, Write};
 use std::os::fd::OwnedFd;
 use std::path::PathBuf;
 
-use super::SimHand;
-use crate::real::model_o::{ModelOConfig, MA_PER_CURRENT_UNIT};
-use crate::wire::dynamixel::{address, instruction, Decoder, Packet, BROADCAST_ID};
-use crate::{Hand, HAND_ACTUATORS};
+use crate::SimHand;
+use tmo_hal::real::model_o::{ModelOConfig, MA_PER_CURRENT_UNIT};
+use tmo_hal::wire::dynamixel::{address, instruction, Decoder, Packet, BROADCAST_ID};
+use tmo_hal::{Hand, HAND_ACTUATORS};
 
 /// XM430-W350's model number, as a ping reports it.
 pub const MODEL_NUMBER: u16 = 1020;
@@ -43,7 +43,7 @@ pub struct PtyServoBus {
 
 impl PtyServoBus {
     pub fn open(mut hand: SimHand, cfg: ModelOConfig) -> std::io::Result<Self> {
-        let (master, slave, path) = super::serve_jevois::open_pty()?;
+        let (master, slave, path) = super::pty::open_pty()?;
         let targets = hand.present_positions().unwrap_or_default();
         Ok(Self {
             master,

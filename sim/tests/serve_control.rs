@@ -7,11 +7,11 @@ use std::sync::{mpsc, Arc};
 use std::time::{Duration, Instant};
 
 use tmo_hal::real::model_o::{ModelOConfig, ModelOHand};
-use tmo_hal::sim::serve_control::{ControlError, ControlPort, SimControlClient};
-use tmo_hal::sim::serve_dynamixel::PtyServoBus;
-use tmo_hal::sim::serve_jevois::{serve_controlled, PtyCamera, ServedDevices};
-use tmo_hal::sim::{HandSetup, RailSetup, RigSetup, SimConfig, SimRig};
 use tmo_hal::Hand;
+use tmo_sim::serve::control::{ControlError, ControlPort, SimControlClient};
+use tmo_sim::serve::dynamixel::PtyServoBus;
+use tmo_sim::serve::{serve_controlled, PtyCamera, ServedDevices};
+use tmo_sim::{HandSetup, RailSetup, RigSetup, SimConfig, SimRig};
 
 fn bus_config(port: String) -> ModelOConfig {
     ModelOConfig {

@@ -2,7 +2,7 @@
 
 use std::collections::VecDeque;
 
-use crate::types::{HandPositions, HAND_ACTUATORS};
+use tmo_hal::types::{HandPositions, HAND_ACTUATORS};
 
 /// A command that reaches the servos after the bus and firmware latency.
 #[derive(Debug, Clone, Copy, PartialEq)]

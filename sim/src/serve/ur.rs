@@ -5,12 +5,11 @@
 
 use std::io::{Read, Write};
 use std::net::{TcpListener, TcpStream};
-use std::sync::atomic::AtomicBool;
 
-use super::SimRig;
-use crate::wire::rtde::{encode_values, ClientMessage, Framer, ServerMessage, Value};
-use crate::wire::urscript::{parse_line, Command};
-use crate::Arm;
+use super::tcp::read_available;
+use tmo_hal::wire::rtde::{encode_values, ClientMessage, Framer, ServerMessage, Value};
+use tmo_hal::wire::urscript::{parse_line, Command};
+use tmo_hal::Arm;
 
 /// What the emulated controller says it is (a CB3 at 125 Hz).
 pub const CONTROLLER_VERSION: (u32, u32, u32, u32) = (3, 15, 7, 0);
@@ -98,7 +97,7 @@ impl UrEmulator {
     }
 
     /// Accepts, reads and answers what arrived, and streams state due at `now` (sim s).
-    pub fn step(&mut self, now: f64, arm: &mut super::SimArm) -> std::io::Result<()> {
+    pub fn step(&mut self, now: f64, arm: &mut crate::SimArm) -> std::io::Result<()> {
         let mut buf = [0u8; 4096];
         let stats = &mut self.stats;
         while let Ok((s, _)) = self.rtde.accept() {
@@ -283,34 +282,4 @@ impl UrEmulator {
 }
 
 /// Longest URScript line the emulated controller takes; real commands are under 200 bytes.
-pub(super) const MAX_SCRIPT_LINE: usize = 64 * 1024;
-
-/// Reads what a non-blocking client has sent into `pending`, up to about `cap` bytes (the
-/// rest waits in the socket); false once the client has gone.
-pub(super) fn read_available(stream: &mut TcpStream, pending: &mut Vec<u8>, cap: usize) -> bool {
-    let mut buf = [0u8; 4096];
-    while pending.len() < cap {
-        match stream.read(&mut buf) {
-            Ok(0) => return false,
-            Ok(n) => pending.extend_from_slice(&buf[..n]),
-            Err(e) if e.kind() == std::io::ErrorKind::WouldBlock => return true,
-            Err(_) => return false,
-        }
-    }
-    true
-}
-
-/// Serves the arm until `stop` is set; the sim clock follows the wall clock from the call.
-pub fn serve_ur(
-    rig: &SimRig,
-    rtde: TcpListener,
-    script: TcpListener,
-    stop: &AtomicBool,
-) -> std::io::Result<UrServeStats> {
-    let mut devices = super::serve_jevois::ServedDevices {
-        ur: Some(UrEmulator::new(rtde, script)?),
-        ..Default::default()
-    };
-    super::serve_jevois::serve(rig, &mut devices, stop)?;
-    Ok(devices.ur.map(|u| u.stats).unwrap_or_default())
-}
+pub(crate) const MAX_SCRIPT_LINE: usize = 64 * 1024;

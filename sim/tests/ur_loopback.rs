@@ -7,9 +7,10 @@ use std::sync::{mpsc, Arc};
 use std::time::{Duration, Instant};
 
 use tmo_hal::real::ur::{UrArm, UrError};
-use tmo_hal::sim::serve_ur::{serve_ur, UrServeStats, CONTROLLER_VERSION};
-use tmo_hal::sim::{SimConfig, SimRig};
 use tmo_hal::Arm;
+use tmo_sim::serve::ur::CONTROLLER_VERSION;
+use tmo_sim::serve::{serve_ur, UrServeStats};
+use tmo_sim::{SimConfig, SimRig};
 
 type Served = (
     u16,

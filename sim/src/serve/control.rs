@@ -13,8 +13,8 @@ use std::time::Duration;
 
 use serde::{Deserialize, Serialize};
 
-use super::serve_ur::read_available;
-use super::SimConfig;
+use super::tcp::read_available;
+use crate::SimConfig;
 
 #[derive(Debug, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]

@@ -10,10 +10,7 @@ pub mod config;
 pub mod grasp;
 pub mod objects;
 pub mod parameters;
-pub mod serve_control;
-pub mod serve_dynamixel;
-pub mod serve_jevois;
-pub mod serve_ur;
+pub mod serve;
 pub mod skin;
 pub mod tactip;
 mod world;
@@ -28,10 +25,10 @@ pub use config::{
 pub use objects::{ObjectLibrary, ObjectSpec};
 pub use world::{nominal_contact_law, nominal_skin, TruthEvents, TruthState, MEASURABLE_FALL_MM};
 
-use crate::error::{Error, ErrorKind, ErrorType};
-use crate::traits::{Arm, Clock, Hand, MarkerTracker, TactileSensor};
-use crate::types::{HandPositions, MarkerSample, PinFrame, Pose};
 use actuators::{ArmCommand, ServoCommand};
+use tmo_hal::error::{Error, ErrorKind, ErrorType};
+use tmo_hal::traits::{Arm, Clock, Hand, MarkerTracker, TactileSensor};
+use tmo_hal::types::{HandPositions, MarkerSample, PinFrame, Pose};
 use world::World;
 
 /// Errors of the simulated rig.
@@ -138,8 +135,8 @@ pub struct SimTactileSensor {
 }
 
 impl SimTactileSensor {
-    pub fn sensor_id(&self) -> crate::SensorId {
-        self.index as crate::SensorId
+    pub fn sensor_id(&self) -> tmo_hal::SensorId {
+        self.index as tmo_hal::SensorId
     }
 }
 

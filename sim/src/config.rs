@@ -602,7 +602,7 @@ pub struct TactipParams {
 impl Default for TactipParams {
     fn default() -> Self {
         Self {
-            pins: crate::TMO_PINS_PER_SENSOR,
+            pins: tmo_hal::TMO_PINS_PER_SENSOR,
             image_px: [340.0, 280.0],
             dome_radius_px: 120.0,
             frame_rate_hz: 60.0,

@@ -7,7 +7,7 @@ use serde::Deserialize;
 
 use super::SimError;
 
-const BUILT_IN: &str = include_str!("../../data/parameters.toml");
+const BUILT_IN: &str = include_str!("../data/parameters.toml");
 
 /// How a value was arrived at.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize, serde::Serialize)]
@@ -105,7 +105,7 @@ pub fn built_in() -> Vec<ParameterRecord> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::sim::{ObjectLibrary, RigSetup, SimConfig};
+    use crate::{ObjectLibrary, RigSetup, SimConfig};
 
     fn simulator_fields() -> Vec<(String, f64)> {
         SimConfig::parameters()
@@ -152,7 +152,7 @@ mod tests {
             serde_json::to_value(ObjectLibrary::built_in().iter().collect::<Vec<_>>()).unwrap();
         for object in library.as_array().unwrap() {
             let name = object["name"].as_str().unwrap();
-            for (field, value) in crate::sim::config::numbers_by_name(object).0 {
+            for (field, value) in crate::config::numbers_by_name(object).0 {
                 let own = records
                     .iter()
                     .find(|r| r.name == format!("objects.{name}.{field}"));

@@ -9,9 +9,9 @@ use std::time::{Duration, Instant};
 use tmo_hal::real::clock::RealClock;
 use tmo_hal::real::jevois_sensor::JevoisSensor;
 use tmo_hal::real::marker_camera::MarkerCamera;
-use tmo_hal::sim::serve_jevois::{serve, PtyCamera, PtyMarkerCamera, ServedDevices};
-use tmo_hal::sim::{SimConfig, SimRig};
 use tmo_hal::{ErrorKind, MarkerTracker, TactileSensor};
+use tmo_sim::serve::{serve, PtyCamera, PtyMarkerCamera, ServedDevices};
+use tmo_sim::{SimConfig, SimRig};
 
 #[test]
 fn frames_cross_the_serial_line_at_the_camera_rate() {

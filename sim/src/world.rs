@@ -18,7 +18,7 @@ use super::tactip::{
     SensorOptics, SkinState, SkinTimes,
 };
 use super::SimError;
-use crate::types::{HandPositions, MarkerSample, PinFrame};
+use tmo_hal::types::{HandPositions, MarkerSample, PinFrame};
 
 /// Frames a sensor buffers before the oldest are lost, as a serial buffer overflows.
 const SENSOR_QUEUE_LIMIT: usize = 4096;

@@ -1,8 +1,8 @@
 //! Physical sanity of the simulated rig: free fall, holding, slow release, the slip rail,
 //! and lifting heavier objects.
 
-use tmo_hal::sim::{FaultRates, HandSetup, ObjectStart, RailSetup, RigSetup, SimConfig, SimRig};
 use tmo_hal::{Arm, Clock, Hand};
+use tmo_sim::{FaultRates, HandSetup, ObjectStart, RailSetup, RigSetup, SimConfig, SimRig};
 
 fn hand_config(object: &str, closure: f64, start: ObjectStart) -> SimConfig {
     SimConfig {
@@ -54,10 +54,7 @@ fn firm_grip_holds_still_for_ten_seconds() {
 
 /// Releases at 0.5 % of the fingers' maximum speed (0.01 of range per s) from a firm grip.
 /// Returns (truth just before onset, truth at onset).
-fn slow_release(
-    object: &str,
-    grasp_deg: f64,
-) -> (tmo_hal::sim::TruthState, tmo_hal::sim::TruthState) {
+fn slow_release(object: &str, grasp_deg: f64) -> (tmo_sim::TruthState, tmo_sim::TruthState) {
     let q0 = contact_closure(object) + 0.04;
     let mut cfg = hand_config(object, q0, ObjectStart::InHand);
     if let RigSetup::Hand(h) = &mut cfg.rig {

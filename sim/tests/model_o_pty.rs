@@ -6,10 +6,10 @@ use std::sync::{mpsc, Arc};
 use std::time::{Duration, Instant};
 
 use tmo_hal::real::model_o::{ModelOConfig, ModelOHand};
-use tmo_hal::sim::serve_dynamixel::PtyServoBus;
-use tmo_hal::sim::serve_jevois::{serve, ServedDevices};
-use tmo_hal::sim::{SimConfig, SimRig};
 use tmo_hal::Hand;
+use tmo_sim::serve::dynamixel::PtyServoBus;
+use tmo_sim::serve::{serve, ServedDevices};
+use tmo_sim::{SimConfig, SimRig};
 
 fn config(port: String) -> ModelOConfig {
     ModelOConfig {

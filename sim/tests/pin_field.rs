@@ -2,8 +2,8 @@
 //! changes with a mean vector that is still mostly radial, and the same frames for the
 //! same seed.
 
-use tmo_hal::sim::{FaultRates, HandSetup, ObjectStart, RigSetup, SimConfig, SimRig};
 use tmo_hal::{Clock, Hand, MarkerSample, MarkerTracker, PinFrame, TactileSensor};
+use tmo_sim::{FaultRates, HandSetup, ObjectStart, RigSetup, SimConfig, SimRig};
 
 fn config(seed: u64, closure: f64, start: ObjectStart, faults: FaultRates) -> SimConfig {
     SimConfig {

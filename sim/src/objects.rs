@@ -4,7 +4,7 @@ use serde::{Deserialize, Serialize};
 
 use super::SimError;
 
-const BUILT_IN: &str = include_str!("../../data/objects.toml");
+const BUILT_IN: &str = include_str!("../data/objects.toml");
 
 /// A graspable object of the simulated rig.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
