@@ -9,31 +9,10 @@ use std::sync::{Arc, Mutex};
 use std::time::Instant;
 
 use super::clock::RealClock;
+pub use super::watched::CameraError;
 use super::watched::{open_camera_port, Watched};
 use crate::wire::jevois::{LineReader, Message, ReaderStats};
-use crate::{ErrorKind, ErrorType, PinFrame, TactileSensor};
-
-#[derive(Debug, thiserror::Error)]
-pub enum CameraError {
-    #[error("camera {port}: {source}")]
-    Open {
-        port: String,
-        source: std::io::Error,
-    },
-    #[error("camera {port} silent for {silent_s:.2} s")]
-    Silent { port: String, silent_s: f64 },
-    #[error("camera {port}: the port closed ({reason})")]
-    Closed { port: String, reason: String },
-}
-
-impl crate::Error for CameraError {
-    fn kind(&self) -> ErrorKind {
-        match self {
-            CameraError::Silent { .. } => ErrorKind::Timeout,
-            CameraError::Closed { .. } | CameraError::Open { .. } => ErrorKind::Disconnected,
-        }
-    }
-}
+use crate::{ErrorType, PinFrame, TactileSensor};
 
 /// What a camera's stream held, beyond its frames.
 #[derive(Debug, Default, Clone, PartialEq, Eq)]

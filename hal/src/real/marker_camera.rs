@@ -9,7 +9,7 @@ use std::sync::mpsc;
 use std::time::Instant;
 
 use super::clock::RealClock;
-use super::jevois_sensor::CameraError;
+use super::watched::CameraError;
 use super::watched::{open_camera_port, Watched};
 use crate::wire::jevois::{LineReader, Message};
 use crate::{ErrorType, MarkerSample, MarkerTracker};

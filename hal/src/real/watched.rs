@@ -4,8 +4,31 @@
 use std::sync::mpsc::{Receiver, TryRecvError};
 
 use super::clock::RealClock;
-use super::jevois_sensor::CameraError;
-use crate::Clock;
+use crate::{Clock, ErrorKind};
+
+/// What can go wrong with a camera (fingertip or marker) on its serial port.
+#[derive(Debug, thiserror::Error)]
+pub enum CameraError {
+    #[error("camera {port}: {source}")]
+    Open {
+        port: String,
+        source: std::io::Error,
+    },
+    #[error("camera {port} silent for {silent_s:.2} s")]
+    Silent { port: String, silent_s: f64 },
+    #[error("camera {port}: the port closed ({reason})")]
+    Closed { port: String, reason: String },
+}
+
+impl crate::Error for CameraError {
+    fn kind(&self) -> ErrorKind {
+        match self {
+            CameraError::Silent { .. } => ErrorKind::Timeout,
+            CameraError::Closed { .. } | CameraError::Open { .. } => ErrorKind::Disconnected,
+        }
+    }
+}
+
 
 /// Opens a camera's serial port with the short read timeout the reader threads poll with.
 pub(crate) fn open_camera_port(port: &str, baud: u32) -> Result<serial2::SerialPort, CameraError> {

@@ -47,6 +47,7 @@ mod q_batch;
 pub mod screening;
 mod select;
 pub mod smo;
+mod status;
 
 pub use bound::{NegativeBound, PositiveScoring};
 pub use kernel::Kernel;

@@ -18,8 +18,9 @@
 use super::kernel::{Kernel, Rows};
 use super::q_batch::{add_q_products, Sum};
 use super::smo::{
-    self, feasible_start, rho_of, violation_extremes, Bound, Solution, SolverOptions,
+    self, feasible_start, rho_of, violation_extremes, Solution, SolverOptions,
 };
+use super::status::Bound;
 use super::DualStart;
 
 /// Problems with fewer rows are solved whole: below these the full-length rows are cheap

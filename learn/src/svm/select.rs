@@ -7,7 +7,7 @@
 //! one-at-a-time loop, since each lane keeps its last extreme and lanes combine by value,
 //! then by the larger index. So the selected pair is the same, to the bit.
 
-use super::smo::Bound;
+use super::status::Bound;
 
 /// Lanes of running extremes: four `f64`, one AVX register.
 const LANES: usize = 4;

@@ -23,31 +23,9 @@ use super::cache::RowCache;
 use super::kernel::{Kernel, Rows, BLOCK};
 use super::q_batch::{add_q_products, q_rows, Sum, PARALLEL_WORK, ROWS_PER_PASS};
 use super::select;
+use super::status::Bound;
 
 const TAU: f64 = 1e-12;
-
-/// Where a dual variable lies in its box. One byte each, with these values, so that the
-/// working-set selection's vector code reads them directly (see [`super::select`]).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-#[repr(u8)]
-pub(super) enum Bound {
-    Lower = 0,
-    Upper = 1,
-    Free = 2,
-}
-
-impl Bound {
-    /// Where `alpha` lies in the box `[0, C]`.
-    pub(super) fn of(alpha: f64, c: f64) -> Self {
-        if alpha >= c {
-            Bound::Upper
-        } else if alpha <= 0.0 {
-            Bound::Lower
-        } else {
-            Bound::Free
-        }
-    }
-}
 
 /// What the solver found, in the caller's row order.
 #[derive(Debug, Clone, PartialEq)]
