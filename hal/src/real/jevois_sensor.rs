@@ -2,7 +2,7 @@
 //! thread turns the byte stream into pin frames (timestamped on arrival by the backend's
 //! clock); `next_frame` never blocks. Lines that are not `F2` frames with the expected pin
 //! count are counted and dropped; a camera silent for longer than the limit is a
-//! [`ErrorKind::Timeout`].
+//! [`crate::ErrorKind::Timeout`].
 
 use std::sync::mpsc;
 use std::sync::{Arc, Mutex};
