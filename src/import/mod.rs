@@ -25,8 +25,7 @@ use crate::trial::{Trial, TrialEvent, TrialMeta, TRIAL_FORMAT_VERSION};
 pub use parse::read_interchange;
 pub use write::{export_interchange, write_interchange, z_by_frame, ExportError};
 
-/// The topic of an imported trial's label track.
-pub const LABEL_TOPIC: &str = "/label";
+pub use crate::trial::LABEL_TOPIC;
 /// Topics of an imported sensor's third coordinate (`z`: a taxel's normal reading), one per
 /// sensor (`/element_z/0`, ...): one event per frame, `{"seq": N, "z": [...]}`. Carried
 /// along for the user; features use `x` and `y` only.

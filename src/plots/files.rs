@@ -17,7 +17,7 @@ pub fn svg_to_pdf(svg: &Path, pdf: &Path) -> Result<(), String> {
     use svg2pdf::usvg;
     let text = std::fs::read_to_string(svg).map_err(|e| e.to_string())?;
     let mut fonts = usvg::fontdb::Database::new();
-    fonts.load_font_data(super::FONT_BYTES.to_vec());
+    fonts.load_font_data(super::font::FONT_BYTES.to_vec());
     // The SVG falls back to the generic family after DejaVu Sans: the same font.
     fonts.set_sans_serif_family(FONT_FAMILY);
     let options = usvg::Options {

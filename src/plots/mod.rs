@@ -8,6 +8,7 @@
 //! issue note lists what was looked at) and by tests that the files are written.
 
 pub mod files;
+mod font;
 pub mod lift;
 pub mod offline;
 pub mod online;
@@ -38,23 +39,7 @@ pub enum PlotError {
 /// What a figure function returns for backend `DB`.
 pub type DrawResult<DB> = Result<(), DrawingAreaErrorKind<<DB as DrawingBackend>::ErrorType>>;
 
-/// Font family every figure uses: the bundled font by name, then the generic family for an
-/// SVG viewer without it. (Also the key the font is registered under for the PNGs.)
-pub const FONT: &str = "DejaVu Sans, sans-serif";
-
-/// The bundled font (DejaVu Sans, its licence beside it).
-pub(crate) const FONT_BYTES: &[u8] = include_bytes!("../../assets/fonts/DejaVuSans.ttf");
-
-static FONT_ONCE: std::sync::Once = std::sync::Once::new();
-
-/// Registers the bundled font (once per process).
-pub fn register_font() {
-    FONT_ONCE.call_once(|| {
-        // The bytes are a valid TrueType font checked into the repository; a failure here
-        // would be a build defect, so it is reported by the figures' own errors instead.
-        let _ = plotters::style::register_font(FONT, FontStyle::Normal, FONT_BYTES);
-    });
-}
+pub use font::{register_font, FONT};
 
 /// Figure size, px (also the SVG's user units).
 pub const SIZE: (u32, u32) = (900, 600);

@@ -5,7 +5,25 @@
 
 use std::path::Path;
 
-use super::inputs::InputError;
+/// What is wrong with a report's input (a batch, sweep, evaluation, model or trials).
+#[derive(Debug, thiserror::Error)]
+pub enum InputError {
+    #[error("{path}: cannot read: {message}")]
+    Read {
+        path: std::path::PathBuf,
+        message: String,
+    },
+    #[error("{path}: {message}")]
+    Format {
+        path: std::path::PathBuf,
+        message: String,
+    },
+    #[error(
+        "{0}: expected a batch directory (with batch.json), a sweep (sweep.csv or a directory holding one), a directory of trial logs (.mcap), an evaluation (.json from `tmo evaluate --out`) or a model (.json from `tmo train`)"
+    )]
+    Unknown(std::path::PathBuf),
+}
+
 use crate::runner::score::{CalibrationRow, LiftRow, OutcomeRow};
 use crate::slip::evaluation::Evaluation;
 use crate::slip::metrics::Scores;

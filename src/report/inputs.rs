@@ -12,17 +12,7 @@ use crate::slip::evaluation::{Evaluation, EVALUATION_FORMAT};
 use crate::slip::model::{ModelFile, MODEL_FORMAT};
 use crate::slip::sweep::SweepRow;
 
-#[derive(Debug, thiserror::Error)]
-pub enum InputError {
-    #[error("{path}: cannot read: {message}")]
-    Read { path: PathBuf, message: String },
-    #[error("{path}: {message}")]
-    Format { path: PathBuf, message: String },
-    #[error(
-        "{0}: expected a batch directory (with batch.json), a sweep (sweep.csv or a directory holding one), a directory of trial logs (.mcap), an evaluation (.json from `tmo evaluate --out`) or a model (.json from `tmo train`)"
-    )]
-    Unknown(PathBuf),
-}
+pub use super::checks::InputError;
 
 /// The scored trials of a batch, one row type per protocol kind.
 #[derive(Debug, Clone, PartialEq)]

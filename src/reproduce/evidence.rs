@@ -73,6 +73,9 @@ pub struct Measure {
     pub domain: Option<(f64, f64)>,
 }
 
+/// Every measured metric of a reproduction, by its key.
+pub type Measures = std::collections::BTreeMap<String, Measure>;
+
 fn one() -> u32 {
     1
 }
@@ -297,15 +300,12 @@ pub fn difference(a: &Measure, b: &Measure) -> (f64, Option<(f64, f64)>) {
 /// (`from_trials`, measured once on every replicate's trials together) are taken from
 /// there, their counts and samples already pooled; every other metric is the mean over the
 /// replicates that have it, with the replicates' spread in its interval.
-pub fn pool(
-    per_replicate: &[super::findings::Measures],
-    from_trials: &super::findings::Measures,
-) -> super::findings::Measures {
+pub fn pool(per_replicate: &[Measures], from_trials: &Measures) -> Measures {
     let mut names: std::collections::BTreeSet<&String> = from_trials.keys().collect();
     for m in per_replicate {
         names.extend(m.keys());
     }
-    let mut out = super::findings::Measures::new();
+    let mut out = Measures::new();
     for name in names {
         let have: Vec<&Measure> = per_replicate
             .iter()
@@ -442,12 +442,12 @@ mod tests {
     #[test]
     fn pooling_takes_trial_metrics_whole_and_averages_the_rest() {
         let rep = |f1: f64| {
-            let mut m = super::super::findings::Measures::new();
+            let mut m = super::Measures::new();
             m.insert("f1".into(), Measure::exact(f1).in_domain((0.0, 1.0)));
             m.insert("rate".into(), Measure::proportion(1, 10));
             m
         };
-        let mut trials = super::super::findings::Measures::new();
+        let mut trials = super::Measures::new();
         trials.insert("rate".into(), Measure::proportion(5, 30));
         let pooled = pool(&[rep(0.8), rep(0.9), rep(0.85)], &trials);
         assert_eq!(pooled["rate"].n, Some(30));
@@ -459,7 +459,7 @@ mod tests {
         let (lo, hi) = f1.interval.unwrap();
         assert!(lo < 0.85 && hi > 0.85 && hi <= 1.0);
         // one replicate: its own measure, unchanged
-        let single = pool(&[rep(0.8)], &super::super::findings::Measures::new());
+        let single = pool(&[rep(0.8)], &super::Measures::new());
         assert_eq!(single["f1"].interval, None);
     }
 }

@@ -9,7 +9,7 @@ pub const PAPER_FINDINGS: &str = include_str!("../../docs/paper_findings.toml");
 pub use super::evidence::Measure;
 
 /// Measurements by metric name.
-pub type Measures = BTreeMap<String, Measure>;
+pub use super::evidence::Measures;
 
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 #[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]

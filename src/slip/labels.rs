@@ -212,7 +212,7 @@ pub fn label_track(trial: &Trial) -> Vec<(f64, bool)> {
     trial
         .events
         .iter()
-        .filter(|e| e.topic == crate::import::LABEL_TOPIC)
+        .filter(|e| e.topic == crate::trial::LABEL_TOPIC)
         .filter_map(|e| Some((e.time_s, e.data.get("slip")?.as_bool()?)))
         .collect()
 }

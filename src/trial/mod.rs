@@ -108,18 +108,17 @@ impl Trial {
     pub fn unusable(&self) -> Option<&'static str> {
         if self.frames.is_empty() {
             Some("it has no tactile frames (nothing to classify)")
-        } else if self.markers.is_empty()
-            && !self
-                .events
-                .iter()
-                .any(|e| e.topic == crate::import::LABEL_TOPIC)
-        {
+        } else if self.markers.is_empty() && !self.events.iter().any(|e| e.topic == LABEL_TOPIC) {
             Some("it has neither a marker track nor slip labels (no slip onset to label or score against)")
         } else {
             None
         }
     }
 }
+
+/// The topic of a trial's slip labels, where another lab's recording gives them instead of
+/// a marker track (`tmo import`).
+pub const LABEL_TOPIC: &str = "/label";
 
 /// One runner message: `topic` is its channel (e.g. `/classifier`, `/detector`,
 /// `/command/hand`), `data` its JSON body.

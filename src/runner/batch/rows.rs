@@ -2,7 +2,6 @@
 
 use std::path::Path;
 
-use super::run::write_atomic;
 use super::BatchError;
 use crate::protocol::Kind;
 use crate::report::inputs::BatchRows;
@@ -76,4 +75,16 @@ impl ScoredRows {
             write_rows(&self.catch, csv_path, json_path)
         }
     }
+}
+
+/// Writes `bytes` to `path` through a temporary file renamed into place, so a reader (or a
+/// crash) sees the old file or the new one, never half of one.
+pub(crate) fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), BatchError> {
+    let tmp = path.with_extension("writing");
+    let io = |source| BatchError::Io {
+        path: path.to_path_buf(),
+        source,
+    };
+    std::fs::write(&tmp, bytes).map_err(io)?;
+    std::fs::rename(&tmp, path).map_err(io)
 }

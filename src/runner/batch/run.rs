@@ -14,7 +14,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 
 use rayon::prelude::*;
 
-use super::rows::ScoredRows;
+use super::rows::{write_atomic, ScoredRows};
 use super::{
     aborted_trial_path, catch_spec, expand, faulted_trial_path, trial_path, BatchError, Manifest,
     PlannedTrial,
@@ -84,16 +84,6 @@ fn in_trial(t: &PlannedTrial, e: BatchError) -> BatchError {
         trial_id: t.trial_id.clone(),
         source: Box::new(e),
     }
-}
-
-pub(crate) fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), BatchError> {
-    let tmp = path.with_extension("writing");
-    let io = |source| BatchError::Io {
-        path: path.to_path_buf(),
-        source,
-    };
-    std::fs::write(&tmp, bytes).map_err(io)?;
-    std::fs::rename(&tmp, path).map_err(io)
 }
 
 /// Loads each of the plan's models with its SHA-256 (recorded in every trial).
