@@ -11,7 +11,7 @@ use tmo_hal::{
     Pose, TactileSensor,
 };
 
-use crate::scenario::Devices;
+use crate::runner::devices::Devices;
 use crate::trial::Trial;
 
 /// Replay devices never fail: the recording is already in memory.

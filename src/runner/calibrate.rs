@@ -18,7 +18,7 @@ use super::lift::{move_time_s, LiftRun};
 use super::monitor::WatchLimits;
 use super::RunRecord;
 use crate::outcome::lift::{rise, LiftSpec, LiftWindow, Rise};
-use crate::scenario::{Devices, ScenarioError};
+use crate::runner::devices::{Devices, ScenarioError};
 
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct CalibrationParams {

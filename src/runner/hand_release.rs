@@ -14,7 +14,7 @@ use super::approach::{ApproachStep, ContactApproach};
 use super::monitor::{FrameMonitor, Verdict, WatchLimits};
 use super::{event, Fault, Online, RunRecord};
 use crate::online::classify::Reaction;
-use crate::scenario::{device, Devices, Recording, ScenarioError};
+use crate::runner::devices::{device, Devices, Recording, ScenarioError};
 use serde_json::json;
 
 #[derive(Debug, Clone, Copy, PartialEq)]

@@ -18,7 +18,7 @@ use super::approach::{ApproachStep, ContactApproach, ContactGrasp};
 use super::monitor::{FrameMonitor, Verdict, WatchLimits};
 use super::{event, Fault, Online, RunRecord};
 use crate::online::classify::Reaction;
-use crate::scenario::{device, Devices, Recording, ScenarioError};
+use crate::runner::devices::{device, Devices, Recording, ScenarioError};
 use crate::trial::TrialEvent;
 
 #[derive(Debug, Clone, Copy, PartialEq)]

@@ -4,6 +4,7 @@
 pub mod approach;
 pub mod batch;
 pub mod calibrate;
+pub mod devices;
 pub mod hand_release;
 pub mod lift;
 #[cfg(test)]
@@ -24,9 +25,10 @@ use serde_json::json;
 use tmo_hal::{Arm, Clock, Hand, MarkerTracker, TactileSensor};
 
 use crate::online::strategy::Strategy;
-use crate::scenario::{device, Devices, Recording, ScenarioError};
 use crate::slip::model::ModelFile;
 use crate::trial::TrialEvent;
+use devices::{device, Devices, Recording, ScenarioError};
+pub use state::event;
 
 /// Why a trial was aborted; the hand held its position and the arm stopped.
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -58,7 +60,7 @@ pub struct Online<'m> {
 /// What one trial of any runner recorded.
 #[derive(Debug, Clone, PartialEq)]
 pub struct RunRecord {
-    pub recording: crate::scenario::Recording,
+    pub recording: Recording,
     /// When the detector was armed.
     pub armed_s: Option<f64>,
     pub reaction: Option<crate::online::classify::Reaction>,
@@ -126,13 +128,4 @@ where
 pub fn control_wait(clock: &mut impl Clock) {
     let next = clock.now_s() + TICK_S;
     clock.wait_for_input_until(next);
-}
-
-/// A runner message for the trial log.
-pub fn event(time_s: f64, topic: &str, data: serde_json::Value) -> TrialEvent {
-    TrialEvent {
-        time_s,
-        topic: topic.to_string(),
-        data,
-    }
 }

@@ -11,7 +11,7 @@ use tmo_hal::{Arm, Clock, Hand, MarkerTracker, TactileSensor};
 use super::monitor::{FrameMonitor, Verdict, WatchLimits};
 use super::{event, Fault, Online, RunRecord, SETTLE_S};
 use crate::online::classify::Reaction;
-use crate::scenario::{device, Devices, Recording, ScenarioError};
+use crate::runner::devices::{device, Devices, Recording, ScenarioError};
 
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct RailParams {

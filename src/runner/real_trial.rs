@@ -25,7 +25,7 @@ use super::sim_trial::finish_trial;
 use super::Online;
 use crate::hardware::HardwareFile;
 use crate::protocol::{KindParams, Mode, Plan, SafetyLimits};
-use crate::scenario::{device, Devices};
+use crate::runner::devices::{device, Devices};
 use crate::slip::model::ModelFile;
 use crate::trial::Trial;
 

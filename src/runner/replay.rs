@@ -13,7 +13,7 @@ use tmo_hal::{Arm, Clock, Hand, MarkerTracker, TactileSensor};
 
 use super::monitor::{FrameMonitor, Verdict, WatchLimits};
 use super::{Online, RunRecord, SETTLE_S};
-use crate::scenario::{Devices, Recording, ScenarioError};
+use crate::runner::devices::{Devices, Recording, ScenarioError};
 use crate::trial::Trial;
 
 /// When the detector counts frames.

@@ -18,7 +18,7 @@ use super::safety::{SafeArm, SafeHand, SafetyLimits};
 use super::Online;
 use crate::collect::{hand_release_rig, CollectError};
 use crate::protocol::{KindParams, Mode, Plan};
-use crate::scenario::Devices;
+use crate::runner::devices::Devices;
 use crate::sim_presets::{self, Preset, PresetOptions};
 use crate::slip::model::ModelFile;
 use crate::trial::{Trial, TrialMeta, TRIAL_FORMAT_VERSION};

@@ -11,7 +11,6 @@
 use serde_json::json;
 use tmo_hal::{HandPositions, Pose};
 
-use super::event;
 use crate::trial::TrialEvent;
 
 /// Trial-clock time between state samples, s (20 Hz: enough to draw the fingers' and the
@@ -76,6 +75,15 @@ pub fn state_events(
             json!({ "position_mm": pose.position_mm, "rotation_rad": pose.rotation_rad }),
         ),
     ]
+}
+
+/// A runner message for the trial log.
+pub fn event(time_s: f64, topic: &str, data: serde_json::Value) -> TrialEvent {
+    TrialEvent {
+        time_s,
+        topic: topic.to_string(),
+        data,
+    }
 }
 
 #[cfg(test)]

@@ -9,11 +9,70 @@ use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rayon::prelude::*;
 
+use super::bayes::SearchError;
+use super::classifier::ClassifierKind;
 use super::dataset::Dataset;
+use super::dataset::Scope;
 use super::metrics::Scores;
+use super::model::TrainError;
 use super::model::{fit_parts, score_models, training_parts, Hyperparameters, SensorModel};
-use super::tuning::{HeldOutRows, TuneError, TuneSpec};
+use super::search_range::SearchRanges;
 use super::Class;
+
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TuneSpec {
+    pub kind: ClassifierKind,
+    pub scope: Scope,
+    pub downsample: f64,
+    pub seed: u64,
+    pub iterations: usize,
+    pub folds: usize,
+    pub ranges: SearchRanges,
+    /// At most this many rows (after down-sampling) in each of the search's fits: a fold's
+    /// training rows are sampled, each class alike, down to it. The held-out fold is scored
+    /// as `held_out` says, and the cell's final model is fitted on all its rows. `None`:
+    /// every row.
+    pub max_fit_rows: Option<usize>,
+    pub held_out: HeldOutRows,
+}
+
+/// The rows of a held-out fold that a search scores its models on.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, clap::ValueEnum)]
+pub enum HeldOutRows {
+    /// Every row, as the test trials are scored.
+    #[default]
+    Every,
+    /// The static rows down-sampled by the cell's `d` (every slip row kept), as
+    /// scikit-learn's `BayesSearchCV` scores folds of a training set that was down-sampled
+    /// before the search; faster at small `d`.
+    Downsampled,
+}
+
+impl HeldOutRows {
+    /// How a search record and a sweep's provenance name it.
+    pub fn describe(self) -> &'static str {
+        match self {
+            HeldOutRows::Every => "held-out folds scored on every row",
+            HeldOutRows::Downsampled => "held-out folds' static rows down-sampled by d",
+        }
+    }
+}
+
+#[derive(Debug, thiserror::Error)]
+pub enum TuneError {
+    #[error(transparent)]
+    Search(#[from] SearchError),
+    #[error(transparent)]
+    Train(#[from] TrainError),
+    #[error("cross-validation needs at least {folds} trials, got {trials}")]
+    TooFewTrials { folds: usize, trials: usize },
+    #[error(
+        "--folds {0}: expected at least 2 (each fold is scored by a model trained on the others)"
+    )]
+    Folds(usize),
+    #[error("the {0} classifier has no hyperparameters to search")]
+    NothingToSearch(&'static str),
+}
 
 /// A cross-validation's folds, ready to be scored at any point.
 #[derive(Debug)]

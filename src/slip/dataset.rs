@@ -94,7 +94,7 @@ pub fn max_step(t: &Trial) -> Result<f32, String> {
 pub fn load_labelled(
     paths: &[std::path::PathBuf],
     labels: &LabelSpec,
-) -> Result<(Dataset, Vec<super::model::TrialRef>, FeatureSpec), LoadError> {
+) -> Result<(Dataset, Vec<TrialRef>, FeatureSpec), LoadError> {
     let loaded = crate::trial::load_trials(paths)?;
     let Some(first) = loaded.first() else {
         return Err(LoadError::NoTrials(
@@ -138,7 +138,7 @@ pub fn load_labelled(
     }
     let refs = loaded
         .iter()
-        .map(|(p, h, t)| super::model::TrialRef {
+        .map(|(p, h, t)| TrialRef {
             trial_id: t.meta.trial_id.clone(),
             path: p.display().to_string(),
             sha256: h.clone(),
@@ -157,6 +157,14 @@ pub fn load_labelled(
 pub struct LabelSpec {
     pub n_slip: usize,
     pub onset: OnsetSpec,
+}
+
+/// A training trial, by id and content hash.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct TrialRef {
+    pub trial_id: String,
+    pub path: String,
+    pub sha256: String,
 }
 
 /// Feature rows with their labels and where each came from.

@@ -1,6 +1,7 @@
 //! Slip detection: features from pin frames, labels from the marker track, classifiers and
 //! their scores (SPEC.md, "Slip detection method"). Usable without any hardware.
 
+pub mod classifier;
 pub mod cross_validation;
 pub mod dataset;
 pub mod evaluation;

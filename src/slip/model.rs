@@ -7,6 +7,8 @@ use std::path::Path;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
+pub use super::classifier::{scale_gamma, ClassifierKind, Hyperparameters};
+pub use super::dataset::TrialRef;
 use super::dataset::{Dataset, LabelSpec, Scope};
 use super::features::FeatureSpec;
 use super::logreg::{LogRegModel, LogRegParams};
@@ -20,81 +22,6 @@ use tmo_learn::Label;
 
 pub const MODEL_FORMAT: &str = "tmo-slip-model";
 pub const MODEL_FORMAT_VERSION: u32 = 1;
-
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize, clap::ValueEnum)]
-#[serde(rename_all = "kebab-case")]
-pub enum ClassifierKind {
-    SvmRbf,
-    SvmLinear,
-    Logreg,
-    Threshold,
-}
-
-impl ClassifierKind {
-    /// Whether the classifier has a regularisation constant C (the threshold has none).
-    pub fn uses_c(&self) -> bool {
-        *self != ClassifierKind::Threshold
-    }
-
-    /// Whether the classifier has a kernel width gamma (only the RBF SVM).
-    pub fn uses_gamma(&self) -> bool {
-        *self == ClassifierKind::SvmRbf
-    }
-
-    pub fn name(&self) -> &'static str {
-        match self {
-            ClassifierKind::SvmRbf => "svm-rbf",
-            ClassifierKind::SvmLinear => "svm-linear",
-            ClassifierKind::Logreg => "logreg",
-            ClassifierKind::Threshold => "threshold",
-        }
-    }
-}
-
-/// Hyperparameters of one fit; which ones apply depends on the classifier.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-pub struct Hyperparameters {
-    /// Absent from model files of the threshold, which has none (the default is then kept).
-    #[serde(default = "paper_c")]
-    pub c: f64,
-    /// Absent from model files of every classifier but the RBF SVM (the default is then kept).
-    #[serde(default = "paper_gamma")]
-    pub gamma: f64,
-    /// Cap on the SVM solver's iterations (`None`: for the RBF kernel's SMO, libsvm's
-    /// `max(100 n, 10^7)` pair steps; for the linear kernel's interior-point method, 200
-    /// Newton steps). A fit that reaches it is approximate and says so (`unconverged_gap`).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub max_iterations: Option<usize>,
-}
-
-/// The RBF kernel's gamma when none is given: one over the number of features, which is
-/// scikit-learn's `gamma = "scale"` for standardised features (each of variance 1). The
-/// paper's 1.104 was chosen for its own feature scaling; on tmo's standardised 60 features it
-/// makes every training row a support vector and the model never detects slip.
-pub fn scale_gamma(features: usize) -> f64 {
-    1.0 / features.max(1) as f64
-}
-
-/// The paper's best single-finger SVM's C.
-fn paper_c() -> f64 {
-    3.989
-}
-
-/// The paper's best single-finger SVM's gamma.
-fn paper_gamma() -> f64 {
-    1.104
-}
-
-impl Default for Hyperparameters {
-    /// The paper's best single-finger SVM.
-    fn default() -> Self {
-        Self {
-            c: paper_c(),
-            gamma: paper_gamma(),
-            max_iterations: None,
-        }
-    }
-}
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(tag = "type", rename_all = "snake_case")]
@@ -324,14 +251,6 @@ impl SensorModel {
     }
 }
 
-/// A training trial, by id and content hash.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct TrialRef {
-    pub trial_id: String,
-    pub path: String,
-    pub sha256: String,
-}
-
 /// The contents of a model file.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct ModelFile {
@@ -411,7 +330,7 @@ pub struct SearchRecord {
     pub folds: usize,
     pub parameters: Vec<String>,
     /// The range searched for each parameter, `[low, high]` (absent in files written before
-    /// ranges were options: the defaults, [`super::tuning::SearchRanges`]).
+    /// ranges were options: the defaults, [`super::search_range::SearchRanges`]).
     #[serde(default)]
     pub ranges: Vec<[f64; 2]>,
     pub evaluations: Vec<super::bayes::Evaluation>,
@@ -430,7 +349,8 @@ impl SearchRecord {
             .zip(&self.ranges)
             .zip(&best.params)
             .filter_map(|((name, &range), &value)| {
-                super::tuning::at_range_end(value, range).map(|end| (name.clone(), value, end))
+                super::search_range::at_range_end(value, range)
+                    .map(|end| (name.clone(), value, end))
             })
             .collect()
     }

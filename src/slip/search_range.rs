@@ -2,8 +2,20 @@
 //! command line as `LOW:HIGH`, and whether a search's best lies at an end of its range.
 
 use super::bayes::LogRange;
-use super::model::ClassifierKind;
-use super::tuning::{C_RANGE, GAMMA_RANGE};
+use super::classifier::ClassifierKind;
+
+/// Default search ranges, as scikit-optimize searches would commonly set them for the
+/// paper's models.
+pub const C_RANGE: LogRange = LogRange {
+    name: "C",
+    low: 1e-2,
+    high: 1e3,
+};
+pub const GAMMA_RANGE: LogRange = LogRange {
+    name: "gamma",
+    low: 1e-4,
+    high: 10.0,
+};
 
 /// The ranges a search explores (log-uniform), `[low, high]` each.
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]

@@ -1,80 +1,15 @@
 //! Hyperparameter search on training data only: Bayesian optimisation of the macro F1 of
 //! a cross-validation that splits by trial, so frames of one trial never sit on both sides.
 
-use super::bayes::{best, BayesSearch, Evaluation, LogRange, SearchError};
+use super::bayes::{best, BayesSearch, Evaluation};
 use super::cross_validation::Folds;
-use super::dataset::{Dataset, Scope};
+pub use super::cross_validation::{HeldOutRows, TuneError, TuneSpec};
+use super::dataset::Dataset;
 use super::metrics::Scores;
-use super::model::{ClassifierKind, Hyperparameters, SearchRecord, TrainError};
-pub use super::search_range::{at_range_end, parse_range, parse_search_rows, SearchRanges};
-
-/// Default search ranges, as scikit-optimize searches would commonly set them for the
-/// paper's models.
-pub const C_RANGE: LogRange = LogRange {
-    name: "C",
-    low: 1e-2,
-    high: 1e3,
+use super::model::{ClassifierKind, Hyperparameters, SearchRecord};
+pub use super::search_range::{
+    at_range_end, parse_range, parse_search_rows, SearchRanges, C_RANGE, GAMMA_RANGE,
 };
-pub const GAMMA_RANGE: LogRange = LogRange {
-    name: "gamma",
-    low: 1e-4,
-    high: 10.0,
-};
-
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct TuneSpec {
-    pub kind: ClassifierKind,
-    pub scope: Scope,
-    pub downsample: f64,
-    pub seed: u64,
-    pub iterations: usize,
-    pub folds: usize,
-    pub ranges: SearchRanges,
-    /// At most this many rows (after down-sampling) in each of the search's fits: a fold's
-    /// training rows are sampled, each class alike, down to it. The held-out fold is scored
-    /// as `held_out` says, and the cell's final model is fitted on all its rows. `None`:
-    /// every row.
-    pub max_fit_rows: Option<usize>,
-    pub held_out: HeldOutRows,
-}
-
-/// The rows of a held-out fold that a search scores its models on.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, clap::ValueEnum)]
-pub enum HeldOutRows {
-    /// Every row, as the test trials are scored.
-    #[default]
-    Every,
-    /// The static rows down-sampled by the cell's `d` (every slip row kept), as
-    /// scikit-learn's `BayesSearchCV` scores folds of a training set that was down-sampled
-    /// before the search; faster at small `d`.
-    Downsampled,
-}
-
-impl HeldOutRows {
-    /// How a search record and a sweep's provenance name it.
-    pub fn describe(self) -> &'static str {
-        match self {
-            HeldOutRows::Every => "held-out folds scored on every row",
-            HeldOutRows::Downsampled => "held-out folds' static rows down-sampled by d",
-        }
-    }
-}
-
-#[derive(Debug, thiserror::Error)]
-pub enum TuneError {
-    #[error(transparent)]
-    Search(#[from] SearchError),
-    #[error(transparent)]
-    Train(#[from] TrainError),
-    #[error("cross-validation needs at least {folds} trials, got {trials}")]
-    TooFewTrials { folds: usize, trials: usize },
-    #[error(
-        "--folds {0}: expected at least 2 (each fold is scored by a model trained on the others)"
-    )]
-    Folds(usize),
-    #[error("the {0} classifier has no hyperparameters to search")]
-    NothingToSearch(&'static str),
-}
 
 /// Mean macro F1 over `folds` folds of whole trials: train (static rows down-sampled) on the
 /// rest, score the fold (see [`cross_validate`]).
@@ -173,6 +108,7 @@ pub fn search_reporting(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::slip::dataset::Scope;
     use crate::slip::Class;
 
     /// Six trials of two-feature rows; slip rows sit around (2, 2), static around (0, 0),

@@ -14,7 +14,7 @@ use crate::collect::{trial_seed, CollectError};
 use crate::online::strategy::Strategy;
 use crate::outcome::CatchSpec;
 use crate::protocol::{Kind, Mode, Plan};
-use crate::scenario::ScenarioError;
+use crate::runner::devices::ScenarioError;
 use crate::slip::labels::OnsetSpec;
 
 /// `batch.json`: what a batch directory holds and how it was made.
