@@ -19,7 +19,7 @@ use tmo::slip::Class;
 use tmo_learn::Label;
 
 fn main() {
-    let ds = common::hand_release_rows(1, |_| 0.0);
+    let ds = common::hand_release_rows(1, &[0.0]);
     std::fs::create_dir_all("target/bench").unwrap();
     ds.write_csv(std::path::Path::new("target/bench/linear_rows.csv"))
         .unwrap();

@@ -20,8 +20,8 @@ fn main() {
         .collect();
     let d: f64 = args.first().and_then(|a| a.parse().ok()).unwrap_or(1.0);
     let first: usize = args.get(1).and_then(|a| a.parse().ok()).unwrap_or(11);
-    let train = common::hand_release_dataset(1, 15, |_| 0.0);
-    let test = common::hand_release_dataset(2, 15, |_| 0.0);
+    let train = common::hand_release_dataset(1, 15, &[0.0]);
+    let test = common::hand_release_dataset(2, 15, &[0.0]);
     for (kind, hyper) in [
         (
             ClassifierKind::Logreg,

@@ -2,7 +2,6 @@
 //!
 //! The binary (`main.rs`) is the CLI and glue; the work lives here and in `tmo-hal`.
 
-pub mod collect;
 pub mod hardware;
 pub mod import;
 pub mod live;

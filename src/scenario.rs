@@ -23,16 +23,6 @@ pub enum Script {
     Release { speed_per_s: f64, hold_s: f64 },
     /// Retract the arm (slip rail) by `distance_mm` at `speed_mm_s`.
     Retract { speed_mm_s: f64, distance_mm: f64 },
-    /// The hand-release collect trial: close on the object standing on the table to
-    /// `closure`, lift it `lift_mm`, hold for `hold_s`, then open at `release_speed_per_s`.
-    GraspLiftRelease {
-        closure: f64,
-        close_speed_per_s: f64,
-        lift_mm: f64,
-        lift_speed_mm_s: f64,
-        hold_s: f64,
-        release_speed_per_s: f64,
-    },
     /// Close until the mean pin deformation reaches `deformation_px`, then raise the arm.
     Lift {
         deformation_px: f64,
@@ -61,9 +51,6 @@ where
         let start = self.hand.present_positions().map_err(device("hand"))?;
         let phase_start = self.clock.now_s();
         let mut lifting = false;
-        // GraspLiftRelease: when the current phase began, and which phase it is (0 closing,
-        // 1 settling, 2 lifting and holding, 3 releasing).
-        let (mut phase, mut phase_t0) = (0u8, phase_start);
         let mut gauge = ContactGauge::new(
             self.sensors.len(),
             FeatureSpec::new(0).max_pin_step_px as f64,
@@ -90,50 +77,6 @@ where
                     self.hand
                         .set_targets([q(0), q(1), q(2), start[3]])
                         .map_err(device("hand"))?;
-                }
-                Script::GraspLiftRelease {
-                    closure,
-                    close_speed_per_s,
-                    lift_mm,
-                    lift_speed_mm_s,
-                    hold_s,
-                    release_speed_per_s,
-                } => {
-                    let elapsed = now - phase_t0;
-                    match phase {
-                        0 => {
-                            let q =
-                                |i: usize| (start[i] + close_speed_per_s * elapsed).min(closure);
-                            self.hand
-                                .set_targets([q(0), q(1), q(2), start[3]])
-                                .map_err(device("hand"))?;
-                            if rec.phases.is_empty() {
-                                rec.phases.push((phase_start, "closing"));
-                            }
-                            if q(0) >= closure {
-                                (phase, phase_t0) = (1, now);
-                                rec.phases.push((now, "settling"));
-                            }
-                        }
-                        1 if elapsed >= 0.3 => {
-                            self.arm
-                                .move_linear([0.0, 0.0, lift_mm], lift_speed_mm_s)
-                                .map_err(device("arm"))?;
-                            (phase, phase_t0) = (2, now);
-                            rec.phases.push((now, "lifting"));
-                        }
-                        2 if elapsed >= lift_mm / lift_speed_mm_s + 0.2 + hold_s => {
-                            (phase, phase_t0) = (3, now);
-                            rec.phases.push((now, "releasing"));
-                        }
-                        3 => {
-                            let q = (closure - release_speed_per_s * elapsed).max(0.0);
-                            self.hand
-                                .set_targets([q, q, q, start[3]])
-                                .map_err(device("hand"))?;
-                        }
-                        _ => {}
-                    }
                 }
                 Script::Lift {
                     deformation_px: goal,

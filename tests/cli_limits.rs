@@ -12,7 +12,19 @@ use common::*;
 fn a_search_with_fewer_than_two_folds_is_refused() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    ok(&tmo(d, &["sim", "collect", "--trials", "3", "--out", "t"]));
+    ok(&tmo(
+        d,
+        &[
+            "sim",
+            "collect",
+            "--objects",
+            "crisps_can",
+            "--trials",
+            "3",
+            "--out",
+            "t",
+        ],
+    ));
     for folds in ["0", "1"] {
         let err = fails(&tmo(
             d,
@@ -43,7 +55,19 @@ fn a_search_with_fewer_than_two_folds_is_refused() {
 fn train_checks_where_the_model_goes_before_training() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    ok(&tmo(d, &["sim", "collect", "--trials", "3", "--out", "t"]));
+    ok(&tmo(
+        d,
+        &[
+            "sim",
+            "collect",
+            "--objects",
+            "crisps_can",
+            "--trials",
+            "3",
+            "--out",
+            "t",
+        ],
+    ));
     std::fs::create_dir(d.join("models")).unwrap();
     // a folder as --out is refused at once (before the fit, not after it)
     let err = fails(&tmo(
@@ -83,25 +107,22 @@ fn train_checks_where_the_model_goes_before_training() {
 fn a_collection_never_adds_to_another_collections_directory() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    ok(&tmo(
-        d,
-        &[
-            "sim", "collect", "--rig", "rail", "--trials", "2", "--out", "t",
-        ],
-    ));
+    let rail = [
+        "sim", "collect", "--rig", "rail", "--trials", "2", "--out", "t",
+    ];
+    ok(&tmo(d, &rail));
     let before: Vec<_> = std::fs::read_dir(d.join("t")).unwrap().collect();
-    for (args, why) in [
-        (vec!["--trials", "3"], "it is a rail_catch_collect trial"),
-        (
-            vec!["--rig", "rail", "--trials", "3", "--seed", "9"],
-            "another --seed?",
-        ),
+    for args in [
+        vec!["--objects", "crisps_can", "--trials", "2"],
+        vec!["--rig", "rail", "--trials", "2", "--seed", "9"],
+        vec!["--rig", "rail", "--trials", "3"],
     ] {
         let mut all = vec!["sim", "collect", "--out", "t"];
         all.extend(args);
         let err = fails(&tmo(d, &all));
         assert!(
-            err.contains("already holds another collection's trial") && err.contains(why),
+            err.contains("already holds another collection")
+                && err.contains("protocol.toml differs"),
             "{err}"
         );
     }
@@ -109,17 +130,10 @@ fn a_collection_never_adds_to_another_collections_directory() {
         std::fs::read_dir(d.join("t")).unwrap().count(),
         before.len()
     );
-    // the same collection, asked for more, finishes what is missing
-    let out = ok(&tmo(
-        d,
-        &[
-            "sim", "collect", "--rig", "rail", "--trials", "3", "--out", "t",
-        ],
-    ));
-    assert!(
-        out.contains("collected 1 trials (2 already there)"),
-        "{out}"
-    );
+    // the same collection, interrupted, finishes what is missing
+    std::fs::remove_file(d.join("t/trial-00001.mcap")).unwrap();
+    let out = ok(&tmo(d, &rail));
+    assert!(out.contains("2 trials (1 run, 1 already there)"), "{out}");
 }
 
 #[test]
@@ -392,7 +406,19 @@ fn fixed_size_arrays_with_more_or_fewer_values_are_refused() {
 fn a_sweep_resumed_with_other_settings_is_refused() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    ok(&tmo(d, &["sim", "collect", "--trials", "4", "--out", "t"]));
+    ok(&tmo(
+        d,
+        &[
+            "sim",
+            "collect",
+            "--objects",
+            "crisps_can",
+            "--trials",
+            "4",
+            "--out",
+            "t",
+        ],
+    ));
     let sweep = |c: &str, resume: bool| {
         let mut args = vec![
             "sweep",
@@ -515,7 +541,19 @@ fn a_resume_finishes_only_the_batch_the_directory_holds() {
 fn an_error_says_its_cause_once() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    ok(&tmo(d, &["sim", "collect", "--trials", "2", "--out", "t"]));
+    ok(&tmo(
+        d,
+        &[
+            "sim",
+            "collect",
+            "--objects",
+            "crisps_can",
+            "--trials",
+            "2",
+            "--out",
+            "t",
+        ],
+    ));
     let err = fails(&tmo(
         d,
         &[
@@ -585,7 +623,16 @@ fn a_replay_through_a_model_the_trials_do_not_fit_is_refused() {
     ok(&tmo(
         d,
         &[
-            "sim", "collect", "--trials", "1", "--seed", "3", "--out", "hand",
+            "sim",
+            "collect",
+            "--objects",
+            "crisps_can",
+            "--trials",
+            "1",
+            "--seed",
+            "3",
+            "--out",
+            "hand",
         ],
     ));
     let err = fails(&tmo(
@@ -609,8 +656,20 @@ fn a_replay_through_a_model_the_trials_do_not_fit_is_refused() {
 fn a_log_with_no_frames_or_no_marker_track_is_refused_not_counted() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    ok(&tmo(d, &["sim", "collect", "--trials", "2", "--out", "t"]));
-    let path = d.join("t/trial-0001.mcap");
+    ok(&tmo(
+        d,
+        &[
+            "sim",
+            "collect",
+            "--objects",
+            "crisps_can",
+            "--trials",
+            "2",
+            "--out",
+            "t",
+        ],
+    ));
+    let path = d.join("t/trial-00001.mcap");
     let trial = tmo::trial::read_trial(&path).unwrap();
     for (name, edit, says) in [
         (
@@ -635,7 +694,7 @@ fn a_log_with_no_frames_or_no_marker_track_is_refused_not_counted() {
         let mut broken = trial.clone();
         edit(&mut broken);
         std::fs::copy(
-            d.join("t/trial-0000.mcap"),
+            d.join("t/trial-00000.mcap"),
             d.join(format!("{name}-good.mcap")),
         )
         .unwrap();
@@ -663,7 +722,19 @@ fn a_log_with_no_frames_or_no_marker_track_is_refused_not_counted() {
 fn an_svm_fit_that_stops_at_its_cap_warns_and_under_strict_fails() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    ok(&tmo(d, &["sim", "collect", "--trials", "3", "--out", "t"]));
+    ok(&tmo(
+        d,
+        &[
+            "sim",
+            "collect",
+            "--objects",
+            "crisps_can",
+            "--trials",
+            "3",
+            "--out",
+            "t",
+        ],
+    ));
     let train = |extra: &[&str], out: &str| {
         let mut args = vec![
             "train",
@@ -709,8 +780,8 @@ fn a_file_of_the_wrong_kind_is_named_with_its_field_and_what_it_is() {
             "models.0: /dev/null is not a regular file",
         ),
         (
-            "kind = \"rail_catch\"\nmodels = [\"rail/trial-0000.mcap\"]\n",
-            "models.0: rail/trial-0000.mcap: not a tmo model file: not text",
+            "kind = \"rail_catch\"\nmodels = [\"rail/trial-00000.mcap\"]\n",
+            "models.0: rail/trial-00000.mcap: not a tmo model file: not text",
         ),
         (
             "kind = \"first_time_lift\"\nmodels = [\"rail_local.json\"]\n[first_time_lift]\ncalibration = \"rail_local.json\"\n",

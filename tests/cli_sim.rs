@@ -177,23 +177,33 @@ fn quiet_says_only_results_verbose_says_each_trial_and_color_is_as_asked() {
         let o = tmo(
             d,
             &[
-                flag, "sim", "collect", "--trials", "2", "--seed", "5", "--out", out,
+                flag,
+                "sim",
+                "collect",
+                "--objects",
+                "crisps_can",
+                "--trials",
+                "2",
+                "--seed",
+                "5",
+                "--out",
+                out,
             ],
         );
         let said = ok(&o);
         (said, String::from_utf8_lossy(&o.stderr).into_owned())
     };
     let (said, noted) = collect("-q", "quiet");
-    assert!(said.contains("collected 2 trials"), "{said}");
+    assert!(said.contains("2 trials (2 run, 0 already there)"), "{said}");
     assert_eq!(noted, "", "-q says nothing on standard error");
     let (said, noted) = collect("-v", "verbose");
-    assert!(said.contains("collected 2 trials"), "{said}");
+    assert!(said.contains("2 trials (2 run, 0 already there)"), "{said}");
     let lines: Vec<&str> = noted.lines().collect();
     assert_eq!(lines.len(), 2, "{noted}");
     assert!(lines[0].starts_with("trial-0000: ") && lines[1].starts_with("trial-0001: "));
     // the same trials either way: -v only says more
     for i in 0..2 {
-        let name = format!("trial-{i:04}.mcap");
+        let name = format!("trial-{i:05}.mcap");
         let a = tmo::trial::read_trial(&d.join("quiet").join(&name)).unwrap();
         let b = tmo::trial::read_trial(&d.join("verbose").join(&name)).unwrap();
         assert_eq!(a.frames, b.frames);
@@ -205,4 +215,31 @@ fn quiet_says_only_results_verbose_says_each_trial_and_color_is_as_asked() {
     };
     assert!(error("always").contains('\x1b'), "{}", error("always"));
     assert!(!error("never").contains('\x1b'), "{}", error("never"));
+}
+
+/// `tmo sim collect` is the collect preset over the protocol runner: `tmo run` on the
+/// protocol it wrote, with the same seed, records the very same trials.
+#[test]
+fn a_collection_is_the_protocol_tmo_run_runs() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    ok(&tmo(
+        d,
+        &[
+            "sim", "collect", "--rig", "rail", "--trials", "2", "--seed", "4", "--out", "a",
+        ],
+    ));
+    let protocol = std::fs::read_to_string(d.join("a/protocol.toml")).unwrap();
+    assert!(protocol.contains("mode = \"collect\""), "{protocol}");
+    ok(&tmo(d, &["run", "a/protocol.toml", "--out", "b"]));
+    for i in 0..2 {
+        let name = format!("trial-{i:05}.mcap");
+        let a = tmo::trial::read_trial(&d.join("a").join(&name)).unwrap();
+        let b = tmo::trial::read_trial(&d.join("b").join(&name)).unwrap();
+        assert_eq!(a.meta.seed, b.meta.seed);
+        assert_eq!(a.meta.kind, "rail_catch_collect");
+        assert_eq!(a.frames, b.frames);
+        assert_eq!(a.markers, b.markers);
+        assert_eq!(a.events, b.events);
+    }
 }

@@ -11,7 +11,16 @@ fn collect(dir: &Path, n: &str, out: &str, seed: &str) {
     ok(&tmo(
         dir,
         &[
-            "sim", "collect", "--trials", n, "--seed", seed, "--out", out,
+            "sim",
+            "collect",
+            "--objects",
+            "crisps_can",
+            "--trials",
+            n,
+            "--seed",
+            seed,
+            "--out",
+            out,
         ],
     ));
 }

@@ -1,10 +1,11 @@
 //! The online hand release on the simulator, in process: a model trained on collect-mode
 //! trials catches releases that, unanswered, end in a fall.
 
-use tmo::collect::{collect_trial, hand_release_rig, trial_seed, CollectRig, CollectSpec};
 use tmo::online::strategy::Strategy;
 use tmo::outcome::{score_catch, CatchSpec, Verdict};
+use tmo::protocol::collect::{CollectPreset, CollectRig};
 use tmo::runner::hand_release::{run_release, ReleaseParams};
+use tmo::runner::sim_trial::{collect_in_memory, hand_release_rig};
 use tmo::runner::Online;
 use tmo::scenario::Devices;
 use tmo::sim_presets::PresetOptions;
@@ -23,18 +24,15 @@ const OBJECTS: [&str; 5] = [
 ];
 
 fn model() -> ModelFile {
-    let trials: Vec<_> = (0..15)
-        .map(|i| {
-            let spec = CollectSpec {
-                rig: CollectRig::Hand,
-                object: OBJECTS[i % 5].into(),
-                grasp_deg: 0.0,
-                seed: trial_seed(11, i as u64),
-                base: SimConfig::default(),
-            };
-            collect_trial(&spec, &format!("t{i}"), 0).unwrap()
-        })
-        .collect();
+    let objects = OBJECTS.map(String::from);
+    let trials = collect_in_memory(&CollectPreset {
+        rig: CollectRig::Hand,
+        repetitions: 3,
+        seed: 11,
+        objects: &objects,
+        grasps_deg: &[0.0],
+    })
+    .unwrap();
     logreg_on(&trials)
 }
 
@@ -135,18 +133,14 @@ fn a_trained_detector_catches_releases_that_otherwise_fall() {
 }
 
 fn rail_model() -> ModelFile {
-    let trials: Vec<_> = (0..16)
-        .map(|i| {
-            let spec = CollectSpec {
-                rig: CollectRig::Rail,
-                object: "rail_object".into(),
-                grasp_deg: 0.0,
-                seed: trial_seed(12, i),
-                base: SimConfig::default(),
-            };
-            collect_trial(&spec, &format!("r{i}"), 0).unwrap()
-        })
-        .collect();
+    let trials = collect_in_memory(&CollectPreset {
+        rig: CollectRig::Rail,
+        repetitions: 16,
+        seed: 12,
+        objects: &["rail_object".to_string()],
+        grasps_deg: &[],
+    })
+    .unwrap();
     logreg_on(&trials)
 }
 

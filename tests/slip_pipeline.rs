@@ -1,6 +1,7 @@
 //! Simulator -> trial logs -> marker labels -> features -> classifier, in process.
 
-use tmo::collect::{collect_trial, trial_seed, CollectRig, CollectSpec};
+use tmo::protocol::collect::{CollectPreset, CollectRig};
+use tmo::runner::sim_trial::collect_in_memory;
 use tmo::slip::dataset::{split_trials, Dataset, LabelSpec};
 use tmo::slip::features::FeatureSpec;
 use tmo::slip::labels::{slip_onset, OnsetSpec};
@@ -8,8 +9,9 @@ use tmo::slip::metrics::Confusion;
 use tmo::slip::threshold::ThresholdModel;
 use tmo::slip::Class;
 use tmo::trial::Trial;
-use tmo_sim::SimConfig;
 
+/// `n` collect-mode hand releases: the first `n` of a collection of the five training
+/// objects at 0 and at 180 deg alike (objects in turn, grasps within each).
 fn collect(n: u64) -> Vec<Trial> {
     let objects = [
         "crisps_can",
@@ -17,19 +19,18 @@ fn collect(n: u64) -> Vec<Trial> {
         "bleach_bottle",
         "mustard_bottle",
         "banana",
-    ];
-    (0..n)
-        .map(|i| {
-            let spec = CollectSpec {
-                rig: CollectRig::Hand,
-                object: objects[(i % 5) as usize].into(),
-                grasp_deg: if i % 2 == 0 { 0.0 } else { 180.0 },
-                seed: trial_seed(5, i),
-                base: SimConfig::default(),
-            };
-            collect_trial(&spec, &format!("t{i}"), 0).unwrap()
-        })
-        .collect()
+    ]
+    .map(String::from);
+    let mut trials = collect_in_memory(&CollectPreset {
+        rig: CollectRig::Hand,
+        repetitions: n.div_ceil(10) as u32,
+        seed: 5,
+        objects: &objects,
+        grasps_deg: &[0.0, 180.0],
+    })
+    .unwrap();
+    trials.truncate(n as usize);
+    trials
 }
 
 #[test]

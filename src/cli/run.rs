@@ -71,6 +71,26 @@ pub struct RunArgs {
     json: bool,
 }
 
+/// Runs `protocol` on the simulator into `out` as `tmo run PROTOCOL --out OUT [--resume]`
+/// does: the path of presets such as `tmo sim collect`.
+pub fn run_on_sim(protocol: PathBuf, out: PathBuf, resume: bool) -> Result<u8> {
+    run(RunArgs {
+        protocol,
+        backend: Backend::Sim,
+        out: Some(out),
+        seed: None,
+        repeat: None,
+        resume,
+        rerun_faulted: false,
+        shard: None,
+        hardware: None,
+        unattended: false,
+        from: Vec::new(),
+        live: None,
+        json: false,
+    })
+}
+
 /// Runs the batch; the exit code (0, or 3 when a replay skipped damaged logs).
 pub fn run(args: RunArgs) -> Result<u8> {
     anyhow::ensure!(

@@ -4,7 +4,7 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result};
 use clap::Subcommand;
-use tmo::collect::{self, CollectRig, CollectSpec};
+use tmo::protocol::collect::{CollectPreset, CollectRig};
 use tmo::scenario::Devices;
 use tmo::sim_presets::{self, Preset, PresetOptions};
 use tmo::trace;
@@ -95,7 +95,8 @@ pub fn run(command: SimCommand) -> Result<()> {
         }
         SimCommand::Parameters => list_parameters().context("cannot write to standard output"),
         SimCommand::Trace(args) => sim_trace(args),
-        SimCommand::Collect(args) => sim_collect(args),
+        // a collection's trials run as `tmo run` runs them (its exit codes too)
+        SimCommand::Collect(args) => sim_collect(args).map(|_| ()),
         SimCommand::Serve(args) => super::serve::serve_cmd(args),
     }
 }
@@ -247,13 +248,7 @@ fn sim_trace(args: TraceArgs) -> Result<()> {
     Ok(())
 }
 
-pub fn unix_now() -> u64 {
-    std::time::SystemTime::now()
-        .duration_since(std::time::UNIX_EPOCH)
-        .map_or(0, |d| d.as_secs())
-}
-
-fn sim_collect(args: CollectArgs) -> Result<()> {
+fn sim_collect(args: CollectArgs) -> Result<u8> {
     anyhow::ensure!(args.trials > 0, "--trials must be at least 1");
     anyhow::ensure!(!args.grasps.is_empty(), "--grasps needs at least one angle");
     for g in &args.grasps {
@@ -286,71 +281,87 @@ fn sim_collect(args: CollectArgs) -> Result<()> {
             }
         );
     }
-    let base = match &args.config {
-        Some(p) => load_sim_config(p)?,
-        None => SimConfig::default(),
+    // The rail has no grasp angle: its trials are the rail object's alone.
+    let grasps = match args.rig {
+        CollectRig::Hand => args.grasps.clone(),
+        CollectRig::Rail => vec![0.0],
     };
+    let cells = (objects.len() * grasps.len()) as u64;
+    anyhow::ensure!(
+        args.trials.is_multiple_of(cells),
+        "--trials {}: expected a multiple of {cells} (each of the {} object(s) at each of the {} grasp(s) the same number of times), e.g. {}",
+        args.trials,
+        objects.len(),
+        grasps.len(),
+        (args.trials / cells + 1) * cells
+    );
+    let repetitions = u32::try_from(args.trials / cells)
+        .ok()
+        .filter(|r| u64::from(*r) * cells <= 1_000_000)
+        .context("--trials: at most 1,000,000 trials in one collection")?;
+    let mut protocol = CollectPreset {
+        rig: args.rig,
+        repetitions,
+        seed: args.seed,
+        objects: &objects,
+        grasps_deg: &grasps,
+    }
+    .protocol();
+    if let Some(path) = &args.config {
+        protocol += &sim_table(&load_sim_config(path)?)
+            .with_context(|| format!("--config {}", path.display()))?;
+    }
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("cannot create {}", args.out.display()))?;
-    let bar = super::output::counting_bar("collect", "trials");
-    bar.set_length(args.trials);
-    let spec_of = |i: u64| {
-        let n = objects.len() as u64;
-        CollectSpec {
-            rig: args.rig,
-            object: objects[(i % n) as usize].clone(),
-            grasp_deg: args.grasps[((i / n) % args.grasps.len() as u64) as usize],
-            seed: collect::trial_seed(args.seed, i),
-            base: base.clone(),
-        }
-    };
-    // Trials already there must be this collection's own (an earlier, interrupted run of
-    // it): checked before any trial runs, so nothing is added to another collection.
-    let mut already = vec![false; args.trials as usize];
-    for i in 0..args.trials {
-        let path = args.out.join(format!("trial-{i:04}.mcap"));
-        if path.exists() {
-            let kept = tmo::trial::read_trial(&path)?;
-            if let Some(why) = spec_of(i).differs_from(&kept.meta) {
-                anyhow::bail!(
-                    "{} already holds another collection's trial: {}: {why}; nothing was added (use another --out)",
-                    args.out.display(),
-                    path.display()
-                );
-            }
-            already[i as usize] = true;
-        }
-    }
-    let (mut ran, mut kept) = (0, 0);
-    for i in 0..args.trials {
-        let trial_id = format!("trial-{i:04}");
-        let path = args.out.join(format!("{trial_id}.mcap"));
-        if already[i as usize] {
-            kept += 1;
-            bar.inc(1);
-            continue;
-        }
-        let spec = spec_of(i);
-        let trial = collect::collect_trial(&spec, &trial_id, unix_now())
-            .with_context(|| format!("trial {trial_id}"))?;
-        tmo::trial::write_trial(&path, &trial)?;
-        super::output::detail(
-            &bar,
-            format!(
-                "{trial_id}: {} at {} deg, seed {}: {} frames",
-                spec.object,
-                spec.grasp_deg,
-                spec.seed,
-                trial.frames.len()
-            ),
+    // The collection is a protocol like any other: `tmo run` on this file, with the same
+    // seed, records the same trials.
+    let file = args.out.join("protocol.toml");
+    if let Ok(kept) = std::fs::read_to_string(&file) {
+        anyhow::ensure!(
+            kept == protocol,
+            "{} already holds another collection (its protocol.toml differs: another rig, objects, grasps, count, seed or --config); nothing was added (use another --out)",
+            args.out.display()
         );
-        ran += 1;
-        bar.inc(1);
     }
-    bar.finish_and_clear();
-    println!(
-        "collected {ran} trials ({kept} already there) in {}",
-        args.out.display()
+    std::fs::write(&file, &protocol).with_context(|| format!("cannot write {}", file.display()))?;
+    super::run::run_on_sim(file, args.out.clone(), true)
+}
+
+/// A simulator configuration file as a protocol's `[sim]` table: the numbers that differ
+/// from the defaults. A configuration that differs in anything else (the rig, which the
+/// collection sets) is refused.
+fn sim_table(config: &SimConfig) -> Result<String> {
+    // the numbers a protocol's `[sim]` table can set: every field but the seed and the rig
+    let numbers = |c: &SimConfig| -> Vec<(String, f64)> {
+        let mut v = serde_json::to_value(c).expect("a config serialises");
+        let map = v.as_object_mut().expect("a config is a table");
+        map.remove("seed");
+        map.remove("rig");
+        tmo_sim::config::numbers_by_name(&v).0
+    };
+    let defaults: std::collections::BTreeMap<String, f64> =
+        numbers(&SimConfig::default()).into_iter().collect();
+    let changed: Vec<(String, f64)> = numbers(config)
+        .into_iter()
+        .filter(|(name, value)| defaults.get(name) != Some(value))
+        .collect();
+    let mut rebuilt = SimConfig::default();
+    rebuilt
+        .set_parameters(changed.iter().map(|(k, v)| (k.as_str(), *v)))
+        .map_err(anyhow::Error::msg)?;
+    let mut compared = config.clone();
+    compared.seed = rebuilt.seed;
+    compared.rig = rebuilt.rig.clone();
+    anyhow::ensure!(
+        compared == rebuilt,
+        "only the simulator's numeric parameters (`tmo sim parameters`) can be set for a collection"
     );
-    Ok(())
+    if changed.is_empty() {
+        return Ok(String::new());
+    }
+    let lines: String = changed
+        .iter()
+        .map(|(k, v)| format!("\"{k}\" = {v:?}\n"))
+        .collect();
+    Ok(format!("\n[sim]\n{lines}"))
 }

@@ -4,6 +4,7 @@
 //!
 //! Errors name the file, the line and column, the field and what was expected.
 
+pub mod collect;
 pub mod exact;
 mod params;
 
@@ -356,8 +357,13 @@ impl ProtocolFile {
 /// Reads, parses and validates a protocol file.
 pub fn load(path: &Path, rig_sensors: u32) -> Result<Plan, ProtocolError> {
     let text = std::fs::read_to_string(path).map_err(|e| ProtocolError::unreadable(path, &e))?;
-    let file = ProtocolFile::parse(path, &text)?;
-    validate(path, &text, file, rig_sensors)
+    from_text(path, &text, rig_sensors)
+}
+
+/// Parses and validates a protocol's text; `origin` names it in errors and in the plan.
+pub fn from_text(origin: &Path, text: &str, rig_sensors: u32) -> Result<Plan, ProtocolError> {
+    let file = ProtocolFile::parse(origin, text)?;
+    validate(origin, text, file, rig_sensors)
 }
 
 /// Checks values and the grid; `text` locates the offending field.

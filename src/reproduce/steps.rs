@@ -10,6 +10,7 @@ use std::sync::atomic::AtomicBool;
 
 use super::measure::{NOVEL_OBJECTS, TRAINING_OBJECTS};
 use super::{io, read_record, Backend, ReproduceError};
+use crate::protocol::collect::{CollectPreset, CollectRig};
 use crate::protocol::Kind;
 use crate::runner::batch::run::{run_batch, BatchEnd, BatchRequest, BatchRig};
 use crate::slip::dataset::{load_labelled, LabelSpec, Scope};
@@ -282,21 +283,31 @@ impl Step {
     }
 
     fn base_protocols(self, c: &Counts, r: u32) -> Vec<(&'static str, String)> {
-        let training = quoted(&TRAINING_OBJECTS);
         let seed = |base: u32| trial_seed(base, r);
         let [s13, s23, s24, s25, s26, s27, s28, s29, s30] =
             [13, 23, 24, 25, 26, 27, 28, 29, 30].map(seed);
+        // collect mode is the preset `tmo sim collect` runs too
+        let rail_object = ["rail_object".to_string()];
+        let training_objects: Vec<String> = TRAINING_OBJECTS.map(String::from).to_vec();
         let rail_collect = |seed: u64| {
-            format!(
-                "kind = \"rail_catch\"\nmode = \"collect\"\nrepetitions = {}\nseed = {seed}\nobjects = [\"rail_object\"]\n",
-                c.rail_collect
-            )
+            CollectPreset {
+                rig: CollectRig::Rail,
+                repetitions: c.rail_collect,
+                seed,
+                objects: &rail_object,
+                grasps_deg: &[],
+            }
+            .protocol()
         };
         let hand_collect = |seed: u64| {
-            format!(
-                "kind = \"hand_release\"\nmode = \"collect\"\nrepetitions = {}\nseed = {seed}\nobjects = [{training}]\ngrasps_deg = [0]\n\n[hand_release]\nrelease_speed_of_max = 0.005\nlift_mm = 120.0\n",
-                c.hand_collect
-            )
+            CollectPreset {
+                rig: CollectRig::Hand,
+                repetitions: c.hand_collect,
+                seed,
+                objects: &training_objects,
+                grasps_deg: &[0.0],
+            }
+            .protocol()
         };
         let models = "../06_hand_models";
         match self {

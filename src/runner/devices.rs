@@ -99,3 +99,12 @@ where
         Ok(())
     }
 }
+
+/// Why a simulated trial could not run: its world could not be built, or a device failed.
+#[derive(Debug, thiserror::Error)]
+pub enum SimRigError {
+    #[error(transparent)]
+    Sim(#[from] tmo_sim::SimError),
+    #[error(transparent)]
+    Scenario(#[from] ScenarioError),
+}

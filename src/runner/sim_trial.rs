@@ -16,9 +16,9 @@ use super::rail_catch::run_rail;
 use super::rice_pour::run_pour;
 use super::safety::{SafeArm, SafeHand, SafetyLimits};
 use super::Online;
-use crate::collect::{hand_release_rig, CollectError};
 use crate::protocol::{KindParams, Mode, Plan};
 use crate::runner::devices::Devices;
+use crate::runner::devices::SimRigError;
 use crate::sim_presets::{self, Preset, PresetOptions};
 use crate::slip::model::ModelFile;
 use crate::trial::{Trial, TrialMeta, TRIAL_FORMAT_VERSION};
@@ -85,7 +85,7 @@ pub fn world_for(plan: &Plan, planned: &PlannedTrial) -> Result<SimConfig, Batch
                 ..options
             };
             sim_presets::build(Preset::Rail, &options, base)
-                .map_err(CollectError::from)?
+                .map_err(SimRigError::from)?
                 .0
         }
         KindParams::RicePour(p) => {
@@ -95,7 +95,7 @@ pub fn world_for(plan: &Plan, planned: &PlannedTrial) -> Result<SimConfig, Batch
             };
             // the preset holds the object with 1.2x the friction it needs: a light grasp
             sim_presets::build(Preset::Pour, &options, base)
-                .map_err(CollectError::from)?
+                .map_err(SimRigError::from)?
                 .0
         }
         KindParams::FirstTimeLift(_) | KindParams::CalibrateLift(_) => {
@@ -107,6 +107,30 @@ pub fn world_for(plan: &Plan, planned: &PlannedTrial) -> Result<SimConfig, Batch
         set_sim_parameters(&mut config, plan)?;
         Ok(config)
     })
+}
+
+/// The simulated hand-release rig: the object stands on the table with the fingers just
+/// open of contact; returns the configuration, a grasp that holds the object with `safety`
+/// times the friction it needs ("closed until stable"), and the contact closure.
+pub fn hand_release_rig(
+    base: &SimConfig,
+    options: &PresetOptions,
+    safety: f64,
+    extra_mass_g: f64,
+) -> Result<(SimConfig, f64, f64), SimRigError> {
+    let object = options
+        .object
+        .clone()
+        .unwrap_or_else(|| "crisps_can".into());
+    let (mut config, _) = sim_presets::build(Preset::Release, options, base.clone())?;
+    let closure = sim_presets::holding_closure(base, &object, extra_mass_g, safety)?;
+    let contact = sim_presets::contact_closure(base, &object)?;
+    if let tmo_sim::RigSetup::Hand(h) = &mut config.rig {
+        h.start = tmo_sim::ObjectStart::OnTable;
+        h.extra_mass_g = extra_mass_g;
+        h.initial_closure = (contact - 0.02).max(0.0);
+    }
+    Ok((config, closure, contact))
 }
 
 /// The default world with the trial's seed and the protocol's `[sim]` parameters.
@@ -317,6 +341,32 @@ pub(crate) fn finish_trial(
             &plan.source_text,
         )],
     }
+}
+
+/// The trials of a collection, run in memory (in parallel, each as its batch would run it):
+/// for benches and tests that need collect-mode data without a batch directory.
+pub fn collect_in_memory(
+    preset: &crate::protocol::collect::CollectPreset,
+) -> Result<Vec<Trial>, InMemoryError> {
+    use rayon::prelude::*;
+    let text = preset.protocol();
+    let plan = crate::protocol::from_text(std::path::Path::new("collect-preset.toml"), &text, 3)?;
+    let stop = std::sync::atomic::AtomicBool::new(false);
+    super::batch::expand(&plan)
+        .par_iter()
+        .map(|t| run_sim_trial(&plan, t, &[], 0, &stop, None))
+        .collect::<Result<_, _>>()
+        .map_err(InMemoryError::from)
+}
+
+/// Why a collection run in memory failed: its preset is no valid protocol (an unknown
+/// object, say), or a trial failed.
+#[derive(Debug, thiserror::Error)]
+pub enum InMemoryError {
+    #[error(transparent)]
+    Protocol(#[from] crate::protocol::ProtocolError),
+    #[error(transparent)]
+    Batch(#[from] BatchError),
 }
 
 #[cfg(test)]

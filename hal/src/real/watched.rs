@@ -29,7 +29,6 @@ impl crate::Error for CameraError {
     }
 }
 
-
 /// Opens a camera's serial port with the short read timeout the reader threads poll with.
 pub(crate) fn open_camera_port(port: &str, baud: u32) -> Result<serial2::SerialPort, CameraError> {
     let open_err = |source| CameraError::Open {

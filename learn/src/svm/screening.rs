@@ -17,9 +17,7 @@
 
 use super::kernel::{Kernel, Rows};
 use super::q_batch::{add_q_products, Sum};
-use super::smo::{
-    self, feasible_start, rho_of, violation_extremes, Solution, SolverOptions,
-};
+use super::smo::{self, feasible_start, rho_of, violation_extremes, Solution, SolverOptions};
 use super::status::Bound;
 use super::DualStart;
 

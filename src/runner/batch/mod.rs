@@ -10,11 +10,11 @@ pub mod run;
 
 use std::path::{Path, PathBuf};
 
-use crate::collect::{trial_seed, CollectError};
 use crate::online::strategy::Strategy;
 use crate::outcome::CatchSpec;
 use crate::protocol::{Kind, Mode, Plan};
 use crate::runner::devices::ScenarioError;
+use crate::runner::devices::SimRigError;
 use crate::slip::labels::OnsetSpec;
 
 /// `batch.json`: what a batch directory holds and how it was made.
@@ -98,6 +98,12 @@ pub struct PlannedTrial {
     pub seed: u64,
 }
 
+/// Seed of trial `index` of a batch seeded with `batch_seed` (documented so a single trial
+/// can be re-run alone).
+pub fn trial_seed(batch_seed: u64, index: u64) -> u64 {
+    batch_seed.wrapping_mul(1_000_003).wrapping_add(index)
+}
+
 /// The plan's trials in grid order.
 pub fn expand(plan: &Plan) -> Vec<PlannedTrial> {
     let models: Vec<Option<usize>> = if plan.models.is_empty() {
@@ -161,7 +167,7 @@ pub enum BatchError {
         limit_field: &'static str,
     },
     #[error(transparent)]
-    Sim(#[from] CollectError),
+    Sim(#[from] SimRigError),
     #[error(transparent)]
     SimRig(#[from] tmo_sim::SimError),
     #[error(transparent)]
