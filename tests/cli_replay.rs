@@ -10,7 +10,12 @@ use common::*;
 /// A short online hand-release batch (two strategies) with a freshly trained model.
 fn batch(d: &Path) {
     let run = |args: &[&str]| ok(&tmo(d, args));
-    collect_and_train(d, &["--trials", "8", "--seed", "5"], "train", "global.json");
+    collect_and_train(
+        d,
+        &["--trials", "10", "--seed", "5"],
+        "train",
+        "global.json",
+    );
     std::fs::write(
         d.join("hand.toml"),
         "kind = \"hand_release\"\nobjects = [\"crisps_can\", \"banana\"]\ngrasps_deg = [0, 180]\nmodels = [\"global.json\"]\nstrategies = [\"1x1\", \"2x2\"]\nrepetitions = 2\nseed = 6\n",
@@ -170,7 +175,7 @@ fn run_with_the_replay_backend_uses_the_protocols_models_and_strategies() {
 fn a_replay_plays_its_trials_live_and_ctrl_c_skips_to_the_table() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    collect_and_train(d, &["--trials", "3", "--seed", "5"], "t", "m.json");
+    collect_and_train(d, &["--trials", "5", "--seed", "5"], "t", "m.json");
     let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_tmo"))
         .current_dir(d)
         .args([
@@ -203,5 +208,5 @@ fn a_replay_plays_its_trials_live_and_ctrl_c_skips_to_the_table() {
     let out = child.wait_with_output().unwrap();
     let said = String::from_utf8_lossy(&out.stdout);
     assert!(out.status.success(), "{said}");
-    assert!(said.contains("3 replays of 3 trial(s)"), "{said}");
+    assert!(said.contains("5 replays of 5 trial(s)"), "{said}");
 }

@@ -93,7 +93,7 @@ fn every_figure_is_drawn_from_simulator_batches() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     let run = |args: &[&str]| ok(&tmo(d, args));
-    collect_and_train(d, &["--trials", "6", "--seed", "8"], "train", "global.json");
+    collect_and_train(d, &["--trials", "5", "--seed", "8"], "train", "global.json");
     run(&[
         "sweep",
         "train",

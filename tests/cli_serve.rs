@@ -129,7 +129,12 @@ fn outcome_rows(d: &Path, batch: &str) -> Vec<serde_json::Value> {
 fn lift_protocols_run_on_the_real_backend_against_the_served_simulator() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    common::collect_and_train(d, &["--trials", "8", "--seed", "5"], "train", "global.json");
+    common::collect_and_train(
+        d,
+        &["--trials", "10", "--seed", "5"],
+        "train",
+        "global.json",
+    );
     let _server = common::serve_sim(d, &[]);
     // The paper's lift (17 mm/s, 50 mm): a faster, shorter lift ends before the hand has
     // tightened enough on the compliant fingers for the full can.
@@ -170,7 +175,12 @@ fn lift_protocols_run_on_the_real_backend_against_the_served_simulator() {
 fn hand_release_and_rice_pour_run_on_the_real_backend_against_the_served_simulator() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    common::collect_and_train(d, &["--trials", "8", "--seed", "5"], "train", "global.json");
+    common::collect_and_train(
+        d,
+        &["--trials", "10", "--seed", "5"],
+        "train",
+        "global.json",
+    );
     let _server = common::serve_sim(d, &[]);
     let release = "kind = \"hand_release\"\nrepetitions = 2\nobjects = [\"crisps_can\", \"banana\"]\ngrasps_deg = [0]\nmodels = [\"global.json\"]\nstrategies = [\"2x2\"]\n[outcome]\ndrop_limit_mm = 30.0\n[hand_release]\nlift_mm = 40.0\nrelease_speed_of_max = 0.02\n";
     // without a grasp the real backend has nothing to close to: refused before any device
@@ -388,7 +398,12 @@ fn an_operator_at_a_terminal_sets_each_trial_up() {
     use std::io::{BufRead, BufReader, Write};
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    common::collect_and_train(d, &["--trials", "8", "--seed", "5"], "train", "global.json");
+    common::collect_and_train(
+        d,
+        &["--trials", "10", "--seed", "5"],
+        "train",
+        "global.json",
+    );
     let _server = common::serve_sim(d, &[]);
     let served = std::fs::read_to_string(d.join("served.toml")).unwrap();
     let control = tmo::hardware::load(&d.join("served.toml"))

@@ -200,7 +200,7 @@ fn quiet_says_only_results_verbose_says_each_trial_and_color_is_as_asked() {
     assert!(said.contains("2 trials (2 run, 0 already there)"), "{said}");
     let lines: Vec<&str> = noted.lines().collect();
     assert_eq!(lines.len(), 2, "{noted}");
-    assert!(lines[0].starts_with("trial-0000: ") && lines[1].starts_with("trial-0001: "));
+    assert!(lines[0].starts_with("trial-00000: ") && lines[1].starts_with("trial-00001: "));
     // the same trials either way: -v only says more
     for i in 0..2 {
         let name = format!("trial-{i:05}.mcap");

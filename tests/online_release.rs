@@ -27,7 +27,7 @@ fn model() -> ModelFile {
     let objects = OBJECTS.map(String::from);
     let trials = collect_in_memory(&CollectPreset {
         rig: CollectRig::Hand,
-        repetitions: 3,
+        repetitions: 4,
         seed: 11,
         objects: &objects,
         grasps_deg: &[0.0],
@@ -127,7 +127,8 @@ fn a_trained_detector_catches_releases_that_otherwise_fall() {
         };
         caught += usize::from(release(object, seed, Some(online)).0 == Verdict::TruePositive);
     }
-    // A model from a few collect trials; the paper's hand catches 74-94 % (Table III) and the
+    // A model from 20 collect trials (the preset `tmo sim collect` and `tmo reproduce` run;
+    // from 15 it caught two of five); the paper's hand catches 74-94 % (Table III) and the
     // reproduce preset's full models about half, so three of five is the bar here.
     assert!(caught >= 3, "caught {caught} of 5");
 }
