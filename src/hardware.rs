@@ -1,4 +1,4 @@
-//! `hardware.toml`: where the real rig's devices are and how they are set up (issue 7). Parsed
+//! `hardware.toml`: where the real rig's devices are and how they are set up. Parsed
 //! into serde structs that reject unknown fields, then checked; errors name the file, line,
 //! column and field, as protocol errors do.
 

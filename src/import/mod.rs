@@ -32,9 +32,7 @@ pub use crate::trial::LABEL_TOPIC;
 pub const Z_TOPIC_PREFIX: &str = "/element_z/";
 /// Trial metadata `kind` of an imported trial.
 pub const IMPORTED_KIND: &str = "imported";
-/// Parameter naming the largest per-frame step of an element that is still a measurement
-/// (in the sensor's units), or `off`; features treat larger steps as a lost element.
-pub const MAX_STEP_PARAMETER: &str = "max_element_step";
+pub use crate::trial::MAX_STEP_PARAMETER;
 
 pub use crate::slip::features::Units;
 

@@ -1,5 +1,5 @@
 //! Protocol runners: one state machine per protocol kind over the HAL traits, generic over
-//! backends (issue 4, in progress).
+//! backends.
 
 pub mod approach;
 pub mod batch;

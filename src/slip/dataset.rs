@@ -74,7 +74,7 @@ fn frame_rate_hz(t: &Trial) -> Option<f32> {
 /// imported trials carry their sensor's own (`max_element_step`, in its units, or `off`);
 /// tmo's own logs use the 20 px guard for tracked pins.
 pub fn max_step(t: &Trial) -> Result<f32, String> {
-    let name = crate::import::MAX_STEP_PARAMETER;
+    let name = crate::trial::MAX_STEP_PARAMETER;
     match t.meta.parameters.get(name).map(String::as_str) {
         None => Ok(FeatureSpec::new(0).max_pin_step_px),
         Some("off") => Ok(f32::MAX),

@@ -116,6 +116,11 @@ impl Trial {
     }
 }
 
+/// The trial parameter naming the largest per-frame step of an element that is still a
+/// measurement (in the sensor's units), or `off`; features treat larger steps as a lost
+/// element. Imported trials carry their sensor's own.
+pub const MAX_STEP_PARAMETER: &str = "max_element_step";
+
 /// The topic of a trial's slip labels, where another lab's recording gives them instead of
 /// a marker track (`tmo import`).
 pub const LABEL_TOPIC: &str = "/label";

@@ -151,8 +151,43 @@ pub fn run_batch(
     stop: &AtomicBool,
     bar: &indicatif::ProgressBar,
 ) -> Result<BatchEnd, BatchError> {
+    let prepared = prepare(req, rig)?;
+    // One writer per batch directory, for as long as the batch runs.
+    let _lock = crate::lock::OutputLock::acquire(req.out)?;
+    let manifest = claim_directory(req, rig, &prepared.trials)?;
+    bar.set_length(prepared.trials.len() as u64);
+    let started = std::time::Instant::now();
+    let mut tally = Tally::default();
+    for chunk in prepared.trials.chunks(window(req, rig)) {
+        tally.rerun += set_faulted_aside(req, chunk)?;
+        if let Some(end) = run_missing(req, rig, &prepared, chunk, stop, bar, &mut tally)? {
+            return Ok(end);
+        }
+        score_chunk(req, &prepared, chunk, bar, &mut tally)?;
+    }
+    write_results(req, &prepared, manifest, tally, started)
+}
+
+/// What a batch needs before its first trial: its trials, models and calibration.
+struct Prepared {
+    trials: Vec<PlannedTrial>,
+    models: Vec<(ModelFile, String)>,
+    g_min: Option<GMinTable>,
+    spec: crate::outcome::CatchSpec,
+}
+
+/// The batch's trials so far: scored rows, and how many ran, were kept, were run again.
+#[derive(Default)]
+struct Tally {
+    rows: ScoredRows,
+    ran: usize,
+    kept: usize,
+    rerun: usize,
+}
+
+/// Checks the plan against the rig and loads what its trials need.
+fn prepare(req: &BatchRequest, rig: &BatchRig) -> Result<Prepared, BatchError> {
     let plan = req.plan;
-    let out = req.out;
     super::check_size(plan)?;
     let g_min = match &plan.params {
         KindParams::FirstTimeLift(p) => {
@@ -163,12 +198,26 @@ pub fn run_batch(
     let models = load_models(plan)?;
     let (sensors, pins) = rig_sensors(plan, rig);
     check_models_fit_rig(plan, &models, sensors, pins)?;
-    // One writer per batch directory, for as long as the batch runs.
-    let _lock = crate::lock::OutputLock::acquire(out)?;
     let trials = match req.shard {
         Some(shard) => shard.select(expand(plan)),
         None => expand(plan),
     };
+    Ok(Prepared {
+        trials,
+        models,
+        g_min,
+        spec: catch_spec(plan),
+    })
+}
+
+/// Makes the output directory this batch's: refuses one holding its trials without
+/// `--resume`, or another batch's, and writes the manifest.
+fn claim_directory(
+    req: &BatchRequest,
+    rig: &BatchRig,
+    trials: &[PlannedTrial],
+) -> Result<Manifest, BatchError> {
+    let (plan, out) = (req.plan, req.out);
     let existing = trials
         .iter()
         .filter(|t| trial_path(out, t).exists())
@@ -213,160 +262,199 @@ pub fn run_batch(
             .expect("a manifest serialises")
             .as_bytes(),
     )?;
+    Ok(manifest)
+}
 
-    let spec = catch_spec(plan);
-    bar.set_length(trials.len() as u64);
-    let started = std::time::Instant::now();
-    let mut rows = ScoredRows::default();
-    let (mut ran, mut kept) = (0, 0);
-    let mut rerun = 0;
-    // Simulated trials are independent (each builds its own world from its own seed), so a
-    // window of them runs at once on all cores, and they are scored in order: the outcomes
-    // are those of a sequential run. Four trials a core, so that one long trial does not
-    // hold the other cores up (measured, 160 hand releases on 2 cores: 1.73x the
-    // sequential speed; one trial a core gave 1.50x). A real rig runs one trial at a time.
-    let window = match rig {
+/// How many trials run at once. Simulated trials are independent (each builds its own world
+/// from its own seed), so a window of them runs at once on all cores, and they are scored in
+/// order: the outcomes are those of a sequential run. Four trials a core, so that one long
+/// trial does not hold the other cores up (measured, 160 hand releases on 2 cores: 1.73x the
+/// sequential speed; one trial a core gave 1.50x). A real rig runs one trial at a time, and
+/// so does a live view.
+fn window(req: &BatchRequest, rig: &BatchRig) -> usize {
+    match rig {
         BatchRig::Sim if req.live.is_none() => 4 * rayon::current_num_threads().max(1),
         _ => 1,
-    };
-    for chunk in trials.chunks(window) {
-        for t in chunk {
-            let path = trial_path(out, t);
-            if req.rerun_faulted
-                && path.exists()
-                && read_trial(&path)?.meta.parameters.contains_key("fault")
-            {
-                let aside = faulted_trial_path(out, t);
-                std::fs::rename(&path, &aside).map_err(|source| BatchError::Io {
-                    path: aside.clone(),
-                    source,
-                })?;
-                rerun += 1;
-            }
-        }
-        let missing: Vec<&PlannedTrial> = chunk
-            .iter()
-            .filter(|t| !trial_path(out, t).exists())
-            .collect();
-        kept += chunk.len() - missing.len();
-        let unix = std::time::SystemTime::now()
-            .duration_since(std::time::UNIX_EPOCH)
-            .map_or(0, |d| d.as_secs());
-        // Each trial's log is written as soon as it ends (under its name, or as aborted when
-        // Ctrl-C came first), so a kill loses only the trials still running. Each result
-        // says whether the trial was cut short; `None`: it never started (Ctrl-C came before).
-        let keep = |t: &PlannedTrial, trial: &Trial| -> Result<bool, BatchError> {
-            if stop.load(Ordering::Relaxed) {
-                write_trial(&aborted_trial_path(out, t), trial)?;
-                Ok(true)
-            } else {
-                write_trial(&trial_path(out, t), trial)?;
-                Ok(false)
-            }
-        };
-        let results: Vec<Result<Option<bool>, BatchError>> = match rig {
-            BatchRig::Real { staging, rig } => {
-                let mut results = Vec::new();
-                for t in &missing {
-                    let ready = bar.suspend(|| staging.stage(plan, t, stop))?;
-                    let stopped = stop.load(Ordering::Relaxed);
-                    if !ready || stopped {
-                        return Ok(BatchEnd::Interrupted {
-                            finished: ran + kept,
-                            aborted_logs: Vec::new(),
-                            before_trial: t.trial_id.clone(),
-                            operator_gone: !ready && !stopped,
-                        });
-                    }
-                    let result = run_real_trial(plan, t, &models, rig, unix, stop, req.live)
-                        .map_err(|e| in_trial(t, e))
-                        .and_then(|trial| keep(t, &trial).map(Some));
-                    let cut = matches!(result, Ok(Some(true)));
-                    results.push(result);
-                    if cut {
-                        break;
-                    }
-                }
-                results
-            }
-            BatchRig::Sim => missing
-                .par_iter()
-                .with_max_len(1)
-                .map(|t| {
-                    if stop.load(Ordering::Relaxed) {
-                        return Ok(None);
-                    }
-                    run_sim_trial(plan, t, &models, unix, stop, req.live)
-                        .map_err(|e| in_trial(t, e))
-                        .and_then(|trial| keep(t, &trial).map(Some))
-                })
-                .collect(),
-        };
-        let mut aborted_logs = Vec::new();
-        let mut first_missing = None;
-        for (t, result) in missing.iter().zip(results) {
-            match result? {
-                Some(true) => aborted_logs.push(aborted_trial_path(out, t)),
-                Some(false) => {
-                    ran += 1;
-                    continue;
-                }
-                None => {}
-            }
-            first_missing.get_or_insert(t.trial_id.clone());
-        }
-        if let Some(before_trial) = first_missing {
-            return Ok(BatchEnd::Interrupted {
-                finished: ran + kept,
-                aborted_logs,
-                before_trial,
-                operator_gone: false,
-            });
-        }
-        // Reading and scoring a log costs a tenth of running it: in parallel too, in order.
-        let scored: Vec<Result<Scored, BatchError>> = chunk
-            .par_iter()
-            .map(|t| score_kept(plan, t, &trial_path(out, t), &spec, g_min.as_ref()))
-            .collect();
-        for (t, result) in chunk.iter().zip(scored) {
-            let message = match result? {
-                Scored::Lift(row) => {
-                    let m = if row.success { "lifted" } else { "not lifted" };
-                    rows.lift.push(row);
-                    m.to_string()
-                }
-                Scored::Calibration(row) => {
-                    let m = row
-                        .g_min
-                        .map_or("no g_min".into(), |g| format!("g_min {g:.3}"));
-                    rows.calibration.push(row);
-                    m
-                }
-                Scored::Catch(row) => {
-                    let m = match plan.mode {
-                        // a collect trial never reacts: its verdict says nothing
-                        crate::protocol::Mode::Collect => "collected".to_string(),
-                        crate::protocol::Mode::Online => row.verdict.label().to_string(),
-                    };
-                    rows.catch.push(row);
-                    m
-                }
-            };
-            let line = format!("{}: {message}", t.trial_id);
-            if let Some(tell) = req.on_trial {
-                tell(&line);
-            }
-            bar.set_message(line);
-            bar.inc(1);
+    }
+}
+
+/// With `--rerun-faulted`, moves the chunk's faulted logs aside so they run again; how many.
+fn set_faulted_aside(req: &BatchRequest, chunk: &[PlannedTrial]) -> Result<usize, BatchError> {
+    let mut moved = 0;
+    for t in chunk {
+        let path = trial_path(req.out, t);
+        if req.rerun_faulted
+            && path.exists()
+            && read_trial(&path)?.meta.parameters.contains_key("fault")
+        {
+            let aside = faulted_trial_path(req.out, t);
+            std::fs::rename(&path, &aside).map_err(|source| BatchError::Io {
+                path: aside.clone(),
+                source,
+            })?;
+            moved += 1;
         }
     }
+    Ok(moved)
+}
 
+/// Runs the chunk's trials that have no log yet; `Some` where the batch ends here
+/// (interrupted, or the operator gone).
+fn run_missing(
+    req: &BatchRequest,
+    rig: &mut BatchRig,
+    prepared: &Prepared,
+    chunk: &[PlannedTrial],
+    stop: &AtomicBool,
+    bar: &indicatif::ProgressBar,
+    tally: &mut Tally,
+) -> Result<Option<BatchEnd>, BatchError> {
+    let (plan, out, models) = (req.plan, req.out, &prepared.models);
+    let missing: Vec<&PlannedTrial> = chunk
+        .iter()
+        .filter(|t| !trial_path(out, t).exists())
+        .collect();
+    tally.kept += chunk.len() - missing.len();
+    let unix = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map_or(0, |d| d.as_secs());
+    // Each trial's log is written as soon as it ends (under its name, or as aborted when
+    // Ctrl-C came first), so a kill loses only the trials still running. Each result
+    // says whether the trial was cut short; `None`: it never started (Ctrl-C came before).
+    let keep = |t: &PlannedTrial, trial: &Trial| -> Result<bool, BatchError> {
+        if stop.load(Ordering::Relaxed) {
+            write_trial(&aborted_trial_path(out, t), trial)?;
+            Ok(true)
+        } else {
+            write_trial(&trial_path(out, t), trial)?;
+            Ok(false)
+        }
+    };
+    let results: Vec<Result<Option<bool>, BatchError>> = match rig {
+        BatchRig::Real { staging, rig } => {
+            let mut results = Vec::new();
+            for t in &missing {
+                let ready = bar.suspend(|| staging.stage(plan, t, stop))?;
+                let stopped = stop.load(Ordering::Relaxed);
+                if !ready || stopped {
+                    return Ok(Some(BatchEnd::Interrupted {
+                        finished: tally.ran + tally.kept,
+                        aborted_logs: Vec::new(),
+                        before_trial: t.trial_id.clone(),
+                        operator_gone: !ready && !stopped,
+                    }));
+                }
+                let result = run_real_trial(plan, t, models, rig, unix, stop, req.live)
+                    .map_err(|e| in_trial(t, e))
+                    .and_then(|trial| keep(t, &trial).map(Some));
+                let cut = matches!(result, Ok(Some(true)));
+                results.push(result);
+                if cut {
+                    break;
+                }
+            }
+            results
+        }
+        BatchRig::Sim => missing
+            .par_iter()
+            .with_max_len(1)
+            .map(|t| {
+                if stop.load(Ordering::Relaxed) {
+                    return Ok(None);
+                }
+                run_sim_trial(plan, t, models, unix, stop, req.live)
+                    .map_err(|e| in_trial(t, e))
+                    .and_then(|trial| keep(t, &trial).map(Some))
+            })
+            .collect(),
+    };
+    let mut aborted_logs = Vec::new();
+    let mut first_missing = None;
+    for (t, result) in missing.iter().zip(results) {
+        match result? {
+            Some(true) => aborted_logs.push(aborted_trial_path(out, t)),
+            Some(false) => {
+                tally.ran += 1;
+                continue;
+            }
+            None => {}
+        }
+        first_missing.get_or_insert(t.trial_id.clone());
+    }
+    Ok(first_missing.map(|before_trial| BatchEnd::Interrupted {
+        finished: tally.ran + tally.kept,
+        aborted_logs,
+        before_trial,
+        operator_gone: false,
+    }))
+}
+
+/// Reads and scores the chunk's logs (a tenth of the cost of running them: in parallel
+/// too), in order, telling each trial's outcome.
+fn score_chunk(
+    req: &BatchRequest,
+    prepared: &Prepared,
+    chunk: &[PlannedTrial],
+    bar: &indicatif::ProgressBar,
+    tally: &mut Tally,
+) -> Result<(), BatchError> {
+    let plan = req.plan;
+    let scored: Vec<Result<Scored, BatchError>> = chunk
+        .par_iter()
+        .map(|t| {
+            let path = trial_path(req.out, t);
+            score_kept(plan, t, &path, &prepared.spec, prepared.g_min.as_ref())
+        })
+        .collect();
+    for (t, result) in chunk.iter().zip(scored) {
+        let message = match result? {
+            Scored::Lift(row) => {
+                let m = if row.success { "lifted" } else { "not lifted" };
+                tally.rows.lift.push(row);
+                m.to_string()
+            }
+            Scored::Calibration(row) => {
+                let m = row
+                    .g_min
+                    .map_or("no g_min".into(), |g| format!("g_min {g:.3}"));
+                tally.rows.calibration.push(row);
+                m
+            }
+            Scored::Catch(row) => {
+                let m = match plan.mode {
+                    // a collect trial never reacts: its verdict says nothing
+                    crate::protocol::Mode::Collect => "collected".to_string(),
+                    crate::protocol::Mode::Online => row.verdict.label().to_string(),
+                };
+                tally.rows.catch.push(row);
+                m
+            }
+        };
+        let line = format!("{}: {message}", t.trial_id);
+        if let Some(tell) = req.on_trial {
+            tell(&line);
+        }
+        bar.set_message(line);
+        bar.inc(1);
+    }
+    Ok(())
+}
+
+/// Writes the scored rows (and a calibration's g_min table) and sums the batch up.
+fn write_results(
+    req: &BatchRequest,
+    prepared: &Prepared,
+    manifest: Manifest,
+    tally: Tally,
+    started: std::time::Instant,
+) -> Result<BatchEnd, BatchError> {
+    let (plan, out) = (req.plan, req.out);
     let csv_path = out.join("outcomes.csv");
     let json_path = out.join("outcomes.json");
-    rows.write(&csv_path, &json_path)?;
+    tally.rows.write(&csv_path, &json_path)?;
     let mut outputs = vec![csv_path, json_path];
     if plan.kind == Kind::CalibrateLift {
-        let table = GMinTable::from_rows(&rows.calibration);
+        let table = GMinTable::from_rows(&tally.rows.calibration);
         let path = out.join("g_min.json");
         write_atomic(
             &path,
@@ -379,13 +467,13 @@ pub fn run_batch(
     outputs.push(out.join("batch.json"));
     Ok(BatchEnd::Finished(Box::new(BatchSummary {
         manifest,
-        rows,
-        ran,
-        kept,
-        rerun_faulted: rerun,
+        rows: tally.rows,
+        ran: tally.ran,
+        kept: tally.kept,
+        rerun_faulted: tally.rerun,
         wall_s: started.elapsed().as_secs_f64(),
         outputs,
-        without_calibration: plan.kind == Kind::FirstTimeLift && g_min.is_none(),
+        without_calibration: plan.kind == Kind::FirstTimeLift && prepared.g_min.is_none(),
     })))
 }
 
