@@ -6,8 +6,9 @@
 
 use std::time::Instant;
 
-use tmo::scenario::{Devices, Script};
-use tmo::sim_presets::{self, Preset, PresetOptions};
+use tmo::runner::devices::Devices;
+use tmo::runner::sim_presets::Script;
+use tmo::runner::sim_presets::{self, Preset, PresetOptions};
 use tmo_hal::{Clock, TactileSensor};
 use tmo_sim::{SimConfig, SimRig};
 

@@ -2,21 +2,17 @@
 //!
 //! The binary (`main.rs`) is the CLI and glue; the work lives here and in `tmo-hal`.
 
-pub mod hardware;
 pub mod import;
 pub mod live;
-pub mod lock;
 pub mod online;
 pub mod outcome;
+pub mod output;
 pub mod plots;
 pub mod protocol;
 pub mod replay;
 pub mod report;
 pub mod reproduce;
 pub mod runner;
-pub mod scenario;
-pub mod shard;
-pub mod sim_presets;
 pub mod slip;
 pub mod trace;
 pub mod trial;

@@ -22,7 +22,7 @@ fn the_real_backends_drive_the_served_simulator() {
     let dir = tempfile::tempdir().unwrap();
     let served = dir.path().join("served.toml");
     let _server = common::serve_sim(dir.path(), &[]);
-    let hw = tmo::hardware::load(&served).unwrap();
+    let hw = tmo::runner::hardware::load(&served).unwrap();
     let clock = RealClock::new();
 
     let mut cameras: Vec<JevoisSensor> = hw
@@ -338,7 +338,7 @@ fn rail_catch_runs_on_the_real_backend_against_the_served_rail_rig() {
         ],
     ));
     let _server = common::serve_sim(d, &["--rig", "rail"]);
-    let hw = tmo::hardware::load(&d.join("served.toml")).unwrap();
+    let hw = tmo::runner::hardware::load(&d.join("served.toml")).unwrap();
     assert_eq!(hw.cameras.fingertips.len(), 1, "one finger on the rail");
     std::fs::write(
         d.join("rail.toml"),
@@ -406,7 +406,7 @@ fn an_operator_at_a_terminal_sets_each_trial_up() {
     );
     let _server = common::serve_sim(d, &[]);
     let served = std::fs::read_to_string(d.join("served.toml")).unwrap();
-    let control = tmo::hardware::load(&d.join("served.toml"))
+    let control = tmo::runner::hardware::load(&d.join("served.toml"))
         .unwrap()
         .served_simulator
         .unwrap()

@@ -246,7 +246,7 @@ fn read_protocol(path: &Path) {
 }
 
 fn read_hardware(path: &Path) {
-    let _ = tmo::hardware::load(path);
+    let _ = tmo::runner::hardware::load(path);
 }
 
 fn read_model(path: &Path) {

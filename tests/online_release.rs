@@ -4,11 +4,11 @@
 use tmo::online::strategy::Strategy;
 use tmo::outcome::{score_catch, CatchSpec, Verdict};
 use tmo::protocol::collect::{CollectPreset, CollectRig};
+use tmo::runner::devices::Devices;
 use tmo::runner::hand_release::{run_release, ReleaseParams};
+use tmo::runner::sim_presets::PresetOptions;
 use tmo::runner::sim_trial::{collect_in_memory, hand_release_rig};
 use tmo::runner::Online;
-use tmo::scenario::Devices;
-use tmo::sim_presets::PresetOptions;
 use tmo::slip::dataset::{Dataset, LabelSpec, Scope};
 use tmo::slip::features::FeatureSpec;
 use tmo::slip::labels::OnsetSpec;
@@ -150,7 +150,7 @@ fn rail_model() -> ModelFile {
 fn rail(speed: f64, seed: u64, online: Option<Online<'_>>) -> (Verdict, bool, Option<f64>) {
     use tmo::runner::monitor::WatchLimits;
     use tmo::runner::rail_catch::{run_rail, RailParams};
-    use tmo::sim_presets::{build, Preset};
+    use tmo::runner::sim_presets::{build, Preset};
     let options = PresetOptions {
         retract_speed_mm_s: speed,
         ..Default::default()
@@ -230,7 +230,7 @@ fn a_trained_detector_catches_the_rail_object() {
 #[test]
 fn responses_keep_a_filling_can_in_the_hand() {
     use tmo::runner::rice_pour::{run_pour, PourParams};
-    use tmo::sim_presets::{build, Preset};
+    use tmo::runner::sim_presets::{build, Preset};
     let model = model();
     let pour = |online: Option<Online<'_>>| {
         let options = PresetOptions {

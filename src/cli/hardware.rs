@@ -16,7 +16,7 @@ pub enum HardwareCommand {
 pub fn run(command: HardwareCommand) -> Result<()> {
     match command {
         HardwareCommand::Check { file } => {
-            let hw = tmo::hardware::load(&file)?;
+            let hw = tmo::runner::hardware::load(&file)?;
             let ports: Vec<&str> = hw
                 .cameras
                 .fingertips

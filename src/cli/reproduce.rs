@@ -5,8 +5,8 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 
 use anyhow::{Context, Result};
+use tmo::output::shard::Shard;
 use tmo::reproduce::{self, Backend, End, Options, Preset, Progress};
-use tmo::shard::Shard;
 
 use super::run::EXIT_INTERRUPTED;
 

@@ -48,7 +48,7 @@ pub struct RunArgs {
     /// Run only part K of N of the batch's trials (every N-th), e.g. one cluster job each;
     /// `tmo report` over the N directories joins them. Simulator only.
     #[arg(long, value_name = "K/N")]
-    shard: Option<tmo::shard::Shard>,
+    shard: Option<tmo::output::shard::Shard>,
     /// With `--backend real`: the hardware file.
     #[arg(long)]
     hardware: Option<PathBuf>,
@@ -105,7 +105,7 @@ pub fn run(args: RunArgs) -> Result<u8> {
     // On the real backend everything that can be refused is, before a device is opened.
     let real_rig = match &args.hardware {
         Some(path) if args.backend == Backend::Real => {
-            let hw = tmo::hardware::load(path)?;
+            let hw = tmo::runner::hardware::load(path)?;
             check_real_plan(&hw, &mut plan)
                 .with_context(|| format!("{} on {}", args.protocol.display(), path.display()))?;
             let staging = Staging::for_batch(&hw, plan.kind, args.unattended)

@@ -10,8 +10,8 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 
 use anyhow::{Context, Result};
-use tmo::hardware::ServedSimulator;
-use tmo::sim_presets::{Preset, PresetOptions};
+use tmo::runner::hardware::ServedSimulator;
+use tmo::runner::sim_presets::{Preset, PresetOptions};
 use tmo_hal::real::model_o::ModelOConfig;
 use tmo_sim::serve::control::ControlPort;
 use tmo_sim::serve::dynamixel::PtyServoBus;
@@ -67,7 +67,7 @@ fn first_world(args: &ServeArgs) -> Result<(SimConfig, String)> {
     Ok(match args.rig {
         ServedRig::Hand => {
             let object = args.object.clone().unwrap_or_else(|| "crisps_can".into());
-            let contact = tmo::sim_presets::contact_closure(&base, &object)?;
+            let contact = tmo::runner::sim_presets::contact_closure(&base, &object)?;
             let config = SimConfig {
                 rig: RigSetup::Hand(HandSetup {
                     object: object.clone(),
@@ -84,7 +84,7 @@ fn first_world(args: &ServeArgs) -> Result<(SimConfig, String)> {
                 object: args.object.clone(),
                 ..Default::default()
             };
-            let (config, _) = tmo::sim_presets::build(Preset::Rail, &options, base)?;
+            let (config, _) = tmo::runner::sim_presets::build(Preset::Rail, &options, base)?;
             let object = match &config.rig {
                 RigSetup::Rail(r) => r.object.clone(),
                 RigSetup::Hand(h) => h.object.clone(),
@@ -111,7 +111,7 @@ fn serve_seconds(text: &str) -> Result<f64, String> {
 }
 
 pub fn serve_cmd(args: ServeArgs) -> Result<()> {
-    let hw = tmo::hardware::load(&args.hardware)?;
+    let hw = tmo::runner::hardware::load(&args.hardware)?;
     let (config, object) = first_world(&args)?;
     let rig = SimRig::new(config)?;
     let sensors = rig.tactile_sensors().len();

@@ -5,8 +5,8 @@ use std::path::{Path, PathBuf};
 use anyhow::{Context, Result};
 use clap::Subcommand;
 use tmo::protocol::collect::{CollectPreset, CollectRig};
-use tmo::scenario::Devices;
-use tmo::sim_presets::{self, Preset, PresetOptions};
+use tmo::runner::devices::Devices;
+use tmo::runner::sim_presets::{self, Preset, PresetOptions};
 use tmo::trace;
 use tmo_sim::{FaultRates, ObjectLibrary, SimConfig, SimRig};
 

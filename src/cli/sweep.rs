@@ -630,7 +630,7 @@ fn merge_shards(args: MergeArgs) -> Result<()> {
         std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
     }
     // one writer at a time, as for a sweep
-    let _lock = tmo::lock::OutputLock::acquire(&args.out)?;
+    let _lock = tmo::output::lock::OutputLock::acquire(&args.out)?;
     write_rows(&args.out, &rows)?;
     provenance.command = std::env::args().collect();
     // the shards ran side by side: the sweep took as long as the slowest

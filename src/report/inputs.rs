@@ -224,7 +224,7 @@ fn join_shards(batches: Vec<Batch>) -> Result<Vec<Batch>, InputError> {
             parts.push(None);
             continue;
         };
-        let shard: crate::shard::Shard = text.parse().map_err(|e| InputError::Format {
+        let shard: crate::output::shard::Shard = text.parse().map_err(|e| InputError::Format {
             path: b.dir.join("batch.json"),
             message: format!("shard: {e}"),
         })?;

@@ -91,7 +91,7 @@ pub struct Options {
     pub jobs: usize,
     /// Run only this part of the replicate (x variant) plan, for `tmo reproduce merge` to
     /// join with the other parts.
-    pub shard: Option<crate::shard::Shard>,
+    pub shard: Option<crate::output::shard::Shard>,
     pub resume: bool,
     pub backend: Backend,
 }
@@ -241,8 +241,8 @@ pub fn reproduce(
         }
     };
     std::fs::create_dir_all(out).map_err(io(out))?;
-    let _lock =
-        crate::lock::OutputLock::acquire(out).map_err(|e| ReproduceError::step("reproduce", e))?;
+    let _lock = crate::output::lock::OutputLock::acquire(out)
+        .map_err(|e| ReproduceError::step("reproduce", e))?;
     // A shard's record is written last: one left from an earlier run of it no longer
     // stands once the shard runs again.
     let record_path = out.join(shards::RECORD);

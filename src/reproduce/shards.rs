@@ -13,7 +13,7 @@ use super::{
     digest_dir, io, link_tree, read_record, replicate_dir, sensitivity, Options, ReproduceError,
     Step,
 };
-use crate::shard::Shard;
+use crate::output::shard::Shard;
 
 /// The record a finished shard leaves in its directory.
 pub const RECORD: &str = "shard.json";
@@ -186,8 +186,8 @@ pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<Merged, ReproduceError> {
         return Err(ReproduceError::AlreadyThere(out.to_path_buf()));
     }
     std::fs::create_dir_all(out).map_err(io(out))?;
-    let _lock =
-        crate::lock::OutputLock::acquire(out).map_err(|e| ReproduceError::step("merge", e))?;
+    let _lock = crate::output::lock::OutputLock::acquire(out)
+        .map_err(|e| ReproduceError::step("merge", e))?;
     for (dir, record) in &parts {
         for job in &record.jobs {
             let from = dir.join(&job.dir);
@@ -220,13 +220,16 @@ fn check_parts(dirs: &[PathBuf]) -> Result<Vec<(PathBuf, ShardRecord)>, MergeErr
     let mut parts: Vec<(PathBuf, Shard, ShardRecord)> = Vec::new();
     for dir in dirs {
         let record = read(dir)?;
-        let shard: Shard = record
-            .shard
-            .parse()
-            .map_err(|e: crate::shard::ShardError| MergeError::BadRecord {
-                path: dir.join(RECORD),
-                message: e.to_string(),
-            })?;
+        let shard: Shard =
+            record
+                .shard
+                .parse()
+                .map_err(
+                    |e: crate::output::shard::ShardError| MergeError::BadRecord {
+                        path: dir.join(RECORD),
+                        message: e.to_string(),
+                    },
+                )?;
         if let Some((other, _, _)) = parts.iter().find(|(_, s, _)| s.index == shard.index) {
             return Err(MergeError::Doubled {
                 a: dir.clone(),

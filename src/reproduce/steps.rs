@@ -481,7 +481,8 @@ fn run_batch_step(
             } else {
                 hand
             };
-            let hw = crate::hardware::load(file).map_err(|e| ReproduceError::step(step, e))?;
+            let hw =
+                crate::runner::hardware::load(file).map_err(|e| ReproduceError::step(step, e))?;
             crate::runner::real_trial::check_real_plan(&hw, &mut plan).map_err(batch)?;
             let staging = crate::runner::staging::Staging::for_batch(&hw, plan.kind, *unattended)
                 .map_err(batch)?;

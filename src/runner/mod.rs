@@ -6,6 +6,7 @@ pub mod batch;
 pub mod calibrate;
 pub mod devices;
 pub mod hand_release;
+pub mod hardware;
 pub mod lift;
 #[cfg(test)]
 pub(crate) mod mocks;
@@ -17,6 +18,7 @@ pub mod replay;
 pub mod rice_pour;
 pub mod safety;
 pub mod score;
+pub mod sim_presets;
 pub mod sim_trial;
 pub mod staging;
 pub mod state;

@@ -23,9 +23,9 @@ use super::rice_pour::run_pour;
 use super::safety::{SafeArm, SafeHand};
 use super::sim_trial::finish_trial;
 use super::Online;
-use crate::hardware::HardwareFile;
 use crate::protocol::{KindParams, Mode, Plan, SafetyLimits};
 use crate::runner::devices::{device, Devices};
+use crate::runner::hardware::HardwareFile;
 use crate::slip::model::ModelFile;
 use crate::trial::Trial;
 

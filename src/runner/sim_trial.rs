@@ -19,7 +19,7 @@ use super::Online;
 use crate::protocol::{KindParams, Mode, Plan};
 use crate::runner::devices::Devices;
 use crate::runner::devices::SimRigError;
-use crate::sim_presets::{self, Preset, PresetOptions};
+use crate::runner::sim_presets::{self, Preset, PresetOptions};
 use crate::slip::model::ModelFile;
 use crate::trial::{Trial, TrialMeta, TRIAL_FORMAT_VERSION};
 

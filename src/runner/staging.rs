@@ -12,8 +12,8 @@ use tmo_sim::serve::control::SimControlClient;
 
 use super::batch::{BatchError, PlannedTrial};
 use super::sim_trial::world_for;
-use crate::hardware::HardwareFile;
 use crate::protocol::{Kind, KindParams, Plan};
+use crate::runner::hardware::HardwareFile;
 
 pub enum Staging {
     /// The served simulator: each trial's world (the sim backend's, seed for seed) is sent

@@ -302,7 +302,7 @@ impl SweepSpec {
     }
 }
 
-pub use crate::shard::Shard;
+pub use crate::output::shard::Shard;
 
 /// Sorts rows into the order a sweep's CSV has: classifiers as `classifiers` lists them,
 /// then n_slip, then d.

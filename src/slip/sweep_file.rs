@@ -23,7 +23,7 @@ pub enum SweepFileError {
     #[error("{path}: {message}")]
     Csv { path: PathBuf, message: String },
     #[error(transparent)]
-    Lock(#[from] crate::lock::LockError),
+    Lock(#[from] crate::output::lock::LockError),
     #[error("{0} holds cells of an interrupted sweep: pass --resume to finish it, or delete it")]
     PartialThere(PathBuf),
     #[error("{path} holds cells of a different sweep: it was made with `{was}`, this one asks `{now}`; choose another --out, or delete it")]
@@ -198,7 +198,7 @@ pub fn run_to_file(
     on_done: impl Fn(&SweepRow) + Sync,
 ) -> Result<SweepResult, SweepFileError> {
     let (out, resume, stop) = (target.out, target.resume, target.stop);
-    let _lock = crate::lock::OutputLock::acquire(out)?;
+    let _lock = crate::output::lock::OutputLock::acquire(out)?;
     let partial = partial_path(out);
     let mut cut_torn_line = false;
     let done: Vec<SweepRow> = if resume {

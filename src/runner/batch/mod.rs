@@ -207,7 +207,7 @@ pub enum BatchError {
     #[error(transparent)]
     Log(#[from] crate::trial::TrialError),
     #[error(transparent)]
-    Lock(#[from] crate::lock::LockError),
+    Lock(#[from] crate::output::lock::LockError),
     #[error(transparent)]
     Model(#[from] crate::slip::model::ModelFileError),
     /// A protocol's model that cannot be loaded: `models.<index>` names it in the protocol.

@@ -38,7 +38,7 @@ pub struct BatchRequest<'a> {
     /// it a faulted trial is an outcome like any other and is kept.
     pub rerun_faulted: bool,
     /// Run only this part of the batch's trials (simulated batches spread over processes).
-    pub shard: Option<crate::shard::Shard>,
+    pub shard: Option<crate::output::shard::Shard>,
     /// Serve each trial live as it runs; simulated trials then run one at a time, at
     /// wall-clock speed.
     pub live: Option<&'a crate::live::LiveView>,
@@ -153,7 +153,7 @@ pub fn run_batch(
 ) -> Result<BatchEnd, BatchError> {
     let prepared = prepare(req, rig)?;
     // One writer per batch directory, for as long as the batch runs.
-    let _lock = crate::lock::OutputLock::acquire(req.out)?;
+    let _lock = crate::output::lock::OutputLock::acquire(req.out)?;
     let manifest = claim_directory(req, rig, &prepared.trials)?;
     bar.set_length(prepared.trials.len() as u64);
     let started = std::time::Instant::now();

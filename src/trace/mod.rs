@@ -1,6 +1,8 @@
 //! Writes what a simulated scenario did as CSV: ground truth per tick, pin frames, marker
 //! samples, and the configuration that produced them.
 
+pub mod scenario;
+
 use std::fs;
 use std::path::{Path, PathBuf};
 

@@ -1,8 +1,25 @@
-//! Ready-made simulated scenarios for `tmo sim trace`: a rig set-up plus a script.
+//! Ready-made simulated rigs: the worlds the simulated protocol runners start in, and for
+//! `tmo sim trace` a world plus a script to run in it.
 
 use tmo_sim::{HandSetup, ObjectLibrary, ObjectStart, RailSetup, RigSetup, SimConfig, SimError};
 
-use crate::scenario::Script;
+/// What a scenario does.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Script {
+    /// Nothing: hold the starting grasp (drop with an open hand, hold with a closed one).
+    Wait,
+    /// Hold the start grasp for `hold_s`, then release all fingers at `speed_per_s`
+    /// (fraction of range per s).
+    Release { speed_per_s: f64, hold_s: f64 },
+    /// Retract the arm (slip rail) by `distance_mm` at `speed_mm_s`.
+    Retract { speed_mm_s: f64, distance_mm: f64 },
+    /// Close until the mean pin deformation reaches `deformation_px`, then raise the arm.
+    Lift {
+        deformation_px: f64,
+        close_speed_per_s: f64,
+        lift_speed_mm_s: f64,
+    },
+}
 
 /// The scenarios `tmo sim trace` knows.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]

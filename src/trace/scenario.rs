@@ -4,32 +4,14 @@
 
 use tmo_hal::{Arm, Clock, Hand, MarkerTracker, TactileSensor};
 
-use crate::runner::devices::device;
-pub use crate::runner::devices::{Devices, Recording, ScenarioError, SimDevices};
+use crate::runner::devices::{device, Devices, Recording, ScenarioError};
+use crate::runner::sim_presets::Script;
 
 use crate::online::contact::ContactGauge;
 use crate::slip::features::FeatureSpec;
 
 /// Control period of the scripts, s (1 kHz, like the runner's loop).
 const TICK_S: f64 = 0.001;
-
-/// What a scenario does.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub enum Script {
-    /// Nothing: hold the starting grasp (drop with an open hand, hold with a closed one).
-    Wait,
-    /// Hold the start grasp for `hold_s`, then release all fingers at `speed_per_s`
-    /// (fraction of range per s).
-    Release { speed_per_s: f64, hold_s: f64 },
-    /// Retract the arm (slip rail) by `distance_mm` at `speed_mm_s`.
-    Retract { speed_mm_s: f64, distance_mm: f64 },
-    /// Close until the mean pin deformation reaches `deformation_px`, then raise the arm.
-    Lift {
-        deformation_px: f64,
-        close_speed_per_s: f64,
-        lift_speed_mm_s: f64,
-    },
-}
 
 impl<C, H, A, M, S> Devices<C, H, A, M, S>
 where

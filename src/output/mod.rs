@@ -1,0 +1,5 @@
+//! Where a command's outputs go: one writer per output directory or file ([`lock`]), and
+//! one output written in parts by several processes or cluster jobs ([`shard`]).
+
+pub mod lock;
+pub mod shard;
