@@ -238,6 +238,8 @@ fn a_collection_is_the_protocol_tmo_run_runs() {
         let b = tmo::trial::read_trial(&d.join("b").join(&name)).unwrap();
         assert_eq!(a.meta.seed, b.meta.seed);
         assert_eq!(a.meta.kind, "rail_catch_collect");
+        // the object's length travels with the trial (the labels read it from there)
+        assert_eq!(a.meta.object_length_mm(), Some(240.0));
         assert_eq!(a.frames, b.frames);
         assert_eq!(a.markers, b.markers);
         assert_eq!(a.events, b.events);

@@ -276,6 +276,12 @@ pub(crate) fn put_truth(put: &mut impl FnMut(&str, String), events: &tmo_sim::Tr
     );
 }
 
+/// The built-in object library, read once.
+fn object_library() -> &'static tmo_sim::ObjectLibrary {
+    static LIBRARY: std::sync::OnceLock<tmo_sim::ObjectLibrary> = std::sync::OnceLock::new();
+    LIBRARY.get_or_init(tmo_sim::ObjectLibrary::built_in)
+}
+
 /// The trial log of a finished run: what every backend records about it.
 pub(crate) fn finish_trial(
     plan: &Plan,
@@ -299,6 +305,14 @@ pub(crate) fn finish_trial(
     }
     if let Some(a) = record.armed_s {
         put("armed_s", format!("{a:.4}"));
+    }
+    // The object's length travels with the trial, so that labels read it from the log on
+    // any backend rather than from the simulator's library.
+    if let Ok(o) = object_library().get(&planned.object) {
+        put(
+            crate::trial::OBJECT_LENGTH_PARAMETER,
+            format!("{}", o.length_mm),
+        );
     }
     if let Some(f) = record.fault {
         put("fault", serde_json::to_string(&f).unwrap_or_default());

@@ -173,29 +173,17 @@ pub fn slip_end(
     None
 }
 
-/// How far an object of the library can slide below its held height before it has left the
-/// fingers: half its length along the slip axis (the contact spans its length about the
-/// grasp point). `None` for objects the library does not know.
-pub fn max_slide_for(object: &str) -> Option<f64> {
-    static LIBRARY: std::sync::OnceLock<tmo_sim::ObjectLibrary> = std::sync::OnceLock::new();
-    LIBRARY
-        .get_or_init(tmo_sim::ObjectLibrary::built_in)
-        .get(object)
-        .ok()
-        .map(|o| o.length_mm / 2.0)
-}
-
 /// The onset and end of slip in a trial's marker track, as labels use them.
+/// `max_slide_mm`: how far the object can slide below its held height before it has left
+/// the fingers (half its length: the contact spans its length about the grasp point), where
+/// known.
 pub fn slip_window(
     track: &[MarkerSample],
-    object: &str,
+    max_slide_mm: Option<f64>,
     spec: &OnsetSpec,
 ) -> (Option<f64>, Option<f64>) {
     match find_onset(track, spec) {
-        Some(o) => (
-            Some(o.time_s),
-            slip_end(track, &o, spec, max_slide_for(object)),
-        ),
+        Some(o) => (Some(o.time_s), slip_end(track, &o, spec, max_slide_mm)),
         None => (None, None),
     }
 }
@@ -223,7 +211,8 @@ pub fn label_track(trial: &Trial) -> Vec<(f64, bool)> {
 pub fn trial_slip_window(trial: &Trial, spec: &OnsetSpec) -> (Option<f64>, Option<f64>) {
     let labels = label_track(trial);
     if labels.is_empty() {
-        return slip_window(&trial.markers, &trial.meta.object, spec);
+        let max_slide_mm = trial.meta.object_length_mm().map(|l| l / 2.0);
+        return slip_window(&trial.markers, max_slide_mm, spec);
     }
     let onset = labels.iter().find(|l| l.1).map(|l| l.0);
     let end = onset.and_then(|o| labels.iter().find(|l| l.0 > o && !l.1).map(|l| l.0));

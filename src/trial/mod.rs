@@ -53,6 +53,15 @@ pub struct TrialMeta {
 }
 
 impl TrialMeta {
+    /// The held object's length along the slip axis, mm, where the trial records it
+    /// ([`OBJECT_LENGTH_PARAMETER`]).
+    pub fn object_length_mm(&self) -> Option<f64> {
+        self.parameters
+            .get(OBJECT_LENGTH_PARAMETER)
+            .and_then(|v| v.parse::<f64>().ok())
+            .filter(|l| l.is_finite() && *l > 0.0)
+    }
+
     pub fn code_version() -> (String, String) {
         (
             env!("CARGO_PKG_VERSION").to_string(),
@@ -115,6 +124,11 @@ impl Trial {
         }
     }
 }
+
+/// The trial parameter recording the held object's length along the slip axis, mm (from the
+/// object library, where it knows the object): how far the object can slide before it has
+/// left the fingers, which the slip labels use.
+pub const OBJECT_LENGTH_PARAMETER: &str = "object_length_mm";
 
 /// The trial parameter naming the largest per-frame step of an element that is still a
 /// measurement (in the sensor's units), or `off`; features treat larger steps as a lost
