@@ -9,15 +9,21 @@
 //! - [`scaler`]: per-column standardisation, as `StandardScaler`.
 //! - [`bayes`]: Bayesian optimisation of a black-box score over a box in log space.
 //! - [`cholesky`]: the dense factorisation the last two solve with.
+//! - [`threshold`]: a threshold on one score per row, as a baseline classifier.
+//! - [`metrics`]: precision, recall, F1 and macro F1 of a binary classifier.
+//! - [`cross_validation`]: folds by group, so one group's rows never sit on both sides.
 //!
 //! Hyperparameters are checked before a fit (`SvmParams::check`, `LogRegParams::check`),
 //! as linfa does: a fit only takes checked ones.
 
 pub mod bayes;
 pub mod cholesky;
+pub mod cross_validation;
 pub mod logreg;
+pub mod metrics;
 pub mod scaler;
 pub mod svm;
+pub mod threshold;
 
 /// A binary label: the classifiers learn to tell rows of the positive class from the rest,
 /// and predict `true` for the positive class.

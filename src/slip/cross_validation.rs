@@ -4,9 +4,6 @@
 //! them again at every evaluation was about 15 % of a LogReg search's time (perf: row
 //! copies and the page faults of their fresh buffers).
 
-use rand::seq::SliceRandom;
-use rand::SeedableRng;
-use rand_chacha::ChaCha8Rng;
 use rayon::prelude::*;
 
 use super::bayes::SearchError;
@@ -92,24 +89,18 @@ impl Folds {
     /// (every row, or as `spec.held_out` says) and the rest's rows for training (sampled
     /// to `spec.max_fit_rows`, then split and down-sampled as the models train).
     pub fn new(data: &Dataset, spec: &TuneSpec) -> Result<Self, TuneError> {
-        if spec.folds < 2 {
-            return Err(TuneError::Folds(spec.folds));
-        }
-        let mut trials: Vec<u32> = data.trial.clone();
-        trials.sort_unstable();
-        trials.dedup();
-        if trials.len() < spec.folds {
-            return Err(TuneError::TooFewTrials {
-                folds: spec.folds,
-                trials: trials.len(),
-            });
-        }
-        trials.shuffle(&mut ChaCha8Rng::seed_from_u64(spec.seed ^ 0x5eed));
-        // fold of each trial index, looked up per row
-        let mut fold_by_trial = vec![0; data.trial.iter().max().map_or(0, |t| *t as usize + 1)];
-        for (position, t) in trials.iter().enumerate() {
-            fold_by_trial[*t as usize] = position % spec.folds;
-        }
+        // whole trials in each fold, dealt out by `tmo_learn`'s group folds
+        let fold_by_trial =
+            tmo_learn::cross_validation::group_folds(&data.trial, spec.folds, spec.seed ^ 0x5eed)
+                .map_err(|e| match e {
+                tmo_learn::cross_validation::FoldError::Folds(f) => TuneError::Folds(f),
+                tmo_learn::cross_validation::FoldError::TooFewGroups { folds, groups } => {
+                    TuneError::TooFewTrials {
+                        folds,
+                        trials: groups,
+                    }
+                }
+            })?;
         let fold_of = |t: u32| fold_by_trial[t as usize];
         let folds = (0..spec.folds)
             .into_par_iter()

@@ -1,8 +1,7 @@
 //! Scores of a binary slip classifier (paper, "Classifier Evaluation"): F1 of each class and
-//! their mean (macro F1), with precision, recall and the confusion counts.
-//!
-//! Where a ratio has a zero denominator (no predictions or no examples of a class) it is 0,
-//! as scikit-learn's `zero_division=0`.
+//! their mean (macro F1), with precision, recall and the confusion counts, under the names
+//! evaluation files use (slip and static). The arithmetic is `tmo_learn::metrics`'s
+//! (scikit-learn's, with `zero_division=0`).
 
 use super::Class;
 
@@ -15,14 +14,7 @@ pub struct Confusion {
     pub false_static: u64,
 }
 
-/// Precision, recall and F1 of one class.
-#[derive(Debug, Clone, Copy, PartialEq, Default, serde::Serialize, serde::Deserialize)]
-pub struct ClassScores {
-    pub precision: f64,
-    pub recall: f64,
-    pub f1: f64,
-    pub support: u64,
-}
+pub use tmo_learn::metrics::ClassScores;
 
 #[derive(Debug, Clone, Copy, PartialEq, Default, serde::Serialize, serde::Deserialize)]
 pub struct Scores {
@@ -32,30 +24,6 @@ pub struct Scores {
     #[serde(rename = "static", alias = "static_")]
     pub static_: ClassScores,
     pub macro_f1: f64,
-}
-
-fn ratio(num: u64, den: u64) -> f64 {
-    if den == 0 {
-        0.0
-    } else {
-        num as f64 / den as f64
-    }
-}
-
-fn class_scores(tp: u64, fp: u64, fn_: u64) -> ClassScores {
-    let precision = ratio(tp, tp + fp);
-    let recall = ratio(tp, tp + fn_);
-    let f1 = if precision + recall == 0.0 {
-        0.0
-    } else {
-        2.0 * precision * recall / (precision + recall)
-    };
-    ClassScores {
-        precision,
-        recall,
-        f1,
-        support: tp + fn_,
-    }
 }
 
 impl Confusion {
@@ -78,8 +46,13 @@ impl Confusion {
     }
 
     pub fn scores(&self) -> Scores {
-        let slip = class_scores(self.true_slip, self.false_slip, self.false_static);
-        let static_ = class_scores(self.true_static, self.false_static, self.false_slip);
+        let (slip, static_) = tmo_learn::metrics::BinaryConfusion {
+            true_positive: self.true_slip,
+            false_positive: self.false_slip,
+            true_negative: self.true_static,
+            false_negative: self.false_static,
+        }
+        .class_scores();
         Scores {
             confusion: *self,
             slip,

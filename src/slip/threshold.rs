@@ -3,7 +3,6 @@
 //! values evenly spaced between the mean `v` of the static frames and that of the slip frames.
 
 use super::features::mean_velocity_norm;
-use super::metrics::macro_f1;
 use super::Class;
 
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -24,40 +23,20 @@ pub enum ThresholdError {
 }
 
 impl ThresholdModel {
-    /// Fits on feature rows (each `2N` values) and their labels.
+    /// Fits on feature rows (each `2N` values) and their labels: the threshold on the norm
+    /// of each row's mean pin velocity (`tmo_learn::threshold`).
     pub fn fit(rows: &[&[f32]], labels: &[Class]) -> Result<Self, ThresholdError> {
         let v: Vec<f32> = rows.iter().map(|r| mean_velocity_norm(r)).collect();
-        let mean_of = |class: Class| {
-            let (sum, n) = v
-                .iter()
-                .zip(labels)
-                .filter(|(_, l)| **l == class)
-                .fold((0.0f64, 0usize), |(s, n), (x, _)| {
-                    (s + f64::from(*x), n + 1)
-                });
-            (sum / n.max(1) as f64, n)
-        };
-        let (static_mean, static_frames) = mean_of(Class::Static);
-        let (slip_mean, slip_frames) = mean_of(Class::Slip);
-        if static_frames == 0 || slip_frames == 0 {
-            return Err(ThresholdError::OneClass {
-                static_frames,
-                slip_frames,
-            });
-        }
-        let mut best = (f64::NEG_INFINITY, 0.0f32);
-        for k in 0..10 {
-            let t = (static_mean + (slip_mean - static_mean) * k as f64 / 9.0) as f32;
-            let predicted: Vec<Class> = v
-                .iter()
-                .map(|&x| if x >= t { Class::Slip } else { Class::Static })
-                .collect();
-            let f1 = macro_f1(labels, &predicted);
-            if f1 > best.0 {
-                best = (f1, t);
-            }
-        }
-        Ok(Self { threshold: best.1 })
+        tmo_learn::threshold::fit_threshold(&v, labels)
+            .map(|threshold| Self { threshold })
+            .map_err(|e| match e {
+                tmo_learn::threshold::ThresholdError::OneClass { negative, positive } => {
+                    ThresholdError::OneClass {
+                        static_frames: negative,
+                        slip_frames: positive,
+                    }
+                }
+            })
     }
 
     pub fn predict(&self, features: &[f32]) -> Class {
