@@ -328,7 +328,7 @@ pub fn reproduce(
             jobs: mine
                 .iter()
                 .map(|(run, r)| shards::ShardJob {
-                    dir: job_dir_name(run, *r),
+                    dir: shards::job_dir(run.label.strip_suffix('/'), *r),
                     failed: failed_runs
                         .iter()
                         .find(|(d, _)| *d == run.dir)
@@ -365,16 +365,6 @@ pub fn reproduce(
         kept: tally.kept,
         report,
     })
-}
-
-/// A job's directory relative to the output directory: `replicate-01`, or
-/// `sensitivity/<parameter>@low/replicate-01`.
-fn job_dir_name(run: &Run, r: u32) -> String {
-    let mut name = run.label.clone();
-    if !name.is_empty() {
-        name.insert_str(0, "sensitivity/");
-    }
-    name + &format!("replicate-{r:02}")
 }
 
 /// One set of replicates: the baseline, or a sensitivity variant.
