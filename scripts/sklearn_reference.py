@@ -5,9 +5,9 @@ Reads a feature CSV written by `tmo dataset export`, splits it by trial (the fir
 the trial ids, sorted, for training; the rest for testing), standardises on the training
 rows, fits scikit-learn's SVC (RBF), SVC (linear) and LogisticRegression at fixed
 hyperparameters, and writes, for every test row, each model's decision value and prediction.
-tmo's test `tests/sklearn_fixture.rs` fits its own models on the same rows and compares.
+tmo-learn's test `learn/tests/sklearn_agreement.rs` fits its own models on the same rows and compares.
 
-    python3 scripts/sklearn_reference.py tests/fixtures/slip_features.csv tests/fixtures/sklearn_reference.csv
+    python3 scripts/sklearn_reference.py learn/tests/fixtures/slip_features.csv learn/tests/fixtures/sklearn_reference.csv
 
 Needs numpy, pandas and scikit-learn (`pip install scikit-learn pandas`). CI does not run
 this: the output is committed.

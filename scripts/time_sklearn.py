@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Times scikit-learn's SVC on the rows `cargo bench --bench svm_speed` wrote, with the same
+"""Times scikit-learn's SVC on the rows `cargo run --release --example bench_rows` wrote (and `cargo bench -p tmo-learn --bench svm_speed` reads), with the same
 hyperparameters, sizes and scaling, for comparison with tmo's solver.
 
     python3 scripts/time_sklearn.py target/bench/svm_rows.csv [CACHE_MB]

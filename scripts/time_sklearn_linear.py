@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
-"""Fits scikit-learn's SVC(kernel="linear") on the rows `cargo bench --bench linear_svm`
-wrote, at the C values it used, and prints both side by side: seconds and their ratio,
+"""Fits scikit-learn's SVC(kernel="linear") on the rows `cargo bench -p tmo-learn --bench linear_svm`
+read, at the C values it used, and prints both side by side: seconds and their ratio,
 iterations, the relative distance between the weight vectors and the rows whose predicted
 class differs.
 

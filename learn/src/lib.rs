@@ -12,6 +12,7 @@
 //! - [`threshold`]: a threshold on one score per row, as a baseline classifier.
 //! - [`metrics`]: precision, recall, F1 and macro F1 of a binary classifier.
 //! - [`cross_validation`]: folds by group, so one group's rows never sit on both sides.
+//! - [`warm`]: a fit's solution carried row by row to a neighbouring fit's start.
 //!
 //! Hyperparameters are checked before a fit (`SvmParams::check`, `LogRegParams::check`),
 //! as linfa does: a fit only takes checked ones.
@@ -24,6 +25,7 @@ pub mod metrics;
 pub mod scaler;
 pub mod svm;
 pub mod threshold;
+pub mod warm;
 
 /// A binary label: the classifiers learn to tell rows of the positive class from the rest,
 /// and predict `true` for the positive class.

@@ -271,22 +271,26 @@ impl Dataset {
 
     /// The rows whose index `keep` returns true for.
     pub fn filter(&self, mut keep: impl FnMut(usize) -> bool) -> Dataset {
+        let rows: Vec<usize> = (0..self.len()).filter(|&i| keep(i)).collect();
+        self.select(&rows)
+    }
+
+    /// The rows `rows`, in that order.
+    pub fn select(&self, rows: &[usize]) -> Dataset {
         let mut out = Dataset {
             dim: self.dim,
             trial_ids: self.trial_ids.clone(),
             ..Default::default()
         };
-        for i in 0..self.len() {
-            if keep(i) {
-                out.x.extend_from_slice(self.row(i));
-                out.y.push(self.y[i]);
-                out.trial.push(self.trial[i]);
-                out.sensor.push(self.sensor[i]);
-                out.seq.push(self.seq[i]);
-                out.time_s.push(self.time_s[i]);
-                if let Some(f) = self.slip_frame.get(i) {
-                    out.slip_frame.push(*f);
-                }
+        for &i in rows {
+            out.x.extend_from_slice(self.row(i));
+            out.y.push(self.y[i]);
+            out.trial.push(self.trial[i]);
+            out.sensor.push(self.sensor[i]);
+            out.seq.push(self.seq[i]);
+            out.time_s.push(self.time_s[i]);
+            if let Some(f) = self.slip_frame.get(i) {
+                out.slip_frame.push(*f);
             }
         }
         out

@@ -16,7 +16,7 @@ use super::metrics::{Confusion, Scores};
 use super::scaler::Scaler;
 use super::svm::{SvmModel, SvmParams};
 use super::threshold::ThresholdModel;
-use super::warm::WarmStart;
+use super::warm::{row_keys, WarmStart};
 use super::Class;
 use tmo_learn::Label;
 
@@ -103,14 +103,14 @@ impl SensorModel {
                 let x = scaler.transform(&data.x);
                 let classifier = match kind {
                     ClassifierKind::SvmRbf => {
-                        let dual = start.and_then(|s| s.svm_start_for(data));
+                        let dual = start.and_then(|s| s.svm_start_for(row_keys(data)));
                         let (model, solved) = SvmParams {
                             max_iterations: hyper.max_iterations,
                             ..SvmParams::rbf(hyper.c, hyper.gamma)
                         }
                         .check()?
                         .fit_from(data.dim, &x, &data.y, dual.as_ref())?;
-                        next = Some(WarmStart::svm(data, &solved));
+                        next = Some(WarmStart::svm(row_keys(data), &solved));
                         Classifier::Svm(model)
                     }
                     ClassifierKind::SvmLinear => Classifier::Svm(

@@ -5,7 +5,7 @@
 //! imbalanced task, and smartcore's SVC about 21 s for only 2,000 rows. The method needs
 //! hundreds of fits per sweep, so the RBF solver follows libsvm's algorithm (second-order
 //! working sets, LRU kernel cache, shrinking) and adds parallel kernel rows. Measured with
-//! `cargo bench --bench svm_speed` and `scripts/time_sklearn.py` on the same rows, C and
+//! `cargo bench -p tmo-learn --bench svm_speed` and `scripts/time_sklearn.py` on the same rows, C and
 //! gamma (2 cores, 2026-11-25, run back to back; scikit-learn 1.9.1 is libsvm on one
 //! thread, here with its best 4000 MB cache), with the same support vectors to within 3:
 //!

@@ -15,7 +15,7 @@ pub(super) const ROWS_PER_PASS: usize = 64;
 
 /// Below this many multiply-adds (a row of about 70k entries at 60 features, half a
 /// millisecond) kernel values are computed on one thread: waking another thread for them
-/// cost more than it saved. Measured with 2 threads (`cargo bench --bench svm_speed`): at
+/// cost more than it saved. Measured with 2 threads (`cargo bench -p tmo-learn --bench svm_speed`): at
 /// 64k multiply-adds, 20k rows fitted in 0.59 s and 61k in 4.74 s; at 4M, 0.53 s and 4.64 s.
 pub(super) const PARALLEL_WORK: usize = 4 << 20;
 

@@ -1,23 +1,19 @@
 //! SVM fit time for 2k, 5k, 10k, 20k and all (61k) rows of 60-dimensional simulator
 //! features, per-frame prediction latency of the 20k-row model, and its scoring of every
-//! row one at a time against several at a time (as a test set or held-out fold is scored). Run with `cargo bench --bench svm_speed`.
-//!
-//! The rows are written to `target/bench/svm_rows.csv` first (shuffled, seeded), so
+//! row one at a time against several at a time (as a test set or held-out fold is scored).
+//! Run with `cargo run --release --example bench_rows` (in the workspace root, once: it
+//! writes `target/bench/svm_rows.csv`, shuffled and seeded) and
+//! `cargo bench -p tmo-learn --bench svm_speed`; then
 //! `python3 scripts/time_sklearn.py target/bench/svm_rows.csv` times scikit-learn's SVC on
 //! exactly the same rows and hyperparameters (libsvm runs on one thread; each fit here runs
 //! on one thread and then on every core).
 
-mod common;
+mod rows;
 
 use std::time::Instant;
 
-use rand::seq::SliceRandom;
-use rand::SeedableRng;
-use rand_chacha::ChaCha8Rng;
-use tmo::slip::dataset::Dataset;
-use tmo::slip::scaler::Scaler;
-use tmo::slip::svm::SvmParams;
-use tmo::slip::Class;
+use tmo_learn::scaler::Scaler;
+use tmo_learn::svm::SvmParams;
 
 const C: f64 = 3.989;
 const GAMMA: f64 = 0.02;
@@ -27,40 +23,17 @@ const SIZES: [usize; 4] = [2_000, 5_000, 10_000, 20_000];
 /// The fit whose model times per-frame prediction (as `scripts/time_sklearn.py` does).
 const PREDICT_ROWS: usize = 20_000;
 
-fn rows() -> Dataset {
-    let ds = common::hand_release_rows(11, &[0.0, 180.0]);
-    let mut order: Vec<usize> = (0..ds.len()).collect();
-    order.shuffle(&mut ChaCha8Rng::seed_from_u64(3));
-    let mut shuffled = Dataset {
-        dim: ds.dim,
-        trial_ids: ds.trial_ids.clone(),
-        ..Default::default()
-    };
-    for &i in &order {
-        shuffled.x.extend_from_slice(ds.row(i));
-        shuffled.y.push(ds.y[i]);
-        shuffled.trial.push(ds.trial[i]);
-        shuffled.sensor.push(ds.sensor[i]);
-        shuffled.seq.push(ds.seq[i]);
-        shuffled.time_s.push(ds.time_s[i]);
-    }
-    shuffled
-}
-
 fn percentile(sorted: &[f64], p: f64) -> f64 {
     sorted[((sorted.len() - 1) as f64 * p).round() as usize]
 }
 
 fn main() {
-    let ds = rows();
-    std::fs::create_dir_all("target/bench").unwrap();
-    ds.write_csv(std::path::Path::new("target/bench/svm_rows.csv"))
-        .unwrap();
+    let ds = rows::read("svm_rows.csv");
     println!(
-        "svm_speed: RBF C-SVC, C = {C}, gamma = {GAMMA}, tol 1e-3, {} rows of {} features written to target/bench/svm_rows.csv ({} slip)",
+        "svm_speed: RBF C-SVC, C = {C}, gamma = {GAMMA}, tol 1e-3, {} rows of {} features from target/bench/svm_rows.csv ({} slip)",
         ds.len(),
         ds.dim,
-        ds.count(Class::Slip)
+        ds.positives()
     );
     let params = SvmParams::rbf(C, GAMMA).check().unwrap();
     let threads = rayon::current_num_threads();
