@@ -95,7 +95,7 @@ where
             lift_start_s: lift_start,
             hold_end_s: now,
         };
-        let r = rise(&run.rec.markers, &window, &spec);
+        let r = rise(&run.trial.rec.markers, &window, &spec);
         let ok = r.is_some_and(|r| lifted(&r, p.max_slide_mm));
         run.phase(now, "judged", json!({ "lifted": ok, "rise": r }));
         run.raise(-p.lift_mm, p.lift_speed_mm_s)?;

@@ -11,10 +11,11 @@ use tmo_hal::{Arm, Clock, Hand, MarkerTracker, TactileSensor};
 
 pub use super::approach::ContactGrasp;
 use super::approach::{ApproachStep, ContactApproach};
-use super::monitor::{FrameMonitor, Verdict, WatchLimits};
-use super::{event, Fault, Online, RunRecord};
+use super::monitor::{Verdict, WatchLimits};
+use super::trial_run::TrialRun;
+use super::{Fault, Online, RunRecord};
 use crate::online::classify::Reaction;
-use crate::runner::devices::{device, Devices, Recording, ScenarioError};
+use crate::runner::devices::{device, Devices, ScenarioError};
 use serde_json::json;
 
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -62,15 +63,13 @@ where
     M: MarkerTracker,
     S: TactileSensor,
 {
-    let t0 = dev.clock.now_s();
-    let mut monitor = FrameMonitor::new(dev.sensors.len(), online, p.watch, t0);
+    let mut run = TrialRun::begin(dev, online, p.watch);
+    let t0 = run.t0;
     let start = dev.hand.present_positions().map_err(device("hand"))?;
-    let mut rec = Recording::default();
     let mut armed_s = None;
     let mut reaction: Option<Reaction> = None;
     let mut fault = None;
     let (mut phase, mut phase_t0) = (Phase::Closing, t0);
-    let mut events = vec![];
     // Where the closing ramp starts and ends; with a contact grasp, set at contact.
     let (mut close_from, mut closure) = ([start[0], start[1], start[2]], p.closure);
     let mut approach = None;
@@ -78,18 +77,18 @@ where
         phase = Phase::Approaching;
         let from = start[..3].iter().copied().fold(f64::INFINITY, f64::min);
         approach = Some(ContactApproach::new(c, dev.sensors.len(), from, t0));
-        events.push(event(
+        run.log(
             t0,
             "/phase",
             json!({"phase": phase, "speed_per_s": c.approach_speed_per_s}),
-        ));
+        );
     } else {
-        events.push(event(t0, "/phase", json!({"phase": phase})));
-        events.push(event(
+        run.log(t0, "/phase", json!({"phase": phase}));
+        run.log(
             t0,
             "/command/hand",
             json!({"ramp_to": closure, "speed_per_s": p.close_speed_per_s}),
-        ));
+        );
     }
     loop {
         let now = dev.clock.now_s();
@@ -113,23 +112,23 @@ where
                 }) => {
                     (closure, close_from) = (grasp, [q; 3]);
                     (phase, phase_t0) = (Phase::Closing, now);
-                    events.push(event(
+                    run.log(
                         now,
                         "/phase",
                         json!({"phase": "contact", "closure": q, "deformation_px": deformation_px}),
-                    ));
-                    events.push(event(now, "/phase", json!({"phase": phase})));
-                    events.push(event(
+                    );
+                    run.log(now, "/phase", json!({"phase": phase}));
+                    run.log(
                         now,
                         "/command/hand",
                         json!({"ramp_to": closure, "speed_per_s": p.close_speed_per_s}),
-                    ));
+                    );
                 }
                 Some(ApproachStep::NoContact { deformation_px }) => {
                     let f = Fault::NoContact { deformation_px };
-                    events.push(event(now, "/fault", json!(f)));
+                    run.log(now, "/fault", json!(f));
                     fault = Some(f);
-                    dev.hold_hand(now, &mut events)?;
+                    dev.hold_hand(now, &mut run.events)?;
                     break;
                 }
                 None => unreachable!("approaching only with a contact grasp"),
@@ -141,30 +140,30 @@ where
                     .map_err(device("hand"))?;
                 if q(0) >= closure {
                     (phase, phase_t0) = (Phase::Settling, now);
-                    events.push(event(now, "/phase", json!({"phase": phase})));
+                    run.log(now, "/phase", json!({"phase": phase}));
                 }
             }
             Phase::Settling if elapsed >= 0.3 => {
                 dev.arm
                     .move_linear([0.0, 0.0, p.lift_mm], p.lift_speed_mm_s)
                     .map_err(device("arm"))?;
-                events.push(event(
+                run.log(
                     now,
                     "/command/arm",
                     json!({"move_linear_mm": [0.0, 0.0, p.lift_mm], "speed_mm_s": p.lift_speed_mm_s}),
-                ));
+                );
                 (phase, phase_t0) = (Phase::Lifting, now);
-                events.push(event(now, "/phase", json!({"phase": phase})));
+                run.log(now, "/phase", json!({"phase": phase}));
             }
             Phase::Lifting if elapsed >= p.lift_mm / p.lift_speed_mm_s + 0.2 + p.hold_s => {
                 (phase, phase_t0) = (Phase::Releasing, now);
                 armed_s = Some(now);
-                events.push(event(now, "/phase", json!({"phase": phase})));
-                events.push(event(
+                run.log(now, "/phase", json!({"phase": phase}));
+                run.log(
                     now,
                     "/command/hand",
                     json!({"ramp_to": 0.0, "speed_per_s": -p.release_speed_per_s}),
-                ));
+                );
             }
             Phase::Releasing => {
                 let q = (closure - p.release_speed_per_s * elapsed).max(0.0);
@@ -174,17 +173,18 @@ where
             }
             _ => {}
         }
-        let (first_new, now) = dev.tick(&mut rec, &mut events, phase == Phase::Releasing)?;
+        let releasing = phase == Phase::Releasing;
+        let step = run.step(dev, releasing, |_| releasing, stop)?;
         if let Some(a) = approach.as_mut() {
-            a.observe(&rec.frames[first_new..]);
+            a.observe(&run.rec.frames[step.first_new..]);
         }
-        let armed = phase == Phase::Releasing;
-        match monitor.feed(&rec.frames[first_new..], now, armed, stop, &mut events) {
+        let now = step.now;
+        match step.verdict {
             Verdict::Continue => {}
             Verdict::Abort(f) => {
                 // Make safe: the fingers hold; the arm stops below.
                 fault = Some(f);
-                dev.hold_hand(now, &mut events)?;
+                dev.hold_hand(now, &mut run.events)?;
                 break;
             }
             Verdict::React(r) => {
@@ -194,29 +194,18 @@ where
                     .set_targets([q, q, q, start[3]])
                     .map_err(device("hand"))?;
                 phase = Phase::Reacted;
-                events.push(event(
+                run.log(
                     now,
                     "/command/hand",
                     json!({ "targets": [q, q, q, start[3]] }),
-                ));
-                events.push(event(now, "/phase", json!({"phase": phase})));
+                );
+                run.log(now, "/phase", json!({"phase": phase}));
             }
         }
     }
     dev.arm.stop().map_err(device("arm"))?;
-    events.push(event(
-        dev.clock.now_s(),
-        "/command/arm",
-        json!({"stop": true}),
-    ));
-    Ok(RunRecord {
-        recording: rec,
-        armed_s,
-        reaction,
-        fault,
-        ended_s: dev.clock.now_s(),
-        events,
-    })
+    run.log(dev.clock.now_s(), "/command/arm", json!({"stop": true}));
+    Ok(run.finish(dev.clock.now_s(), armed_s, reaction, fault))
 }
 
 #[cfg(test)]

@@ -15,11 +15,11 @@ use serde_json::json;
 use tmo_hal::{Arm, Clock, Hand, MarkerTracker, TactileSensor};
 
 use super::approach::{ApproachStep, ContactApproach, ContactGrasp};
-use super::monitor::{FrameMonitor, Verdict, WatchLimits};
-use super::{event, Fault, Online, RunRecord};
+use super::monitor::{Verdict, WatchLimits};
+use super::trial_run::TrialRun;
+use super::{Fault, Online, RunRecord};
 use crate::online::classify::Reaction;
-use crate::runner::devices::{device, Devices, Recording, ScenarioError};
-use crate::trial::TrialEvent;
+use crate::runner::devices::{device, Devices, ScenarioError};
 
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct LiftParams {
@@ -48,9 +48,7 @@ pub(super) fn move_time_s(mm: f64, speed_mm_s: f64) -> f64 {
 /// What a lift runner carries through its phases, with the devices it drives.
 pub(super) struct LiftRun<'m, 'd, C, H, A, M, S> {
     pub dev: &'d mut Devices<C, H, A, M, S>,
-    pub monitor: FrameMonitor<'m>,
-    pub rec: Recording,
-    pub events: Vec<TrialEvent>,
+    pub trial: TrialRun<'m>,
     /// The fourth servo (the thumb's rotation) is left where it started.
     pub start: [f64; 4],
 }
@@ -68,15 +66,9 @@ where
         online: Option<Online<'m>>,
         watch: WatchLimits,
     ) -> Result<Self, ScenarioError> {
-        let t0 = dev.clock.now_s();
+        let trial = TrialRun::begin(dev, online, watch);
         let start = dev.hand.present_positions().map_err(device("hand"))?;
-        Ok(Self {
-            monitor: FrameMonitor::new(dev.sensors.len(), online, watch, t0),
-            dev,
-            rec: Recording::default(),
-            events: Vec::new(),
-            start,
-        })
+        Ok(Self { dev, trial, start })
     }
 
     pub fn phase(&mut self, now: f64, phase: &str, data: serde_json::Value) {
@@ -84,7 +76,7 @@ where
         if let (Some(d), Some(extra)) = (d.as_object_mut(), data.as_object()) {
             d.extend(extra.clone());
         }
-        self.events.push(event(now, "/phase", d));
+        self.trial.log(now, "/phase", d);
     }
 
     /// Sets the three fingers to `closure` (the thumb rotation stays).
@@ -92,8 +84,8 @@ where
         let targets = [closure, closure, closure, self.start[3]];
         self.dev.hand.set_targets(targets).map_err(device("hand"))?;
         let now = self.dev.clock.now_s();
-        self.events
-            .push(event(now, "/command/hand", json!({ "targets": targets })));
+        self.trial
+            .log(now, "/command/hand", json!({ "targets": targets }));
         Ok(())
     }
 
@@ -104,11 +96,11 @@ where
             .move_linear([0.0, 0.0, mm], speed_mm_s)
             .map_err(device("arm"))?;
         let now = self.dev.clock.now_s();
-        self.events.push(event(
+        self.trial.log(
             now,
             "/command/arm",
             json!({"move_linear_mm": [0.0, 0.0, mm], "speed_mm_s": speed_mm_s}),
-        ));
+        );
         Ok(())
     }
 
@@ -118,15 +110,8 @@ where
         armed: bool,
         stop: &AtomicBool,
     ) -> Result<(Verdict, f64, usize), ScenarioError> {
-        let (first_new, now) = self.dev.tick(&mut self.rec, &mut self.events, armed)?;
-        let v = self.monitor.feed(
-            &self.rec.frames[first_new..],
-            now,
-            armed,
-            stop,
-            &mut self.events,
-        );
-        Ok((v, now, first_new))
+        let step = self.trial.step(self.dev, armed, |_| armed, stop)?;
+        Ok((step.verdict, step.now, step.first_new))
     }
 
     /// Ticks with the detector disarmed until `until_s`; `Some(fault)` if one ended it.
@@ -177,7 +162,7 @@ where
             if let Verdict::Abort(f) = v {
                 return Ok(Err(f));
             }
-            approach.observe(&self.rec.frames[first_new..]);
+            approach.observe(&self.trial.rec.frames[first_new..]);
             match approach.step(set_at) {
                 ApproachStep::Close(_) => {}
                 ApproachStep::Contact {
@@ -191,7 +176,7 @@ where
                 }
                 ApproachStep::NoContact { deformation_px } => {
                     let f = Fault::NoContact { deformation_px };
-                    self.events.push(event(now, "/fault", json!(f)));
+                    self.trial.log(now, "/fault", json!(f));
                     return Ok(Err(f));
                 }
             }
@@ -207,19 +192,11 @@ where
     ) -> Result<RunRecord, ScenarioError> {
         let now = self.dev.clock.now_s();
         if fault.is_some() {
-            self.dev.hold_hand(now, &mut self.events)?;
+            self.dev.hold_hand(now, &mut self.trial.events)?;
         }
         self.dev.arm.stop().map_err(device("arm"))?;
-        self.events
-            .push(event(now, "/command/arm", json!({"stop": true})));
-        Ok(RunRecord {
-            recording: self.rec,
-            armed_s,
-            reaction,
-            fault,
-            ended_s: now,
-            events: self.events,
-        })
+        self.trial.log(now, "/command/arm", json!({"stop": true}));
+        Ok(self.trial.finish(now, armed_s, reaction, fault))
     }
 }
 
@@ -273,7 +250,7 @@ where
                 closure = (closure + p.close_step).min(p.max_closure);
                 run.grip(closure)?;
                 pause_until = now + p.pause_s;
-                run.monitor.rearm();
+                run.trial.monitor.rearm();
             }
         }
     }

@@ -22,6 +22,7 @@ pub mod sim_presets;
 pub mod sim_trial;
 pub mod staging;
 pub mod state;
+mod trial_run;
 
 use serde_json::json;
 use tmo_hal::{Arm, Clock, Hand, MarkerTracker, TactileSensor};

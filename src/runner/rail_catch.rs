@@ -8,10 +8,11 @@ use std::sync::atomic::AtomicBool;
 use serde_json::json;
 use tmo_hal::{Arm, Clock, Hand, MarkerTracker, TactileSensor};
 
-use super::monitor::{FrameMonitor, Verdict, WatchLimits};
-use super::{event, Fault, Online, RunRecord, SETTLE_S};
+use super::monitor::{Verdict, WatchLimits};
+use super::trial_run::TrialRun;
+use super::{Fault, Online, RunRecord, SETTLE_S};
 use crate::online::classify::Reaction;
-use crate::runner::devices::{device, Devices, Recording, ScenarioError};
+use crate::runner::devices::{device, Devices, ScenarioError};
 
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct RailParams {
@@ -42,26 +43,20 @@ where
     M: MarkerTracker,
     S: TactileSensor,
 {
-    let t0 = dev.clock.now_s();
-    let mut monitor = FrameMonitor::new(dev.sensors.len(), online, p.watch, t0);
-    let mut rec = Recording::default();
-    let mut events = Vec::new();
+    let mut run = TrialRun::begin(dev, online, p.watch);
+    let t0 = run.t0;
     dev.hand
         .set_torque_limit(p.torque_limit)
         .map_err(device("hand"))?;
-    events.push(event(
-        t0,
-        "/command/hand",
-        json!({"torque_limit": p.torque_limit}),
-    ));
+    run.log(t0, "/command/hand", json!({"torque_limit": p.torque_limit}));
     dev.arm
         .move_linear([-p.retract_mm, 0.0, 0.0], p.retract_speed_mm_s)
         .map_err(device("arm"))?;
-    events.push(event(
+    run.log(
         t0,
         "/command/arm",
         json!({"move_linear_mm": [-p.retract_mm, 0.0, 0.0], "speed_mm_s": p.retract_speed_mm_s}),
-    ));
+    );
     let (mut reaction, mut fault): (Option<Reaction>, Option<Fault>) = (None, None);
     loop {
         let now = dev.clock.now_s();
@@ -70,14 +65,15 @@ where
         }
         // armed from the tick on which the settling time ends
         let waiting = reaction.is_none() && now + super::TICK_S - t0 >= SETTLE_S;
-        let (first_new, now) = dev.tick(&mut rec, &mut events, waiting)?;
-        let armed = reaction.is_none() && now - t0 >= SETTLE_S;
-        match monitor.feed(&rec.frames[first_new..], now, armed, stop, &mut events) {
+        let unreacted = reaction.is_none();
+        let step = run.step(dev, waiting, |now| unreacted && now - t0 >= SETTLE_S, stop)?;
+        let now = step.now;
+        match step.verdict {
             Verdict::Continue => {}
             Verdict::Abort(f) => {
                 // Make safe: the fingers hold; the arm stops below.
                 fault = Some(f);
-                dev.hold_hand(now, &mut events)?;
+                dev.hold_hand(now, &mut run.events)?;
                 break;
             }
             Verdict::React(r) if reaction.is_none() => {
@@ -88,28 +84,17 @@ where
                     .map_err(device("arm"))?;
                 let torque = (p.torque_limit + p.torque_step).min(p.max_torque);
                 dev.hand.set_torque_limit(torque).map_err(device("hand"))?;
-                events.push(event(
+                run.log(
                     now,
                     "/command/arm",
                     json!({"move_linear_mm": [p.forward_mm, 0.0, 0.0], "speed_mm_s": p.forward_speed_mm_s}),
-                ));
-                events.push(event(now, "/command/hand", json!({"torque_limit": torque})));
+                );
+                run.log(now, "/command/hand", json!({"torque_limit": torque}));
             }
             Verdict::React(_) => {}
         }
     }
     dev.arm.stop().map_err(device("arm"))?;
-    events.push(event(
-        dev.clock.now_s(),
-        "/command/arm",
-        json!({"stop": true}),
-    ));
-    Ok(RunRecord {
-        recording: rec,
-        armed_s: Some(t0 + SETTLE_S),
-        reaction,
-        fault,
-        ended_s: dev.clock.now_s(),
-        events,
-    })
+    run.log(dev.clock.now_s(), "/command/arm", json!({"stop": true}));
+    Ok(run.finish(dev.clock.now_s(), Some(t0 + SETTLE_S), reaction, fault))
 }

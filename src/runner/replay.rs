@@ -1,4 +1,4 @@
-//! The replay runner: the live [`FrameMonitor`] (watchdog, per-frame classification,
+//! The replay runner: the live [`FrameMonitor`](super::monitor::FrameMonitor) (watchdog, per-frame classification,
 //! `NFr x NSen` detector) on the live control tick, over any backend, with the detector armed
 //! exactly when the recorded runner had it armed. It stops at the first reaction: after
 //! the recorded hand reacted the recorded world no longer shows what an unanswered slip
@@ -11,9 +11,10 @@ use std::sync::atomic::AtomicBool;
 
 use tmo_hal::{Arm, Clock, Hand, MarkerTracker, TactileSensor};
 
-use super::monitor::{FrameMonitor, Verdict, WatchLimits};
+use super::monitor::{Verdict, WatchLimits};
+use super::trial_run::TrialRun;
 use super::{Online, RunRecord, SETTLE_S};
-use crate::runner::devices::{Devices, Recording, ScenarioError};
+use crate::runner::devices::{Devices, ScenarioError};
 use crate::trial::Trial;
 
 /// When the detector counts frames.
@@ -119,16 +120,14 @@ where
     M: MarkerTracker,
     S: TactileSensor,
 {
-    let t0 = dev.clock.now_s();
-    let mut monitor = FrameMonitor::new(dev.sensors.len(), Some(online), p.watch, t0);
-    let mut rec = Recording::default();
-    let mut events = Vec::new();
+    let mut run = TrialRun::begin(dev, Some(online), p.watch);
     let (mut reaction, mut fault) = (None, None);
     while dev.clock.now_s() < p.end_s {
         let waiting = p.window.armed(dev.clock.now_s());
-        let (first_new, now) = dev.tick(&mut rec, &mut events, waiting)?;
-        let armed = p.window.armed(now);
-        match monitor.feed(&rec.frames[first_new..], now, armed, stop, &mut events) {
+        match run
+            .step(dev, waiting, |now| p.window.armed(now), stop)?
+            .verdict
+        {
             Verdict::Continue => {}
             Verdict::Abort(f) => {
                 fault = Some(f);
@@ -140,14 +139,7 @@ where
             }
         }
     }
-    Ok(RunRecord {
-        recording: rec,
-        armed_s: None,
-        reaction,
-        fault,
-        ended_s: dev.clock.now_s(),
-        events,
-    })
+    Ok(run.finish(dev.clock.now_s(), None, reaction, fault))
 }
 
 #[cfg(test)]

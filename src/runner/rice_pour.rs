@@ -8,10 +8,11 @@ use serde_json::json;
 use tmo_hal::{Arm, Clock, Hand, MarkerTracker, TactileSensor};
 
 use super::approach::{ApproachStep, ContactApproach, ContactGrasp};
-use super::monitor::{FrameMonitor, Verdict, WatchLimits};
-use super::{event, Fault, Online, RunRecord, SETTLE_S};
+use super::monitor::{Verdict, WatchLimits};
+use super::trial_run::TrialRun;
+use super::{Fault, Online, RunRecord, SETTLE_S};
 use crate::online::classify::Reaction;
-use crate::runner::devices::{device, Devices, Recording, ScenarioError};
+use crate::runner::devices::{device, Devices, ScenarioError};
 
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct PourParams {
@@ -44,18 +45,17 @@ where
     M: MarkerTracker,
     S: TactileSensor,
 {
-    let t0 = dev.clock.now_s();
-    let mut monitor = FrameMonitor::new(dev.sensors.len(), online, p.watch, t0);
-    let mut rec = Recording::default();
+    let mut run = TrialRun::begin(dev, online, p.watch);
+    let t0 = run.t0;
     let mut targets = dev.hand.present_positions().map_err(device("hand"))?;
     dev.hand.set_targets(targets).map_err(device("hand"))?;
-    let mut events = vec![event(t0, "/command/hand", json!({ "targets": targets }))];
+    run.log(t0, "/command/hand", json!({ "targets": targets }));
     let (mut first, mut fault): (Option<Reaction>, _) = (None, None);
     let mut pour_t0 = t0;
     if let Some(c) = p.contact {
         let from = targets[..3].iter().copied().fold(f64::INFINITY, f64::min);
         let mut approach = ContactApproach::new(c, dev.sensors.len(), from, t0);
-        events.push(event(t0, "/phase", json!({"phase": "approaching"})));
+        run.log(t0, "/phase", json!({"phase": "approaching"}));
         let grasped = loop {
             let now = dev.clock.now_s();
             match approach.step(now) {
@@ -68,27 +68,25 @@ where
                     grasp,
                     deformation_px,
                 } => {
-                    events.push(event(
+                    run.log(
                         now,
                         "/phase",
                         json!({"phase": "contact", "closure": closure, "deformation_px": deformation_px}),
-                    ));
+                    );
                     targets[..3].fill(grasp);
                     dev.hand.set_targets(targets).map_err(device("hand"))?;
-                    events.push(event(now, "/command/hand", json!({ "targets": targets })));
+                    run.log(now, "/command/hand", json!({ "targets": targets }));
                     break Ok(now);
                 }
                 ApproachStep::NoContact { deformation_px } => {
                     let f = Fault::NoContact { deformation_px };
-                    events.push(event(now, "/fault", json!(f)));
+                    run.log(now, "/fault", json!(f));
                     break Err(f);
                 }
             }
-            let (first_new, now) = dev.tick(&mut rec, &mut events, false)?;
-            approach.observe(&rec.frames[first_new..]);
-            if let Verdict::Abort(f) =
-                monitor.feed(&rec.frames[first_new..], now, false, stop, &mut events)
-            {
+            let step = run.step(dev, false, |_| false, stop)?;
+            approach.observe(&run.rec.frames[step.first_new..]);
+            if let Verdict::Abort(f) = step.verdict {
                 break Err(f);
             }
         };
@@ -96,22 +94,19 @@ where
             Ok(at) => {
                 // the pour begins once the operator has let go
                 while dev.clock.now_s() < at + LET_GO_S {
-                    let (first_new, now) = dev.tick(&mut rec, &mut events, false)?;
-                    if let Verdict::Abort(f) =
-                        monitor.feed(&rec.frames[first_new..], now, false, stop, &mut events)
-                    {
+                    if let Verdict::Abort(f) = run.step(dev, false, |_| false, stop)?.verdict {
                         fault = Some(f);
                         break;
                     }
                 }
                 pour_t0 = dev.clock.now_s();
-                events.push(event(pour_t0, "/phase", json!({"phase": "pouring"})));
+                run.log(pour_t0, "/phase", json!({"phase": "pouring"}));
             }
             Err(f) => fault = Some(f),
         }
         if fault.is_some() {
             let now = dev.clock.now_s();
-            dev.hold_hand(now, &mut events)?;
+            dev.hold_hand(now, &mut run.events)?;
         }
     }
     // a grasp that failed leaves nothing to pour into
@@ -119,14 +114,14 @@ where
     while pouring && dev.clock.now_s() - pour_t0 < p.duration_s {
         // armed from the tick on which the settling time ends
         let waiting = dev.clock.now_s() + super::TICK_S - pour_t0 >= SETTLE_S;
-        let (first_new, now) = dev.tick(&mut rec, &mut events, waiting)?;
-        let armed = now - pour_t0 >= SETTLE_S;
-        match monitor.feed(&rec.frames[first_new..], now, armed, stop, &mut events) {
+        let step = run.step(dev, waiting, |now| now - pour_t0 >= SETTLE_S, stop)?;
+        let now = step.now;
+        match step.verdict {
             Verdict::Continue => {}
             Verdict::Abort(f) => {
                 // Make safe: the fingers hold; the arm stops below.
                 fault = Some(f);
-                dev.hold_hand(now, &mut events)?;
+                dev.hold_hand(now, &mut run.events)?;
                 break;
             }
             Verdict::React(r) => {
@@ -135,18 +130,12 @@ where
                     *t = (*t + p.regrasp).min(p.max_closure);
                 }
                 dev.hand.set_targets(targets).map_err(device("hand"))?;
-                events.push(event(now, "/command/hand", json!({ "targets": targets })));
-                monitor.rearm();
+                run.log(now, "/command/hand", json!({ "targets": targets }));
+                run.monitor.rearm();
             }
         }
     }
     dev.arm.stop().map_err(device("arm"))?;
-    Ok(RunRecord {
-        recording: rec,
-        armed_s: pouring.then_some(pour_t0 + SETTLE_S),
-        reaction: first,
-        fault,
-        ended_s: dev.clock.now_s(),
-        events,
-    })
+    let armed_s = pouring.then_some(pour_t0 + SETTLE_S);
+    Ok(run.finish(dev.clock.now_s(), armed_s, first, fault))
 }
