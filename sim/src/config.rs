@@ -79,7 +79,12 @@ impl SimConfig {
             ("physics.skin_poisson", p.skin_poisson, zero, 0.5),
             ("physics.dome_radius_mm", p.dome_radius_mm, positive, 1e3),
             ("physics.stall_force_n", p.stall_force_n, positive, 1e4),
-            ("physics.thumb_load_bias", p.thumb_load_bias, zero, 0.9),
+            (
+                "physics.finger_half_spacing_mm",
+                p.finger_half_spacing_mm,
+                positive,
+                1e3,
+            ),
             (
                 "physics.stribeck_speed_mm_s",
                 p.stribeck_speed_mm_s,
@@ -459,8 +464,9 @@ pub struct PhysicsParams {
     pub dome_radius_mm: f64,
     /// Largest normal force a finger can press with at full torque, N.
     pub stall_force_n: f64,
-    /// Extra share of the load the thumb takes at grasp 0 deg (and gives up at 180 deg).
-    pub thumb_load_bias: f64,
+    /// Half the distance across the palm between the two fingers' contacts, which stand
+    /// either side of the thumb's, mm (grasp statics: `statics`).
+    pub finger_half_spacing_mm: f64,
     /// Sliding speed over which friction falls from static to kinetic (Stribeck), mm/s.
     pub stribeck_speed_mm_s: f64,
     /// Rise of sliding friction per e-fold of sliding speed (rubber's hysteresis friction),
@@ -495,7 +501,7 @@ impl Default for PhysicsParams {
             skin_poisson: 0.5,
             dome_radius_mm: 10.0,
             stall_force_n: 25.0,
-            thumb_load_bias: 0.3,
+            finger_half_spacing_mm: 32.0,
             stribeck_speed_mm_s: 2.0,
             rate_strengthening: 0.05,
             strengthening_from_mm_s: 10.0,

@@ -12,6 +12,7 @@ pub mod objects;
 pub mod parameters;
 pub mod serve;
 pub mod skin;
+pub mod statics;
 pub mod tactip;
 mod world;
 

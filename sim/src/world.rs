@@ -10,9 +10,12 @@ use rand_distr::{Distribution, Normal, StandardNormal};
 
 use super::actuators::{ArmState, Servos};
 use super::config::{ObjectStart, PhysicsParams, RigSetup, SimConfig};
-use super::grasp::{pinch_normal_forces, share_stuck_load, Contact, ContactLaw, MAX_CONTACTS};
+use super::grasp::{
+    pinch_normal_forces, share_stuck_load, Contact, ContactLaw, StuckShare, MAX_CONTACTS,
+};
 use super::objects::{ObjectLibrary, ObjectSpec};
 use super::skin::{ElementStickSlip, SkinContact, SlidingFriction, SlidingPatch, SurfaceTexture};
+use super::statics;
 use super::tactip::{
     add_local_shear, dome_layout, local_shear_factors, pin_positions, CreepingDisplacement,
     SensorOptics, SkinState, SkinTimes,
@@ -110,7 +113,8 @@ struct MarkerUnit {
 
 enum Geometry {
     Hand {
-        weights: [f64; 3],
+        /// Gravity's direction in the hand frame (see [`statics`]).
+        gravity: [f64; 3],
     },
     Rail {
         arm_touch_x_mm: f64,
@@ -206,12 +210,11 @@ impl World {
         let hand_z = cfg.arm.start_mm[2];
         let (geometry, start_positions, support_mm, grasp_deg) = match &cfg.rig {
             RigSetup::Hand(h) => {
-                let bias = p.thumb_load_bias * h.grasp_deg.to_radians().cos();
                 let support = (h.start == ObjectStart::OnTable).then_some(hand_z);
                 let q = h.initial_closure;
                 (
                     Geometry::Hand {
-                        weights: [1.0 + bias, 1.0 - bias, 1.0 - bias],
+                        gravity: statics::gravity_direction(h.grasp_deg),
                     },
                     [q, q, q, 0.0],
                     support,
@@ -474,11 +477,11 @@ impl World {
         let mut c = [Contact::default(); MAX_CONTACTS];
         let o = &self.object;
         match self.geometry {
-            Geometry::Hand { weights } => {
+            Geometry::Hand { .. } => {
                 for i in 0..3 {
                     c[i] = Contact {
                         normal_n: self.normal_n[i],
-                        weight: weights[i],
+                        weight: 1.0,
                         mu_static: o.mu_static,
                         mu_kinetic: o.mu_kinetic,
                     };
@@ -503,6 +506,37 @@ impl World {
                 (c, 2)
             }
         }
+    }
+
+    /// How the contacts carry `need_n` (N, > 0 pulls the object down through the grasp)
+    /// while the object does not move relative to the fingers; `None`: gross slip. The
+    /// hand's by force and moment balance ([`statics`]): each contact's tangential load is
+    /// given as its size, signed by whether it holds the object up. The rail's guides by
+    /// [`share_stuck_load`] (they keep the object from turning).
+    fn stuck_share(&self, need_n: f64, contacts: &[Contact]) -> Option<StuckShare> {
+        let Geometry::Hand { gravity } = self.geometry else {
+            return share_stuck_load(need_n, contacts);
+        };
+        let mut share = StuckShare::default();
+        if need_n <= 0.0 {
+            return Some(share);
+        }
+        let points = statics::pinch_contacts(
+            self.object.width_mm / 2.0,
+            self.cfg.physics.finger_half_spacing_mm,
+            [0.0; 3],
+            self.normal_n,
+            self.object.mu_static,
+            self.object.mu_kinetic,
+        );
+        let held = statics::held_loads(&points, gravity.map(|g| g * need_n)).ok()?;
+        for i in 0..3 {
+            let [ty, tw] = held.tangential_n[i];
+            let up = -(ty * gravity[1] + tw * gravity[2]);
+            share.tangential_n[i] = held.magnitude_n(i).copysign(up);
+        }
+        share.local_slip[..3].copy_from_slice(&held.local_slip);
+        Some(share)
     }
 
     fn step(&mut self) {
@@ -536,7 +570,7 @@ impl World {
         let mut tangential = [0.0; MAX_CONTACTS];
         let mut local_slip = [false; MAX_CONTACTS];
         if self.stuck {
-            match share_stuck_load(need_n, contacts) {
+            match self.stuck_share(need_n, contacts) {
                 Some(share) => {
                     tangential = share.tangential_n;
                     local_slip = share.local_slip;
@@ -613,7 +647,7 @@ impl World {
             if self.in_grasp
                 && crossed
                 && v_rel.abs() > 1e-9
-                && share_stuck_load(need_n, contacts).is_some()
+                && self.stuck_share(need_n, contacts).is_some()
             {
                 self.stuck = true;
                 self.vz_mm_s = hand_v;

@@ -69,8 +69,8 @@ pub fn contact_closure(base: &SimConfig, object: &str) -> Result<f64, SimError> 
 /// Finger position (0..1) of a symmetric pinch grasp that holds `object` (plus
 /// `extra_mass_g`) with `safety` times the normal force the most loaded contact needs.
 ///
-/// The thumb carries `(1 + b) / 2` of the weight (`b` the grasp's load bias) and holds while
-/// that is at most `mu_s N_thumb`. The object shifts until each finger presses with half the
+/// The thumb carries half the weight (the grasp statics of a centred object: see
+/// `tmo_sim::statics`) and holds while that is at most `mu_s N_thumb`. The object shifts until each finger presses with half the
 /// thumb's force, so with equal finger travel `a` past touch and the contact law's travel
 /// `p(N)`: `a + y = p(N_thumb)`, `a - y = p(N_thumb / 2)`. The servos are commanded half
 /// the tendon's free play further, as the fingers trail them while closing.
@@ -83,7 +83,7 @@ pub fn holding_closure(
     let spec = ObjectLibrary::built_in().get(object)?.clone();
     let p = &base.physics;
     let weight = (spec.mass_g + extra_mass_g) / 1000.0 * p.gravity_m_s2;
-    let thumb_force = safety * weight * (1.0 + p.thumb_load_bias.abs()) / (2.0 * spec.mu_static);
+    let thumb_force = safety * weight / (2.0 * spec.mu_static);
     let law = tmo_sim::nominal_contact_law(p, &spec);
     let travel = 0.5 * (law.travel_mm(thumb_force) + law.travel_mm(thumb_force / 2.0));
     // Closing from open, each finger trails its motor by half the tendon's free play.
