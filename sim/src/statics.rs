@@ -85,12 +85,13 @@ fn solve5(mut k: [[f64; 5]; 5], mut g: [f64; 5]) -> Option<[f64; 5]> {
         }
         k.swap(col, pivot);
         g.swap(col, pivot);
+        let (pivot_row, g_pivot) = (k[col], g[col]);
         for row in col + 1..5 {
-            let f = k[row][col] / k[col][col];
-            for c in col..5 {
-                k[row][c] -= f * k[col][c];
+            let f = k[row][col] / pivot_row[col];
+            for (v, p) in k[row].iter_mut().zip(&pivot_row).skip(col) {
+                *v -= f * p;
             }
-            g[row] -= f * g[col];
+            g[row] -= f * g_pivot;
         }
     }
     let mut q = [0.0; 5];

@@ -478,9 +478,9 @@ impl World {
         let o = &self.object;
         match self.geometry {
             Geometry::Hand { .. } => {
-                for i in 0..3 {
-                    c[i] = Contact {
-                        normal_n: self.normal_n[i],
+                for (c, &normal_n) in c.iter_mut().zip(&self.normal_n) {
+                    *c = Contact {
+                        normal_n,
                         weight: 1.0,
                         mu_static: o.mu_static,
                         mu_kinetic: o.mu_kinetic,
