@@ -496,7 +496,7 @@ impl Default for PhysicsParams {
             step_s: 0.001,
             gravity_m_s2: 9.81,
             finger_travel_mm: 75.0,
-            finger_stiffness_n_per_mm: 0.5,
+            finger_stiffness_n_per_mm: 0.8,
             skin_modulus_kpa: 350.0,
             skin_poisson: 0.5,
             dome_radius_mm: 10.0,
