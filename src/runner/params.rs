@@ -84,6 +84,10 @@ pub(crate) fn release_params(
     }
 }
 
+/// How far the rail's arm retracts at most, mm: past where the finger's press (7.5 mm of
+/// fingertip travel) is gone, so every object slips before the end.
+const RAIL_RETRACT_MM: f64 = 10.0;
+
 pub(crate) fn rail_params(
     plan: &Plan,
     p: &RailCatch,
@@ -93,15 +97,18 @@ pub(crate) fn rail_params(
     let speed = retract_speed_mm_s(p, planned);
     RailParams {
         retract_speed_mm_s: speed,
-        retract_mm: 10.0,
+        retract_mm: RAIL_RETRACT_MM,
         forward_mm: p.forward_mm,
         forward_speed_mm_s: crate::protocol::RAIL_FORWARD_SPEED_MM_S,
         torque_limit: p.initial_torque,
         torque_step: p.torque_step,
         max_torque: plan.safety.max_torque,
         observe_s: 1.5,
-        // slip comes after about 1.2 mm of retraction
-        max_duration_s: (3.0 / speed + 1.5).min(p.max_duration_s),
+        // The whole retraction and the watch after it, within the protocol's limit: how far
+        // the arm must go before the object slips depends on the object and the press (a
+        // limit of 3 mm of retraction, set for the old 120 g rail object, left a quarter of
+        // the trials with the 50 g one ending before any slip).
+        max_duration_s: (RAIL_RETRACT_MM / speed + 1.5).min(p.max_duration_s),
         watch,
     }
 }
