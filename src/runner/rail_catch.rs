@@ -6,13 +6,25 @@
 use std::sync::atomic::AtomicBool;
 
 use serde_json::json;
-use tmo_hal::{Arm, Clock, Hand, MarkerTracker, TactileSensor};
+use tmo_hal::{Arm, Clock, Hand, MarkerSample, MarkerTracker, TactileSensor};
 
 use super::monitor::{Verdict, WatchLimits};
 use super::trial_run::TrialRun;
 use super::{Fault, Online, RunRecord, SETTLE_S};
 use crate::online::classify::Reaction;
 use crate::runner::devices::{device, Devices, ScenarioError};
+
+/// How far below where it started the marker must see the object for it to have left the
+/// fingertip (the outcome's drop limit): a trial ends its watch after that, as after a
+/// reaction, rather than recording an empty rail until the retraction ends.
+const DROPPED_MM: f64 = 80.0;
+
+fn has_dropped(markers: &[MarkerSample]) -> bool {
+    match (markers.first(), markers.last()) {
+        (Some(first), Some(last)) => last.object_mm < first.object_mm - DROPPED_MM,
+        _ => false,
+    }
+}
 
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct RailParams {
@@ -58,10 +70,18 @@ where
         json!({"move_linear_mm": [-p.retract_mm, 0.0, 0.0], "speed_mm_s": p.retract_speed_mm_s}),
     );
     let (mut reaction, mut fault): (Option<Reaction>, Option<Fault>) = (None, None);
+    let mut dropped_at = None;
     loop {
         let now = dev.clock.now_s();
-        if now - t0 >= p.max_duration_s || reaction.is_some_and(|r| now >= r.time_s + p.observe_s) {
+        let watched = |at: Option<f64>| at.is_some_and(|t| now >= t + p.observe_s);
+        if now - t0 >= p.max_duration_s
+            || watched(reaction.map(|r| r.time_s))
+            || watched(dropped_at)
+        {
             break;
+        }
+        if dropped_at.is_none() && has_dropped(&run.rec.markers) {
+            dropped_at = Some(now);
         }
         // armed from the tick on which the settling time ends
         let waiting = reaction.is_none() && now + super::TICK_S - t0 >= SETTLE_S;
