@@ -1,6 +1,17 @@
 //! The `tmo` command line. Exit codes: 0 success, 2 error (bad input or a failed run),
 //! 3 finished but some inputs were skipped (`tmo replay`), 130 a batch stopped by Ctrl-C.
 
+/// `println!` for results: an error, not a panic, when standard output fails (see
+/// `cli::output::write_out`). Only in functions that return `anyhow::Result`.
+macro_rules! outln {
+    () => {
+        $crate::cli::output::write_out(format_args!("\n"))?
+    };
+    ($($arg:tt)*) => {
+        $crate::cli::output::write_out(format_args!("{}\n", format_args!($($arg)*)))?
+    };
+}
+
 mod cli;
 
 use std::process::ExitCode;
@@ -125,7 +136,10 @@ fn run(cli: Cli) -> Result<u8> {
         return cli::reproduce::run(args);
     }
     if let Command::Completions { shell } = cli.command {
-        clap_complete::generate(shell, &mut Cli::command(), "tmo", &mut std::io::stdout());
+        // into memory first: `generate` panics if its writer fails
+        let mut script = Vec::new();
+        clap_complete::generate(shell, &mut Cli::command(), "tmo", &mut script);
+        cli::output::write_out(format_args!("{}", String::from_utf8_lossy(&script)))?;
         return Ok(0);
     }
     match cli.command {

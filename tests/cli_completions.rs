@@ -69,3 +69,27 @@ fn the_mock_backend_is_named_in_the_help_it_is_accepted_by() {
     let help = ok(&tmo(dir.path(), &["run", "--help"]));
     assert!(help.contains("`mock` is another name for it"), "{help}");
 }
+
+#[test]
+fn a_failing_standard_output_is_an_error_not_a_panic() {
+    // `> /dev/full`: every write fails with "no space left on device".
+    let dir = tempfile::tempdir().unwrap();
+    for args in [&["completions", "bash"][..], &["sim", "objects"][..]] {
+        let full = std::fs::OpenOptions::new()
+            .write(true)
+            .open("/dev/full")
+            .unwrap();
+        let out = std::process::Command::new(env!("CARGO_BIN_EXE_tmo"))
+            .current_dir(dir.path())
+            .args(args)
+            .stdout(full)
+            .output()
+            .unwrap();
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{args:?}: {stderr}");
+        assert!(
+            stderr.contains("cannot write to standard output") && !stderr.contains("panicked"),
+            "{args:?}: {stderr}"
+        );
+    }
+}

@@ -23,32 +23,40 @@ pub fn run(command: HardwareCommand) -> Result<()> {
                 .iter()
                 .map(|c| c.port.as_str())
                 .collect();
-            println!("{}: valid", file.display());
-            println!(
+            outln!("{}: valid", file.display());
+            outln!(
                 "  fingertip cameras {} ({} pins), marker camera {}",
                 ports.join(", "),
                 hw.cameras.pins,
                 hw.marker_camera.port
             );
-            println!(
+            outln!(
                 "  hand on {} at {} baud, servo ids {:?}",
-                hw.hand.port, hw.hand.baud, hw.hand.ids
+                hw.hand.port,
+                hw.hand.baud,
+                hw.hand.ids
             );
-            println!(
+            outln!(
                 "  arm at {} (RTDE {}, {} Hz; URScript {})",
-                hw.arm.host, hw.arm.rtde_port, hw.arm.frequency_hz, hw.arm.script_port
+                hw.arm.host,
+                hw.arm.rtde_port,
+                hw.arm.frequency_hz,
+                hw.arm.script_port
             );
             let s = &hw.safety;
-            println!(
+            outln!(
                 "  safety: grip <= {}, torque <= {}, arm <= {} mm/s within {:?} mm",
-                s.max_grip, s.max_torque, s.max_arm_speed_mm_s, s.workspace_mm
+                s.max_grip,
+                s.max_torque,
+                s.max_arm_speed_mm_s,
+                s.workspace_mm
             );
             match &hw.served_simulator {
-                Some(served) => println!(
+                Some(served) => outln!(
                     "  the served simulator: each trial's world is set up through {}",
                     served.control
                 ),
-                None => println!("  between trials an operator sets the rig up (or --unattended)"),
+                None => outln!("  between trials an operator sets the rig up (or --unattended)"),
             }
             Ok(())
         }

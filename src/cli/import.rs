@@ -98,7 +98,7 @@ pub fn run(command: ImportCommand) -> Result<()> {
     };
     let p = &first.trial.meta.parameters;
     let get = |k: &str| p.get(k).map_or("", String::as_str);
-    println!(
+    outln!(
         "{} trial(s): {} sensor(s) ({}) of {} elements, {}, about {} Hz, labels from the {}",
         trials.len(),
         first.trial.meta.sensors,
@@ -124,7 +124,7 @@ pub fn run(command: ImportCommand) -> Result<()> {
             .expect("a log has a folder")
             .to_path_buf()
         };
-        println!("  {n} trial log(s) in {}", dir.display());
+        outln!("  {n} trial log(s) in {}", dir.display());
     }
     Ok(())
 }

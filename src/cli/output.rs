@@ -6,7 +6,18 @@
 //! Warnings and errors are always said.
 
 use std::fmt::Display;
+use std::io::Write;
 use std::sync::atomic::{AtomicI8, Ordering};
+
+/// Writes a result to standard output, with an error rather than `println!`'s panic when it
+/// fails (a full disk, `> /dev/full`): tmo then says so and exits 2. A closed pipe still
+/// ends tmo quietly, as `main` restores SIGPIPE. Used through `outln!`.
+pub fn write_out(text: std::fmt::Arguments<'_>) -> anyhow::Result<()> {
+    let mut out = std::io::stdout().lock();
+    out.write_fmt(text)
+        .and_then(|()| out.flush())
+        .map_err(|e| anyhow::anyhow!("cannot write to standard output: {e}"))
+}
 
 /// Below 0: quiet; 0: normal; above 0: verbose.
 static LEVEL: AtomicI8 = AtomicI8::new(0);

@@ -275,14 +275,14 @@ pub fn replay_with(
     let t = table(&rows);
     let wall_s = started.elapsed().as_secs_f64();
     if !json {
-        println!(
+        outln!(
             "{} replays of {} trial(s) x {} model(s) x {} strateg(ies) in {wall_s:.1} s\n",
             rows.len(),
             trials.len(),
             models.len(),
             strategies.len(),
         );
-        print!("{}", t.markdown());
+        crate::cli::output::write_out(format_args!("{}", t.markdown()))?;
     }
     let mut outputs = Vec::new();
     if let Some(dir) = out {
@@ -295,7 +295,7 @@ pub fn replay_with(
         std::fs::write(dir.join("replay.md"), t.markdown())?;
         outputs = vec![dir.join("replay.csv"), dir.join("replay.md")];
         if !json {
-            println!(
+            outln!(
                 "wrote {} and {}",
                 outputs[0].display(),
                 outputs[1].display()
@@ -314,7 +314,7 @@ pub fn replay_with(
             "outcomes": rows,
             "outputs": outputs,
         });
-        println!("{}", serde_json::to_string_pretty(&v)?);
+        outln!("{}", serde_json::to_string_pretty(&v)?);
     }
     if skipped > 0 {
         eprintln!("{skipped} trial log(s) skipped (see above); exit code {EXIT_SKIPPED}");

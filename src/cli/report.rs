@@ -45,7 +45,7 @@ pub fn report(args: ReportArgs) -> Result<()> {
         return html_report(&args, &inputs, &tables);
     }
     if !tables.is_empty() {
-        print!("{}", report::render(&tables, args.format)?);
+        crate::cli::output::write_out(format_args!("{}", report::render(&tables, args.format)?))?;
     }
     let mut written = Vec::new();
     if let Some(dir) = &args.out {
@@ -91,7 +91,7 @@ fn html_report(
                 .with_context(|| format!("cannot write {}", path.display()))?;
             super::output::note(format!("wrote {}", path.display()));
         }
-        None => print!("{page}"),
+        None => crate::cli::output::write_out(format_args!("{page}"))?,
     }
     for p in &figures {
         super::output::note(format!("wrote {}", p.display()));

@@ -157,7 +157,7 @@ pub fn run(args: ReproduceArgs) -> Result<u8> {
             options.replicates,
             variants.as_deref(),
         )?;
-        print_report(&report, &options);
+        print_report(&report, &options)?;
         return Ok(0);
     }
     let stop = Arc::new(AtomicBool::new(false));
@@ -195,17 +195,17 @@ pub fn run(args: ReproduceArgs) -> Result<u8> {
             std::process::exit(EXIT_INTERRUPTED);
         }
         End::Finished { ran, kept, report } => {
-            println!(
+            outln!(
                 "reproduce ({} preset): {} step(s) run, {} already done, in {:.1} s",
                 options.preset.name(),
                 ran.len(),
                 kept.len(),
                 started.elapsed().as_secs_f64()
             );
-            print_report(&report, &options);
+            print_report(&report, &options)?;
         }
         End::Shard { ran, kept, record } => {
-            println!(
+            outln!(
                 "reproduce ({} preset), shard {}: {} step(s) run, {} already done, in {:.1} s; {} job(s) of the plan",
                 options.preset.name(),
                 record.shard,
@@ -214,7 +214,7 @@ pub fn run(args: ReproduceArgs) -> Result<u8> {
                 started.elapsed().as_secs_f64(),
                 record.jobs.len()
             );
-            println!(
+            outln!(
                 "wrote {} and the shard's step outputs under {}; join the shards with `tmo reproduce merge`",
                 options.out.join(reproduce::shards::RECORD).display(),
                 options.out.display()
@@ -226,15 +226,17 @@ pub fn run(args: ReproduceArgs) -> Result<u8> {
 
 fn merge(args: MergeArgs) -> Result<u8> {
     let merged = reproduce::shards::merge(&args.shards, &args.out)?;
-    println!(
+    outln!(
         "merged {} shards ({} jobs; the longest shard took {:.1} s)",
-        merged.shards, merged.jobs, merged.longest_shard_s
+        merged.shards,
+        merged.jobs,
+        merged.longest_shard_s
     );
-    println!("{}", merged.report.summary_line());
+    outln!("{}", merged.report.summary_line());
     if let Some(line) = merged.report.agreement_line() {
-        println!("{line}");
+        outln!("{line}");
     }
-    println!(
+    outln!(
         "wrote {} (open it in a browser), {}, {} and every replicate's step outputs under {}",
         merged.report.html.display(),
         merged.report.md.display(),
@@ -244,19 +246,20 @@ fn merge(args: MergeArgs) -> Result<u8> {
     Ok(0)
 }
 
-fn print_report(report: &reproduce::page::Written, options: &Options) {
-    println!("{}", report.summary_line());
+fn print_report(report: &reproduce::page::Written, options: &Options) -> Result<()> {
+    outln!("{}", report.summary_line());
     if let Some((n, agree)) = report.truth_agreement {
-        println!(
+        outln!(
             "marker-scored verdicts agree with the simulator's ground truth in {agree} of {n} catch trials ({:.1} %)",
             100.0 * agree as f64 / n.max(1) as f64
         );
     }
-    println!(
+    outln!(
         "wrote {} (open it in a browser), {}, {} and every replicate's step outputs under {}",
         report.html.display(),
         report.md.display(),
         report.json.display(),
         options.out.display()
     );
+    Ok(())
 }

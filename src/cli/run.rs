@@ -231,7 +231,7 @@ pub fn run(args: RunArgs) -> Result<u8> {
         }
     };
     if args.json {
-        println!(
+        outln!(
             "{}",
             serde_json::to_string_pretty(&summary_json(&out, plan.kind, summary)?)?
         );
@@ -279,7 +279,7 @@ fn summary_json(out: &Path, kind: Kind, mut summary: BatchSummary) -> Result<ser
 
 /// What `tmo run` prints after a batch: counts, the kind's table, where the files went.
 pub fn print_summary(out: &Path, kind: Kind, mut summary: BatchSummary) -> Result<()> {
-    println!(
+    outln!(
         "{} trials ({} run, {} already there) in {:.1} s",
         summary.ran + summary.kept,
         summary.ran,
@@ -287,17 +287,17 @@ pub fn print_summary(out: &Path, kind: Kind, mut summary: BatchSummary) -> Resul
         summary.wall_s
     );
     if summary.rerun_faulted > 0 {
-        println!(
+        outln!(
             "{} faulted trial(s) run again; their earlier logs are beside the batch as <id>.faulted-<n>.mcap",
             summary.rerun_faulted
         );
     }
     let aborted = summary.rows.aborted();
     if aborted > 0 {
-        println!("{aborted} trial(s) aborted by a fault (see the fault column)");
+        outln!("{aborted} trial(s) aborted by a fault (see the fault column)");
     }
     if let Some((n, agree)) = summary.rows.truth_agreement() {
-        println!(
+        outln!(
             "marker-scored verdicts agree with the simulator's ground truth in {agree} of {n} trials ({:.0} %)",
             100.0 * agree as f64 / n as f64
         );
@@ -314,14 +314,17 @@ pub fn print_summary(out: &Path, kind: Kind, mut summary: BatchSummary) -> Resul
     }
     let tables = batch_tables(out, kind, &mut summary);
     if tables.is_empty() {
-        println!("(a collect batch: its outcomes are in the files below)");
+        outln!("(a collect batch: its outcomes are in the files below)");
     } else {
-        print!("{}", tmo::report::render(&tables, tmo::report::Format::Md)?);
+        crate::cli::output::write_out(format_args!(
+            "{}",
+            tmo::report::render(&tables, tmo::report::Format::Md)?
+        ))?;
     }
     if summary.without_calibration {
-        println!("(no overgrasp: set first_time_lift.calibration to a calibrate_lift batch's g_min.json)");
+        outln!("(no overgrasp: set first_time_lift.calibration to a calibrate_lift batch's g_min.json)");
     }
-    println!(
+    outln!(
         "wrote trial logs to {}, and {}",
         out.display(),
         outputs.join(", ")

@@ -192,7 +192,7 @@ pub fn serve_cmd(args: ServeArgs) -> Result<()> {
     );
     std::fs::write(&args.out, text)
         .with_context(|| format!("cannot write {}", args.out.display()))?;
-    println!(
+    outln!(
         "serving the simulated rig ({object}): cameras {}, markers {}, hand bus {}, UR at {ur_ip} (RTDE {rtde_port}, URScript {script_port}), control {control_addr}",
         served
             .cameras
@@ -204,7 +204,7 @@ pub fn serve_cmd(args: ServeArgs) -> Result<()> {
         served.marker_camera.port,
         served.hand.port,
     );
-    println!(
+    outln!(
         "wrote {} (use it as --hardware); Ctrl-C stops",
         args.out.display()
     );
@@ -242,7 +242,7 @@ pub fn serve_cmd(args: ServeArgs) -> Result<()> {
     serve_controlled(&rig, &mut devices, Some(&mut control), tap, &stop)?;
     let ur = devices.ur.map(|u| u.stats).unwrap_or_default();
     let sent: u64 = devices.cameras.iter().map(|c| c.sent_lines).sum();
-    println!(
+    outln!(
         "stopped: {sent} camera lines, {} RTDE packages, {} URScript lines ({} refused), {} bus packets, {} resets",
         ur.data_packages,
         ur.script_lines,

@@ -90,7 +90,7 @@ pub struct TraceArgs {
 pub fn run(command: SimCommand) -> Result<()> {
     match command {
         SimCommand::Objects => {
-            list_objects();
+            list_objects()?;
             Ok(())
         }
         SimCommand::Parameters => list_parameters().context("cannot write to standard output"),
@@ -142,13 +142,19 @@ fn list_parameters() -> std::io::Result<()> {
     Ok(())
 }
 
-fn list_objects() {
-    println!(
+fn list_objects() -> Result<()> {
+    outln!(
         "{:<16} {:>6} {:>9} {:>10} {:>5} {:>5} {:>8}",
-        "name", "ycb", "mass_g", "width_mm", "mu_s", "mu_k", "k_N/mm"
+        "name",
+        "ycb",
+        "mass_g",
+        "width_mm",
+        "mu_s",
+        "mu_k",
+        "k_N/mm"
     );
     for o in ObjectLibrary::built_in().iter() {
-        println!(
+        outln!(
             "{:<16} {:>6} {:>9.1} {:>10.1} {:>5.2} {:>5.2} {:>8.1}",
             o.name,
             o.ycb_id.as_deref().unwrap_or("-"),
@@ -159,6 +165,7 @@ fn list_objects() {
             o.stiffness_n_per_mm
         );
     }
+    Ok(())
 }
 
 fn load_sim_config(path: &Path) -> Result<SimConfig> {
@@ -218,27 +225,30 @@ fn sim_trace(args: TraceArgs) -> Result<()> {
         }
     };
     let last = truth.last().cloned().unwrap_or_default();
-    println!(
+    outln!(
         "scenario {:?}, seed {}, {:.1} s simulated in {:.2} s",
-        args.scenario, args.seed, args.duration, elapsed
+        args.scenario,
+        args.seed,
+        args.duration,
+        elapsed
     );
-    println!("  slip onsets (s):  {}", times(&events.slip_onsets_s));
-    println!("  catches (s):      {}", times(&events.catches_s));
-    println!(
+    outln!("  slip onsets (s):  {}", times(&events.slip_onsets_s));
+    outln!("  catches (s):      {}", times(&events.catches_s));
+    outln!(
         "  dropped at (s):   {}",
         events.drop_s.map_or("no".into(), |t| format!("{t:.3}"))
     );
-    println!(
+    outln!(
         "  object height:    {:.1} mm at the end (started {:.1} mm)",
         last.object_mm,
         truth.first().map_or(0.0, |t| t.object_mm)
     );
-    println!(
+    outln!(
         "  frames: {}, marker samples: {}",
         recording.frames.len(),
         recording.markers.len()
     );
-    println!(
+    outln!(
         "wrote {}, {}, {}, {}",
         files.truth.display(),
         files.pins.display(),

@@ -255,7 +255,7 @@ pub fn dataset_export(args: ExportArgs) -> Result<()> {
             .with_context(|| format!("cannot write {}", args.out.display()))?;
         tmo::import::export_interchange(&trials, &labels.onset, std::io::BufWriter::new(file))
             .with_context(|| format!("cannot write {}", args.out.display()))?;
-        println!(
+        outln!(
             "wrote {} trial(s) as interchange CSV to {}",
             trials.len(),
             args.out.display()
@@ -266,7 +266,7 @@ pub fn dataset_export(args: ExportArgs) -> Result<()> {
     let ds = ds.downsample_static(args.labels.downsample_or(1.0), args.labels.seed);
     ds.write_csv(&args.out)
         .with_context(|| format!("cannot write {}", args.out.display()))?;
-    println!(
+    outln!(
         "wrote {} rows ({} static, {} slip) to {}",
         ds.len(),
         ds.count(tmo::slip::Class::Static),
@@ -276,13 +276,14 @@ pub fn dataset_export(args: ExportArgs) -> Result<()> {
     Ok(())
 }
 
-fn print_scores(label: &str, s: &Scores) {
+fn print_scores(label: &str, s: &Scores) -> Result<()> {
     let c = &s.confusion;
-    println!(
+    outln!(
         "{label:<10} macro F1 {:.3} | slip P {:.3} R {:.3} F1 {:.3} | static P {:.3} R {:.3} F1 {:.3} | TP {} FP {} TN {} FN {}",
         s.macro_f1, s.slip.precision, s.slip.recall, s.slip.f1, s.static_.precision, s.static_.recall, s.static_.f1,
         c.true_slip, c.false_slip, c.true_static, c.false_static
     );
+    Ok(())
 }
 
 /// Checks where a model will be written before any training: a fit takes minutes, and its
@@ -382,7 +383,7 @@ pub fn train(args: TrainArgs) -> Result<()> {
             } else {
                 String::new()
             };
-            println!(
+            outln!(
                 "search: {} evaluations, best cross-validated macro F1 {best:.3} at C = {:.4}{gamma}",
                 record.evaluations.len(),
                 hyper.c
@@ -432,7 +433,7 @@ pub fn train(args: TrainArgs) -> Result<()> {
         eprintln!("warning: {u}");
     }
     let fitted: usize = file.models.iter().map(|m| m.training_rows).sum();
-    println!(
+    outln!(
         "trained {} ({} scope) on {} trials: {} rows, {} of them fitted (static rows down-sampled to {}), in {:.2} s",
         args.classifier.name(),
         args.scope.name(),
@@ -443,16 +444,16 @@ pub fn train(args: TrainArgs) -> Result<()> {
         started.elapsed().as_secs_f64()
     );
     if let Some(folds) = &held_out {
-        print_held_out(folds);
+        print_held_out(folds)?;
     }
-    println!("scores on the fitted rows (training data; `tmo evaluate` scores held-out trials):");
+    outln!("scores on the fitted rows (training data; `tmo evaluate` scores held-out trials):");
     for m in &file.models {
         let label = m
             .sensor
             .map_or("global".to_string(), |s| format!("sensor {s}"));
-        print_scores(&label, &m.training_scores);
+        print_scores(&label, &m.training_scores)?;
     }
-    println!("wrote {}", args.out.display());
+    outln!("wrote {}", args.out.display());
     Ok(())
 }
 
@@ -497,11 +498,11 @@ fn cross_validate_fixed(
 /// The held-out folds' scores, labelled as such, and a warning for a fold on which the
 /// model detects (almost) no slip: such a model scores well on its training rows and never
 /// fires on a new trial.
-fn print_held_out(folds: &[tmo::slip::metrics::Scores]) {
+fn print_held_out(folds: &[tmo::slip::metrics::Scores]) -> Result<()> {
     let n = folds.len() as f64;
     let mean = |f: fn(&tmo::slip::metrics::Scores) -> f64| folds.iter().map(f).sum::<f64>() / n;
     let each: Vec<String> = folds.iter().map(|s| format!("{:.3}", s.macro_f1)).collect();
-    println!(
+    outln!(
         "held-out scores, cross-validated by trial ({} folds, each scored on every row of its trials by a model trained on the others): macro F1 {:.3} (folds {}), slip precision {:.3}, slip recall {:.3}",
         folds.len(),
         mean(|s| s.macro_f1),
@@ -519,6 +520,7 @@ fn print_held_out(folds: &[tmo::slip::metrics::Scores]) {
             );
         }
     }
+    Ok(())
 }
 
 pub fn evaluate(args: EvaluateArgs) -> Result<()> {
@@ -532,15 +534,15 @@ pub fn evaluate(args: EvaluateArgs) -> Result<()> {
     }
     let (overall, per_sensor) = model.evaluate(&ds)?;
     if !args.json {
-        println!(
+        outln!(
             "{} ({} scope) on {} rows",
             model.classifier.name(),
             model.scope.name(),
             ds.len()
         );
-        print_scores("overall", &overall);
+        print_scores("overall", &overall)?;
         for (s, scores) in &per_sensor {
-            print_scores(&format!("sensor {s}"), scores);
+            print_scores(&format!("sensor {s}"), scores)?;
         }
     }
     if args.out.is_none() && !args.json {
@@ -556,7 +558,7 @@ pub fn evaluate(args: EvaluateArgs) -> Result<()> {
     )?;
     let text = serde_json::to_string_pretty(&evaluation)?;
     if args.json {
-        println!("{text}");
+        outln!("{text}");
     }
     if let Some(out) = &args.out {
         std::fs::write(out, &text).with_context(|| format!("cannot write {}", out.display()))?;
@@ -564,7 +566,7 @@ pub fn evaluate(args: EvaluateArgs) -> Result<()> {
         if args.json {
             super::output::note(format!("wrote {}", out.display()));
         } else {
-            println!("wrote {}", out.display());
+            outln!("wrote {}", out.display());
         }
     }
     Ok(())

@@ -293,7 +293,9 @@ pub fn sweep(args: SweepArgs) -> Result<()> {
             if args.json {
                 super::output::note(&line);
             } else {
-                println!("{line}");
+                // A failing standard output is reported by the results printed after the
+                // sweep; this callback cannot return it.
+                let _ = super::output::write_out(format_args!("{line}\n"));
             }
             let c = costs.get_or_init(|| spec.costs(cells, &train));
             cells_to_run.store(cells.len(), std::sync::atomic::Ordering::Relaxed);
@@ -489,10 +491,10 @@ fn write_outputs(
             "best": best,
             "outputs": outputs,
         });
-        println!("{}", serde_json::to_string_pretty(&v)?);
+        outln!("{}", serde_json::to_string_pretty(&v)?);
         return Ok(());
     }
-    println!(
+    outln!(
         "{} cells in {:.1} s; best test macro F1 per classifier:",
         rows.len(),
         seconds
@@ -508,15 +510,15 @@ fn write_outputs(
             (Some(c), None) => format!(" (C {c:.4})"),
             _ => String::new(),
         };
-        println!(
+        outln!(
             "  {:<10} {:.3} at n_slip {:>2}, d {}{hyper}; mean over {cells} cells {mean_macro_f1:.3}",
             r.classifier, r.macro_f1, r.n_slip, r.downsample,
         );
     }
-    println!("wrote {} and {}", out.display(), meta_path.display());
+    outln!("wrote {} and {}", out.display(), meta_path.display());
     if !figures.is_empty() {
         let names: Vec<String> = figures.iter().map(|p| p.display().to_string()).collect();
-        println!("wrote {}", names.join(", "));
+        outln!("wrote {}", names.join(", "));
     }
     Ok(())
 }
@@ -635,7 +637,7 @@ fn merge_shards(args: MergeArgs) -> Result<()> {
     provenance.command = std::env::args().collect();
     // the shards ran side by side: the sweep took as long as the slowest
     provenance.wall_seconds = wall;
-    println!("merged {count} shards into {} cells", rows.len());
+    outln!("merged {count} shards into {} cells", rows.len());
     write_outputs(
         &args.out,
         &provenance,
