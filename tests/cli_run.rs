@@ -552,3 +552,35 @@ fn a_resume_keeps_faulted_trials_unless_asked_to_run_them_again() {
     assert_eq!(again.frames, first.frames);
     assert!(d.join("b/trial-00001.faulted-1.mcap").exists());
 }
+
+#[test]
+fn a_resume_refuses_an_empty_trial_log_rather_than_scoring_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let protocol =
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("protocols/rail_collect.toml");
+    let protocol = protocol.to_str().unwrap();
+    ok(&tmo(d, &["run", protocol, "--repeat", "2", "--out", "b"]));
+    // a valid log with the trial's metadata and no messages
+    let log = d.join("b/trial-00001.mcap");
+    let mut trial = tmo::trial::read_trial(&log).unwrap();
+    trial.frames.clear();
+    trial.markers.clear();
+    trial.events.clear();
+    tmo::trial::write_trial(&log, &trial).unwrap();
+    let err = fails(&tmo(
+        d,
+        &["run", protocol, "--repeat", "2", "--out", "b", "--resume"],
+    ));
+    assert!(
+        err.contains("trial-00001.mcap") && err.contains("holds no messages"),
+        "{err}"
+    );
+    // moved away, the trial is recorded anew
+    std::fs::rename(&log, d.join("empty.mcap")).unwrap();
+    let again = ok(&tmo(
+        d,
+        &["run", protocol, "--repeat", "2", "--out", "b", "--resume"],
+    ));
+    assert!(again.contains("(1 run, 1 already there)"), "{again}");
+}

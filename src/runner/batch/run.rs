@@ -502,6 +502,14 @@ fn score_kept(
         Some(format!("its seed is {}, the trial's {}", m.seed, t.seed))
     } else if m.protocol_sha256.as_deref() != Some(plan.source_sha256.as_str()) {
         Some("another protocol made it".to_string())
+    } else if trial.markers.is_empty()
+        && trial.events.is_empty()
+        && !m.parameters.contains_key("fault")
+    {
+        // Every trial logs its commands and the marker track until it ends, unless a fault
+        // ended it first (the scoring read skips the frames): a log with neither is a
+        // damaged one, and scoring it would invent a "held, no slip".
+        Some("it holds no messages (no marker track, no events), and no fault says why".to_string())
     } else {
         None
     };
