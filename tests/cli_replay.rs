@@ -139,6 +139,41 @@ fn damaged_logs_are_named_skipped_and_the_rest_evaluated() {
     assert_eq!(v["skipped"], 2);
     assert_eq!(v["outcomes"].as_array().unwrap().len(), 14);
     assert_eq!(v["table"]["name"], "replay");
+    // Nothing counts twice without a word: a strategy named twice, a copied log (replay and
+    // evaluate alike), the same folder given twice.
+    let err = fails(&tmo(
+        d,
+        &[
+            "replay",
+            "b",
+            "--model",
+            "global.json",
+            "--strategy",
+            "2x2,1x1,2x2",
+        ],
+    ));
+    assert!(
+        err.contains("2x2") && err.contains("more than once"),
+        "{err}"
+    );
+    std::fs::write(log(3), &bytes).unwrap();
+    std::fs::remove_file(log(7)).unwrap();
+    std::fs::copy(log(0), d.join("b/copy.mcap")).unwrap();
+    for args in [
+        &["replay", "b", "--model", "global.json"][..],
+        &["evaluate", "global.json", "b"][..],
+    ] {
+        let err = fails(&tmo(d, args));
+        assert!(
+            err.contains("copy.mcap")
+                && err.contains("trial-00000.mcap")
+                && err.contains("same trial log"),
+            "{args:?}: {err}"
+        );
+    }
+    std::fs::remove_file(d.join("b/copy.mcap")).unwrap();
+    let err = fails(&tmo(d, &["evaluate", "global.json", "b", "b"]));
+    assert!(err.contains("same trial log"), "{err}");
 }
 
 #[test]

@@ -239,7 +239,9 @@ fn a_collection_is_the_protocol_tmo_run_runs() {
         assert_eq!(a.meta.seed, b.meta.seed);
         assert_eq!(a.meta.kind, "rail_catch_collect");
         // the object's length travels with the trial (the labels read it from there)
-        assert_eq!(a.meta.object_length_mm(), Some(240.0));
+        let library = tmo_sim::ObjectLibrary::built_in();
+        let length = library.get("rail_object").unwrap().length_mm;
+        assert_eq!(a.meta.object_length_mm(), Some(length));
         assert_eq!(a.frames, b.frames);
         assert_eq!(a.markers, b.markers);
         assert_eq!(a.events, b.events);

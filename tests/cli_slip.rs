@@ -231,6 +231,7 @@ fn the_slurm_scripts_run_an_array_of_shards_then_the_merge() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     collect(d, "8", "trials", "5");
+    collect(d, "8", "test", "6");
     std::fs::create_dir(d.join("bin")).unwrap();
     let sbatch = d.join("bin/sbatch");
     std::fs::write(&sbatch, FAKE_SBATCH).unwrap();
@@ -251,7 +252,7 @@ fn the_slurm_scripts_run_an_array_of_shards_then_the_merge() {
         .env("SHARDS", "2")
         .env("TMO", env!("CARGO_BIN_EXE_tmo"))
         .env("TRIALS", "trials")
-        .env("TEST", "trials")
+        .env("TEST", "test")
         .env("OUT", "res/sweep.csv")
         .env(
             "SWEEP_ARGS",

@@ -134,6 +134,14 @@ pub fn replay(args: ReplayArgs) -> Result<bool> {
         .iter()
         .map(|s| s.parse().with_context(|| format!("--strategy {s}")))
         .collect::<Result<_>>()?;
+    // A strategy named twice would count every trial twice in its cells.
+    for (i, s) in strategies.iter().enumerate() {
+        anyhow::ensure!(
+            !strategies[..i].contains(s),
+            "--strategy {}: named more than once (each strategy is replayed once)",
+            args.strategy[i]
+        );
+    }
     replay_with(
         &args.trials,
         &args.models,
@@ -190,6 +198,20 @@ pub fn replay_with(
         .collect::<Result<_>>()?;
     let paths = expand_trial_paths(trial_paths)?;
     anyhow::ensure!(!paths.is_empty(), "no trial logs (.mcap) found");
+    let hashes = paths
+        .iter()
+        .map(|p| {
+            Ok(sha256_hex(
+                &std::fs::read(p).with_context(|| p.display().to_string())?,
+            ))
+        })
+        .collect::<Result<Vec<String>>>()?;
+    tmo::trial::refuse_duplicates(
+        paths
+            .iter()
+            .map(PathBuf::as_path)
+            .zip(hashes.iter().map(String::as_str)),
+    )?;
     // A damaged log is named and skipped; the rest of the set is still evaluated.
     let mut trials: Vec<(String, Trial)> = Vec::new();
     let mut skipped = 0;

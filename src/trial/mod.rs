@@ -185,6 +185,25 @@ pub enum TrialError {
         found: u32,
         supported: u32,
     },
+    #[error("{path} is the same trial log as {first} (a copy, or given twice): each trial counts once; leave one of them out")]
+    Duplicate { path: PathBuf, first: PathBuf },
+}
+
+/// Refuses a set of logs in which one file's bytes repeat another's: a copied log (or a
+/// folder given twice) would otherwise count its trial twice.
+pub fn refuse_duplicates<'a>(
+    logs: impl IntoIterator<Item = (&'a Path, &'a str)>,
+) -> Result<(), TrialError> {
+    let mut seen: std::collections::HashMap<&str, &Path> = std::collections::HashMap::new();
+    for (path, hash) in logs {
+        if let Some(first) = seen.insert(hash, path) {
+            return Err(TrialError::Duplicate {
+                path: path.into(),
+                first: first.into(),
+            });
+        }
+    }
+    Ok(())
 }
 
 /// Why a write failed, in words that name a full disk as such.
@@ -465,7 +484,11 @@ pub fn load_trials(paths: &[PathBuf]) -> Result<Vec<(PathBuf, String, Trial)>, T
         })
         .collect::<Vec<Result<_, TrialError>>>()
         .into_iter()
-        .collect()
+        .collect::<Result<Vec<(PathBuf, String, Trial)>, TrialError>>()
+        .and_then(|loaded| {
+            refuse_duplicates(loaded.iter().map(|(p, h, _)| (p.as_path(), h.as_str())))?;
+            Ok(loaded)
+        })
 }
 
 /// The `.mcap` files among `paths`, with directories expanded (sorted by name); in a
