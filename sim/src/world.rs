@@ -2,6 +2,7 @@
 //! marker tracker. Device handles (see `mod.rs`) read from and command this state; only the
 //! virtual clock advances it.
 
+use std::cell::Cell;
 use std::collections::VecDeque;
 
 use rand::{Rng, SeedableRng};
@@ -166,6 +167,9 @@ pub(crate) struct World {
     rolled_at_n: [f64; 3],
     /// Tangential and normal load each stuck patch's shear was last worked out for.
     stuck_load: [Option<(f64, f64)>; 3],
+    /// The last grasp statics solved: load, normal forces and the share (`None`: gross
+    /// slip). A held grasp keeps both most of the time, and the solve was most of a step.
+    statics_solved: Cell<Option<(f64, [f64; 3], Option<StuckShare>)>>,
     sensors: Vec<SensorUnit>,
     markers: MarkerUnit,
     events: TruthEvents,
@@ -352,6 +356,7 @@ impl World {
             roll_target_mm: [0.0; 3],
             carried_mm: [0.0; 3],
             stuck_load: [None; 3],
+            statics_solved: Cell::new(None),
             rolled_at_n: [f64::NAN; 3],
             sensors,
             markers,
@@ -521,6 +526,19 @@ impl World {
         if need_n <= 0.0 {
             return Some(share);
         }
+        if let Some((load, normals, solved)) = self.statics_solved.get() {
+            if load == need_n && normals == self.normal_n {
+                return solved;
+            }
+        }
+        let solved = self.solve_statics(need_n, gravity, &mut share);
+        self.statics_solved
+            .set(Some((need_n, self.normal_n, solved.then_some(share))));
+        solved.then_some(share)
+    }
+
+    /// [`Self::stuck_share`]'s solve: fills `share`; false on gross slip.
+    fn solve_statics(&self, need_n: f64, gravity: [f64; 3], share: &mut StuckShare) -> bool {
         let points = statics::pinch_contacts(
             self.object.width_mm / 2.0,
             self.cfg.physics.finger_half_spacing_mm,
@@ -529,14 +547,16 @@ impl World {
             self.object.mu_static,
             self.object.mu_kinetic,
         );
-        let held = statics::held_loads(&points, gravity.map(|g| g * need_n)).ok()?;
+        let Ok(held) = statics::held_loads(&points, gravity.map(|g| g * need_n)) else {
+            return false;
+        };
         for i in 0..3 {
             let [ty, tw] = held.tangential_n[i];
             let up = -(ty * gravity[1] + tw * gravity[2]);
             share.tangential_n[i] = held.magnitude_n(i).copysign(up);
         }
         share.local_slip[..3].copy_from_slice(&held.local_slip);
-        Some(share)
+        true
     }
 
     fn step(&mut self) {
