@@ -124,6 +124,9 @@ enum Geometry {
     },
 }
 
+/// A grasp statics solve: the load, the normal forces, and the share (`None`: gross slip).
+type SolvedStatics = (f64, [f64; 3], Option<StuckShare>);
+
 pub(crate) struct World {
     cfg: SimConfig,
     object: ObjectSpec,
@@ -169,7 +172,7 @@ pub(crate) struct World {
     stuck_load: [Option<(f64, f64)>; 3],
     /// The last grasp statics solved: load, normal forces and the share (`None`: gross
     /// slip). A held grasp keeps both most of the time, and the solve was most of a step.
-    statics_solved: Cell<Option<(f64, [f64; 3], Option<StuckShare>)>>,
+    statics_solved: Cell<Option<SolvedStatics>>,
     sensors: Vec<SensorUnit>,
     markers: MarkerUnit,
     events: TruthEvents,
