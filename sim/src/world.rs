@@ -525,23 +525,22 @@ impl World {
         let Geometry::Hand { gravity } = self.geometry else {
             return share_stuck_load(need_n, contacts);
         };
-        let mut share = StuckShare::default();
         if need_n <= 0.0 {
-            return Some(share);
+            return Some(StuckShare::default());
         }
         if let Some((load, normals, solved)) = self.statics_solved.get() {
             if load == need_n && normals == self.normal_n {
                 return solved;
             }
         }
-        let solved = self.solve_statics(need_n, gravity, &mut share);
+        let solved = self.solve_statics(need_n, gravity);
         self.statics_solved
-            .set(Some((need_n, self.normal_n, solved.then_some(share))));
-        solved.then_some(share)
+            .set(Some((need_n, self.normal_n, solved)));
+        solved
     }
 
-    /// [`Self::stuck_share`]'s solve: fills `share`; false on gross slip.
-    fn solve_statics(&self, need_n: f64, gravity: [f64; 3], share: &mut StuckShare) -> bool {
+    /// [`Self::stuck_share`]'s solve.
+    fn solve_statics(&self, need_n: f64, gravity: [f64; 3]) -> Option<StuckShare> {
         let points = statics::pinch_contacts(
             self.object.width_mm / 2.0,
             self.cfg.physics.finger_half_spacing_mm,
@@ -550,16 +549,15 @@ impl World {
             self.object.mu_static,
             self.object.mu_kinetic,
         );
-        let Ok(held) = statics::held_loads(&points, gravity.map(|g| g * need_n)) else {
-            return false;
-        };
+        let held = statics::held_loads(&points, gravity.map(|g| g * need_n)).ok()?;
+        let mut share = StuckShare::default();
         for i in 0..3 {
             let [ty, tw] = held.tangential_n[i];
             let up = -(ty * gravity[1] + tw * gravity[2]);
             share.tangential_n[i] = held.magnitude_n(i).copysign(up);
         }
         share.local_slip[..3].copy_from_slice(&held.local_slip);
-        true
+        Some(share)
     }
 
     fn step(&mut self) {

@@ -11,7 +11,7 @@ use tmo::outcome::CatchSpec;
 use tmo::replay::{evaluate, ModelRef, ReplayOutcome, ReplayVerdict};
 use tmo::report::{Cell, Table};
 use tmo::slip::model::ModelFile;
-use tmo::trial::{expand_trial_paths, read_trial, sha256_hex, Trial};
+use tmo::trial::{expand_trial_paths, read_trial_bytes, sha256_hex, Trial};
 
 /// Exit code when the replay finished but some trial logs could not be read.
 pub const EXIT_SKIPPED: u8 = 3;
@@ -198,25 +198,25 @@ pub fn replay_with(
         .collect::<Result<_>>()?;
     let paths = expand_trial_paths(trial_paths)?;
     anyhow::ensure!(!paths.is_empty(), "no trial logs (.mcap) found");
-    let hashes = paths
+    // Each log is read once: hashed (a copy or a folder given twice is refused) and parsed.
+    let read = paths
         .iter()
         .map(|p| {
-            Ok(sha256_hex(
-                &std::fs::read(p).with_context(|| p.display().to_string())?,
-            ))
+            let bytes = std::fs::read(p).with_context(|| p.display().to_string())?;
+            Ok((sha256_hex(&bytes), read_trial_bytes(p, &bytes)))
         })
-        .collect::<Result<Vec<String>>>()?;
+        .collect::<Result<Vec<_>>>()?;
     tmo::trial::refuse_duplicates(
         paths
             .iter()
             .map(PathBuf::as_path)
-            .zip(hashes.iter().map(String::as_str)),
+            .zip(read.iter().map(|(hash, _)| hash.as_str())),
     )?;
     // A damaged log is named and skipped; the rest of the set is still evaluated.
     let mut trials: Vec<(String, Trial)> = Vec::new();
     let mut skipped = 0;
-    for p in &paths {
-        match read_trial(p) {
+    for (p, (_, parsed)) in paths.iter().zip(read) {
+        match parsed {
             Ok(t) => match t.unusable() {
                 Some(why) => {
                     eprintln!("skipped {}: cannot be used as a trial: {why}", p.display());

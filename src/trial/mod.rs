@@ -19,8 +19,7 @@ use tmo_hal::{MarkerSample, PinFrame};
 mod read;
 pub mod schema;
 
-use read::read_trial_bytes;
-pub use read::{read_trial, read_trial_for_scoring, MAX_PIN_COORDINATE_PX};
+pub use read::{read_trial, read_trial_bytes, read_trial_for_scoring, MAX_PIN_COORDINATE_PX};
 
 /// Version of the log layout; readers refuse newer ones and read every older one.
 /// 2: pins as `x[]`, `y[]`; typed event schemas; zstd chunks; wall-clock log times.

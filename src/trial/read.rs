@@ -43,7 +43,7 @@ fn read(path: &Path, channels: Channels) -> Result<Trial, TrialError> {
 }
 
 /// [`read_trial`] of a log already read into `buf` from `path` (named in errors).
-pub(super) fn read_trial_bytes(path: &Path, buf: &[u8]) -> Result<Trial, TrialError> {
+pub fn read_trial_bytes(path: &Path, buf: &[u8]) -> Result<Trial, TrialError> {
     parse(path, buf, Channels::All)
 }
 
