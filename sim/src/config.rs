@@ -565,7 +565,7 @@ impl Default for ArmParams {
         Self {
             max_speed_mm_s: 250.0,
             acceleration_mm_s2: 1200.0,
-            latency_s: 0.05,
+            latency_s: 0.024,
             start_mm: [400.0, 0.0, 300.0],
             hand_marker_offset_mm: 60.0,
         }

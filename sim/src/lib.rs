@@ -287,9 +287,9 @@ impl SimProbe {
         let w = self.world.borrow();
         let cfg = w.config();
         match &cfg.rig {
-            RigSetup::Hand(h) => {
-                let obj = ObjectLibrary::built_in().get(&h.object).ok()?.clone();
-                Some(1.0 - obj.width_mm / (2.0 * cfg.physics.finger_travel_mm))
+            // the rig's own object: it may come from a library other than the built-in one
+            RigSetup::Hand(_) => {
+                Some(1.0 - w.object().width_mm / (2.0 * cfg.physics.finger_travel_mm))
             }
             RigSetup::Rail(_) => None,
         }

@@ -385,6 +385,11 @@ impl World {
         &self.cfg
     }
 
+    /// The object of the rig, as its library gave it.
+    pub(crate) fn object(&self) -> &ObjectSpec {
+        &self.object
+    }
+
     pub(crate) fn advance_to(&mut self, time_s: f64) {
         let dt = self.cfg.physics.step_s;
         let target = (time_s / dt - 1e-9).ceil().max(0.0) as u64;
@@ -544,7 +549,7 @@ impl World {
         let points = statics::pinch_contacts(
             self.object.width_mm / 2.0,
             self.cfg.physics.finger_half_spacing_mm,
-            [0.0; 3],
+            [0.0, -self.object.com_offset_mm, 0.0],
             self.normal_n,
             self.object.mu_static,
             self.object.mu_kinetic,
