@@ -68,7 +68,7 @@ impl ObjectLibrary {
             if o.stiffness_n_per_mm <= 0.0 {
                 return Err(bad("stiffness_n_per_mm must be positive"));
             }
-            if !(o.com_offset_mm.abs() < o.length_mm) {
+            if o.com_offset_mm.is_nan() || o.com_offset_mm.abs() >= o.length_mm {
                 return Err(bad(
                     "expected com_offset_mm to be a number smaller than length_mm",
                 ));
