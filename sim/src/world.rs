@@ -549,7 +549,7 @@ impl World {
         let points = statics::pinch_contacts(
             self.object.width_mm / 2.0,
             self.cfg.physics.finger_half_spacing_mm,
-            [0.0, -self.object.com_offset_mm, 0.0],
+            [0.0; 3],
             self.normal_n,
             self.object.mu_static,
             self.object.mu_kinetic,

@@ -2,10 +2,7 @@
 //! and lifting heavier objects.
 
 use tmo_hal::{Arm, Clock, Hand};
-use tmo_sim::{
-    FaultRates, HandSetup, ObjectLibrary, ObjectSpec, ObjectStart, RailSetup, RigSetup, SimConfig,
-    SimRig,
-};
+use tmo_sim::{FaultRates, HandSetup, ObjectStart, RailSetup, RigSetup, SimConfig, SimRig};
 
 fn hand_config(object: &str, closure: f64, start: ObjectStart) -> SimConfig {
     SimConfig {
@@ -58,25 +55,12 @@ fn firm_grip_holds_still_for_ten_seconds() {
 /// Releases at 0.5 % of the fingers' maximum speed (0.01 of range per s) from a firm grip.
 /// Returns (truth just before onset, truth at onset).
 fn slow_release(object: &str, grasp_deg: f64) -> (tmo_sim::TruthState, tmo_sim::TruthState) {
-    slow_release_from(&ObjectLibrary::built_in(), object, grasp_deg)
-}
-
-fn slow_release_from(
-    library: &ObjectLibrary,
-    object: &str,
-    grasp_deg: f64,
-) -> (tmo_sim::TruthState, tmo_sim::TruthState) {
-    let contact = SimRig::with_library(hand_config(object, 0.0, ObjectStart::OnTable), library)
-        .unwrap()
-        .probe()
-        .contact_closure()
-        .unwrap();
-    let q0 = contact + 0.04;
+    let q0 = contact_closure(object) + 0.04;
     let mut cfg = hand_config(object, q0, ObjectStart::InHand);
     if let RigSetup::Hand(h) = &mut cfg.rig {
         h.grasp_deg = grasp_deg;
     }
-    let rig = SimRig::with_library(cfg, library).unwrap();
+    let rig = SimRig::new(cfg).unwrap();
     let (mut clock, mut hand, probe) = (rig.clock(), rig.hand(), rig.probe());
     let mut before = probe.state();
     while clock.now_s() < 10.0 {
@@ -119,30 +103,6 @@ fn slow_release_slips_when_friction_capacity_falls_below_load() {
                 || before.local_slip.iter().any(|s| *s)
         );
     }
-}
-
-#[test]
-fn a_centre_of_mass_off_the_grasp_lets_go_at_a_lighter_load() {
-    // The banana's centre of mass sits 20 mm off the grasp's centre: its weight is also a
-    // moment about the pinch axis, which the fingers hold with a couple that takes a share
-    // of their friction. Released slowly, it goes while its friction capacity is still well
-    // above its weight; the same fruit centred goes only when capacity reaches the weight.
-    let banana = ObjectLibrary::built_in().get("banana").unwrap().clone();
-    assert_eq!(banana.com_offset_mm, 20.0);
-    let centred = ObjectSpec {
-        name: "banana_centred".into(),
-        com_offset_mm: 0.0,
-        ..banana.clone()
-    };
-    let text = toml::to_string(&serde_json::json!({ "object": [banana, centred] })).unwrap();
-    let library = ObjectLibrary::parse(&text, "test library").unwrap();
-    let ratio = |name: &str| {
-        let (_, at) = slow_release_from(&library, name, 0.0);
-        at.capacity_n / at.weight_n
-    };
-    let (off, on) = (ratio("banana"), ratio("banana_centred"));
-    assert!(on < 1.2, "centred: let go at capacity/load = {on}");
-    assert!(off > on + 0.1, "off-centre {off} against centred {on}");
 }
 
 #[test]

@@ -136,3 +136,47 @@ fn a_garbled_request_is_answered_with_why_and_the_port_serves_on() {
     assert_eq!(config, hand_world(0.1));
     assert_eq!(port.resets, 1);
 }
+
+/// Issue 41, S-a: a client that sends and never reads its answers used to freeze the serve
+/// loop once its socket filled (the answers were written blocking). Now it is dropped, and
+/// another client's reset is answered meanwhile.
+#[test]
+fn a_client_that_never_reads_stops_nobody() {
+    use std::io::Write;
+    let listener = TcpListener::bind("127.0.0.1:0").unwrap();
+    let addr = listener.local_addr().unwrap().to_string();
+    let mut port = ControlPort::new(listener).unwrap();
+    let flooder_addr = addr.clone();
+    // garbled requests as fast as the socket takes them, answers never read
+    let flooder = std::thread::spawn(move || {
+        let mut raw = std::net::TcpStream::connect(&flooder_addr).unwrap();
+        let lines = b"x\n".repeat(4096);
+        let started = Instant::now();
+        while started.elapsed() < Duration::from_secs(20) {
+            if raw.write_all(&lines).is_err() {
+                return true; // dropped by the server
+            }
+        }
+        false
+    });
+    let resetter = std::thread::spawn(move || {
+        std::thread::sleep(Duration::from_millis(500));
+        let mut control = SimControlClient::connect(&addr).unwrap();
+        control.reset(&hand_world(0.1))
+    });
+    let deadline = Instant::now() + Duration::from_secs(30);
+    let mut answered = false;
+    while !(answered && flooder.is_finished()) {
+        assert!(Instant::now() < deadline, "the serve loop stalled");
+        if let Some((k, _)) = port.poll().unwrap() {
+            port.answer(k, Ok(())).unwrap();
+            answered = true;
+        }
+        std::thread::sleep(Duration::from_millis(1));
+    }
+    resetter.join().unwrap().unwrap();
+    assert!(
+        flooder.join().unwrap(),
+        "the flooding client was not dropped"
+    );
+}

@@ -43,7 +43,39 @@ pub struct ControlPort {
 struct Client {
     stream: TcpStream,
     pending: Vec<u8>,
+    /// Answers not yet taken by the client's socket.
+    outgoing: Vec<u8>,
     open: bool,
+}
+
+/// Requests read from one client in one poll.
+const MAX_LINES_PER_POLL: usize = 1000;
+
+/// Most answer bytes kept for a client that does not read them: past this it is not
+/// reading, and is dropped rather than let it stall the loop (or grow without bound).
+const MAX_OUTGOING: usize = 64 * 1024;
+
+impl Client {
+    /// Writes what the socket takes now, never waiting: one client that sends and never
+    /// reads must not stop the control port, the served devices or the other clients.
+    fn flush(&mut self) {
+        while !self.outgoing.is_empty() {
+            match self.stream.write(&self.outgoing) {
+                Ok(0) => self.open = false,
+                Ok(n) => {
+                    self.outgoing.drain(..n);
+                    continue;
+                }
+                Err(e) if e.kind() == std::io::ErrorKind::WouldBlock => {}
+                Err(e) if e.kind() == std::io::ErrorKind::Interrupted => continue,
+                Err(_) => self.open = false,
+            }
+            break;
+        }
+        if self.outgoing.len() > MAX_OUTGOING {
+            self.open = false;
+        }
+    }
 }
 
 impl ControlPort {
@@ -59,12 +91,14 @@ impl ControlPort {
     /// The next reset asked for, if one has arrived; its answer goes back through
     /// [`ControlPort::answer`]. Malformed requests are answered here with their error.
     pub fn poll(&mut self) -> std::io::Result<Option<(usize, SimConfig)>> {
+        self.clients.iter_mut().for_each(Client::flush);
         self.clients.retain(|c| c.open);
         while let Ok((stream, _)) = self.listener.accept() {
             stream.set_nonblocking(true)?;
             self.clients.push(Client {
                 stream,
                 pending: Vec::new(),
+                outgoing: Vec::new(),
                 open: true,
             });
         }
@@ -78,14 +112,21 @@ impl ControlPort {
                 self.clients[k].open = false;
                 continue;
             }
-            let Some(end) = c.pending.iter().position(|&b| b == b'\n') else {
-                continue;
-            };
-            let line: Vec<u8> = c.pending.drain(..=end).collect();
-            match serde_json::from_slice::<Request>(&line) {
-                Ok(Request::Reset(config)) => return Ok(Some((k, *config))),
-                Err(e) => {
-                    self.answer(k, Err(format!("expected {{\"reset\": <SimConfig>}}: {e}")))?
+            // a bounded number of lines a poll, so one client cannot hold the loop
+            for _ in 0..MAX_LINES_PER_POLL {
+                let c = &mut self.clients[k];
+                if !c.open {
+                    break;
+                }
+                let Some(end) = c.pending.iter().position(|&b| b == b'\n') else {
+                    break;
+                };
+                let line: Vec<u8> = c.pending.drain(..=end).collect();
+                match serde_json::from_slice::<Request>(&line) {
+                    Ok(Request::Reset(config)) => return Ok(Some((k, *config))),
+                    Err(e) => {
+                        self.answer(k, Err(format!("expected {{\"reset\": <SimConfig>}}: {e}")))?
+                    }
                 }
             }
         }
@@ -109,15 +150,11 @@ impl ControlPort {
         };
         let mut line = serde_json::to_vec(&answer).map_err(std::io::Error::other)?;
         line.push(b'\n');
+        // queued and written as the socket takes it; a client that cannot be answered, or
+        // lets its answers pile up, is dropped at the next poll
         let c = &mut self.clients[k];
-        // A few hundred bytes into an idle socket: a blocking write cannot stall the loop.
-        let written = c
-            .stream
-            .set_nonblocking(false)
-            .and_then(|()| c.stream.write_all(&line))
-            .and_then(|()| c.stream.set_nonblocking(true));
-        // a client that cannot be answered is dropped at the next poll
-        c.open &= written.is_ok();
+        c.outgoing.extend_from_slice(&line);
+        c.flush();
         Ok(())
     }
 }
