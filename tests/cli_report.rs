@@ -87,7 +87,7 @@ fn png_size(path: &Path) -> (u32, u32) {
 
 /// Every figure from short simulator batches: collected trials (Fig. 4a, 4b), a sweep
 /// (Fig. 5, drawn by `tmo sweep` itself), online hand releases (bars, box plots) and a
-/// first-time lift with calibration (Fig. 9, 10).
+/// first-time lift with calibration (Fig. 12, 13).
 #[test]
 fn every_figure_is_drawn_from_simulator_batches() {
     let dir = tempfile::tempdir().unwrap();
@@ -161,10 +161,10 @@ fn every_figure_is_drawn_from_simulator_batches() {
         "fig4b_pin_velocities",
         "fig5_f1_logreg",
         "fig5_f1_threshold",
-        "hand_outcomes",
-        "hand_slip_distance",
-        "fig9_lift_heights",
-        "fig10_lift_by_mass_crisps_can_empty",
+        "fig7_hand_outcomes",
+        "fig8_hand_slip_distance",
+        "fig12_lift_heights",
+        "fig13_lift_by_mass_crisps_can_empty",
     ] {
         let svg = std::fs::read_to_string(d.join(format!("plots/{stem}.svg"))).unwrap();
         assert!(
@@ -191,5 +191,83 @@ fn every_figure_is_drawn_from_simulator_batches() {
     assert!(
         d.join("sweep/sweep_fig5_f1_logreg.png").is_file(),
         "tmo sweep draws Fig. 5 itself"
+    );
+}
+
+/// A copy of a fixture batch under `d`, its `outcomes.json` (or `batch.json`) edited.
+fn edited_batch(d: &Path, name: &str, file: &str, edit: impl Fn(&mut serde_json::Value)) {
+    let to = d.join(name);
+    std::fs::create_dir_all(&to).unwrap();
+    for f in ["batch.json", "outcomes.json"] {
+        std::fs::copy(fixtures().join(name).join(f), to.join(f)).unwrap();
+    }
+    let path = to.join(file);
+    let mut v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&path).unwrap()).unwrap();
+    edit(&mut v);
+    std::fs::write(&path, v.to_string()).unwrap();
+}
+
+/// Rows that would count a trial twice, or that no trial of the batch made, are refused
+/// (issue 41, R-a, R-b, R-c, R-d).
+#[test]
+fn rows_that_are_not_the_batchs_trials_are_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    // R-a: rows repeated
+    edited_batch(d, "hand", "outcomes.json", |v| {
+        let rows = v.as_array().unwrap().clone();
+        v.as_array_mut().unwrap().extend(rows);
+    });
+    let e = fails(&tmo(d, &["report", "hand"]));
+    assert!(e.contains("outcomes.json") && e.contains("again"), "{e}");
+    // R-d: a batch.json that names no trials, with rows
+    edited_batch(d, "hand", "batch.json", |v| {
+        v["trials"] = serde_json::json!([])
+    });
+    let e = fails(&tmo(d, &["report", "hand"]));
+    assert!(e.contains("is not one of the 0 trials"), "{e}");
+    // R-d: a negative time, a latency that is not reaction - onset
+    edited_batch(d, "hand", "outcomes.json", |v| {
+        v[0]["onset_s"] = (-3.0).into()
+    });
+    let e = fails(&tmo(d, &["report", "hand"]));
+    assert!(e.contains("row 1: `onset_s` = -3"), "{e}");
+    edited_batch(d, "hand", "outcomes.json", |v| {
+        v[0]["latency_s"] = 7.0.into()
+    });
+    let e = fails(&tmo(d, &["report", "hand"]));
+    assert!(e.contains("`latency_s` = 7"), "{e}");
+    // R-c: hand-release rows under a batch.json that says rail catch
+    edited_batch(d, "hand", "batch.json", |v| v["kind"] = "rail_catch".into());
+    let e = fails(&tmo(d, &["report", "hand"]));
+    assert!(e.contains("not a rail strategy"), "{e}");
+    // R-b: the same batch twice, or a copy of it
+    let e = fails(&tmo(&fixtures(), &["report", "rail", "rail"]));
+    assert!(e.contains("given again"), "{e}");
+    edited_batch(d, "rail", "batch.json", |_| {});
+    let copy = d.join("rail");
+    let e = fails(&tmo(
+        &fixtures(),
+        &["report", "rail", copy.to_str().unwrap()],
+    ));
+    assert!(e.contains("given again"), "{e}");
+    // R-d: an evaluation of a classifier tmo does not have
+    let eval = d.join("eval.json");
+    std::fs::write(
+        &eval,
+        serde_json::json!({
+            "format": tmo::slip::evaluation::EVALUATION_FORMAT, "model": "m.json",
+            "model_sha256": "0", "classifier": "bogus", "scope": "global", "n_slip": 5,
+            "trials": 1, "rows": 10,
+            "overall": tmo::slip::metrics::Scores::default(), "per_sensor": []
+        })
+        .to_string(),
+    )
+    .unwrap();
+    let e = fails(&tmo(d, &["report", "eval.json"]));
+    assert!(
+        e.contains("eval.json") && e.contains("\"bogus\"") && e.contains("svm-rbf"),
+        "{e}"
     );
 }

@@ -149,6 +149,54 @@ fn the_quick_preset_writes_every_step_and_the_findings_report() {
     assert!(again.contains("0 step(s) run, 11 already done"), "{again}");
     let refused = fails(&tmo(d, &["reproduce", "--out", "paper"]));
     assert!(refused.contains("--resume"), "{refused}");
+
+    // a finished step's output replaced since: the resume notices, says so and makes the
+    // step again (and, had it come out different, every step that reads it)
+    let model = d.join("paper/replicate-01/06_hand_models/global.json");
+    let original = std::fs::read(&model).unwrap();
+    std::fs::write(&model, original.replace_first(b"\"c\": ", b"\"c\": 1")).unwrap();
+    let resumed = tmo(d, &["reproduce", "--out", "paper", "--resume"]);
+    let (said, warned) = (ok(&resumed), String::from_utf8_lossy(&resumed.stderr));
+    assert!(
+        warned.contains("ran again replicate-01/hand_models: its outputs changed"),
+        "{warned}"
+    );
+    assert_eq!(
+        std::fs::read(&model).unwrap(),
+        original,
+        "the model made again"
+    );
+    let (ran, kept) = counts(&said);
+    assert!(ran >= 1 && ran + kept == 11, "{said}");
+    // a step record that says another build made it is made again too
+    let record = d.join("paper/replicate-01/11_first_time_lift/step.json");
+    let text = std::fs::read_to_string(&record).unwrap();
+    let mut v: serde_json::Value = serde_json::from_str(&text).unwrap();
+    v["git_revision"] = "0000000".into();
+    std::fs::write(&record, v.to_string()).unwrap();
+    let resumed = tmo(d, &["reproduce", "--out", "paper", "--resume"]);
+    assert!(
+        String::from_utf8_lossy(&resumed.stderr)
+            .contains("ran again replicate-01/first_time_lift: made by tmo"),
+        "{}",
+        String::from_utf8_lossy(&resumed.stderr)
+    );
+    assert_eq!(counts(&ok(&resumed)), (1, 10));
+}
+
+/// Byte strings with their first `from` replaced.
+trait ReplaceFirst {
+    fn replace_first(&self, from: &[u8], to: &[u8]) -> Vec<u8>;
+}
+
+impl ReplaceFirst for Vec<u8> {
+    fn replace_first(&self, from: &[u8], to: &[u8]) -> Vec<u8> {
+        let at = self
+            .windows(from.len())
+            .position(|w| w == from)
+            .expect("the text to replace is there");
+        [&self[..at], to, &self[at + from.len()..]].concat()
+    }
 }
 
 /// Every file under `dir`.

@@ -202,6 +202,48 @@ fn three_shards_merged_give_the_sweep_one_run_gives() {
     assert!(err.contains("not a shard"), "{err}");
     let err = fails(&tmo(d, &[&grid[..], &["--shard", "4/3"]].concat()));
     assert!(err.contains("K/N with 1 <= K <= N"), "{err}");
+
+    // --out on one of the shards would write over an input
+    let err = fails(&tmo(
+        d,
+        &[
+            "sweep",
+            "merge",
+            "parts/s1.csv",
+            "parts/s2.csv",
+            "parts/s3.csv",
+            "--out",
+            "parts/s2.csv",
+        ],
+    ));
+    assert!(err.contains("is the shard parts/s2.csv"), "{err}");
+    // a tampered score is refused as the report would refuse it, naming file, row and field
+    let s2 = d.join("parts/s2.csv");
+    let text = std::fs::read_to_string(&s2).unwrap();
+    let header: Vec<&str> = text.lines().next().unwrap().split(',').collect();
+    let f1 = header.iter().position(|h| *h == "macro_f1").unwrap();
+    let mut lines: Vec<String> = text.lines().map(str::to_string).collect();
+    let mut cells: Vec<&str> = lines[1].split(',').collect();
+    cells[f1] = "NaN";
+    lines[1] = cells.join(",");
+    std::fs::write(&s2, lines.join("\n") + "\n").unwrap();
+    let err = fails(&merge(&["parts/s1.csv", "parts/s2.csv", "parts/s3.csv"]));
+    assert!(
+        err.contains("parts/s2.csv") && err.contains("row 1") && err.contains("macro_f1"),
+        "{err}"
+    );
+    // and so is a provenance whose numbers no sweep writes
+    std::fs::write(&s2, text).unwrap();
+    let meta = d.join("parts/s3.json");
+    let mut v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&meta).unwrap()).unwrap();
+    v["wall_seconds"] = serde_json::json!(-5.0);
+    std::fs::write(&meta, v.to_string()).unwrap();
+    let err = fails(&merge(&["parts/s1.csv", "parts/s2.csv", "parts/s3.csv"]));
+    assert!(
+        err.contains("s3.json") && err.contains("wall_seconds"),
+        "{err}"
+    );
 }
 
 /// A stand-in for Slurm's `sbatch`: runs each job at once, array tasks one after another,
@@ -403,4 +445,28 @@ fn sweep_trials(d: &Path, grid: &[&str], extra: &[&str]) -> std::process::Output
     args.extend_from_slice(grid);
     args.extend_from_slice(extra);
     tmo(d, &args)
+}
+
+/// Issue 41, C-c and C-d: a trial path that is a device or a pipe is refused at once, not
+/// read until memory runs out (`/dev/zero`) or for ever (a FIFO named `*.mcap`).
+#[test]
+fn trial_paths_that_are_not_files_are_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let e = fails(&tmo(d, &["train", "/dev/zero", "--out", "m.json"]));
+    assert!(e.contains("/dev/zero: a device"), "{e}");
+    std::os::unix::fs::symlink("/dev/zero", d.join("zero.mcap")).unwrap();
+    let e = fails(&tmo(
+        d,
+        &["dataset", "export", "zero.mcap", "--out", "f.csv"],
+    ));
+    assert!(e.contains("zero.mcap: a device"), "{e}");
+    std::fs::create_dir(d.join("trials")).unwrap();
+    let made = std::process::Command::new("mkfifo")
+        .arg(d.join("trials/t.mcap"))
+        .status()
+        .unwrap();
+    assert!(made.success());
+    let e = fails(&tmo(d, &["train", "trials", "--out", "m.json"]));
+    assert!(e.contains("t.mcap: a named pipe"), "{e}");
 }

@@ -1,4 +1,4 @@
-//! `tmo replay TRIALS... --model M... [--strategy 1x2,2x2] [--out DIR]`: what each model
+//! `tmo replay TRIALS... --model M... [--strategy 1Fr2Sen,2Fr2Sen] [--out DIR]`: what each model
 //! and strategy would have done on recorded trials.
 
 use std::collections::BTreeMap;
@@ -24,9 +24,13 @@ pub struct ReplayArgs {
     /// Model files to compare.
     #[arg(long = "model", required = true, num_args = 1..)]
     models: Vec<PathBuf>,
-    /// Strategies as NFrxNSen, comma-separated (default: the paper's six; those needing
+    /// Strategies as NFrMSen (or the short NxM), comma-separated (default: the paper's six; those needing
     /// more sensors than a trial has are left out for it).
-    #[arg(long, value_delimiter = ',', default_value = "1x1,2x1,1x2,2x2,1x3,2x3")]
+    #[arg(
+        long,
+        value_delimiter = ',',
+        default_value = "1Fr1Sen,2Fr1Sen,1Fr2Sen,2Fr2Sen,1Fr3Sen,2Fr3Sen"
+    )]
     strategy: Vec<String>,
     /// Also write replay.csv (one line per trial, model and strategy) and replay.md here.
     #[arg(long)]
@@ -202,7 +206,7 @@ pub fn replay_with(
     let read = paths
         .iter()
         .map(|p| {
-            let bytes = std::fs::read(p).with_context(|| p.display().to_string())?;
+            let bytes = tmo::trial::read_log_file(p)?;
             Ok((sha256_hex(&bytes), read_trial_bytes(p, &bytes)))
         })
         .collect::<Result<Vec<_>>>()?;

@@ -31,7 +31,7 @@ pub struct ReproduceArgs {
     #[command(subcommand)]
     command: Option<ReproduceCommand>,
     /// How much to run: `quick` (a few trials a cell, one replicate, about 20 s) or `paper`
-    /// (the paper's counts, five replicates, about 15 min each on 2 cores).
+    /// (the paper's counts, five replicates, about half an hour on 2 cores).
     #[arg(long, value_enum, default_value = "quick")]
     preset: PresetArg,
     /// Independent replicates of every step, each with its own trial and learner seeds
@@ -194,7 +194,13 @@ pub fn run(args: ReproduceArgs) -> Result<u8> {
             );
             std::process::exit(EXIT_INTERRUPTED);
         }
-        End::Finished { ran, kept, report } => {
+        End::Finished {
+            ran,
+            kept,
+            remade,
+            report,
+        } => {
+            warn_remade(&remade);
             outln!(
                 "reproduce ({} preset): {} step(s) run, {} already done, in {:.1} s",
                 options.preset.name(),
@@ -204,7 +210,13 @@ pub fn run(args: ReproduceArgs) -> Result<u8> {
             );
             print_report(&report, &options)?;
         }
-        End::Shard { ran, kept, record } => {
+        End::Shard {
+            ran,
+            kept,
+            remade,
+            record,
+        } => {
+            warn_remade(&remade);
             outln!(
                 "reproduce ({} preset), shard {}: {} step(s) run, {} already done, in {:.1} s; {} job(s) of the plan",
                 options.preset.name(),
@@ -222,6 +234,13 @@ pub fn run(args: ReproduceArgs) -> Result<u8> {
         }
     }
     Ok(0)
+}
+
+/// Finished steps a resume could not keep, each with why it ran again.
+fn warn_remade(remade: &[String]) {
+    for why in remade {
+        eprintln!("warning: ran again {why}");
+    }
 }
 
 fn merge(args: MergeArgs) -> Result<u8> {

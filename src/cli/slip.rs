@@ -203,7 +203,11 @@ pub fn label_spec(args: &LabelArgs, trials: &[PathBuf]) -> Result<LabelSpec> {
             n
         }
     };
-    anyhow::ensure!(n_slip >= 1, "--n-slip must be at least 1");
+    anyhow::ensure!(
+        (1..=tmo::slip::labels::MAX_N_SLIP).contains(&n_slip),
+        "--n-slip must be 1..={} frames, got {n_slip}",
+        tmo::slip::labels::MAX_N_SLIP
+    );
     if let Some(d) = args.downsample {
         anyhow::ensure!(
             d > 0.0 && d <= 1.0,

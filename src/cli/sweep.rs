@@ -4,7 +4,7 @@
 //! sweep loses at most the cells in flight and `--resume` runs only the rest; the final
 //! CSV is sorted and written under its name only when every cell is done.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result};
 use tmo::slip::dataset::{split_trials, LabelSpec, Scope};
@@ -548,12 +548,61 @@ fn draw_heatmaps(
 
 /// `tmo sweep merge`: the shards' rows as one sweep, after checking that the shards are the
 /// parts of one grid (same settings and trials, each part once, none missing).
+/// A shard's provenance as a sweep writes it: a grid of proportions and frame counts, a
+/// finite positive onset threshold and wall time.
+fn check_provenance(path: &Path, p: &SweepProvenance) -> Result<()> {
+    let bad = |what: &str| anyhow::anyhow!("{}: {what}", path.display());
+    if p.classifiers.is_empty() || p.downsample.is_empty() || p.n_slip.is_empty() {
+        return Err(bad(
+            "expected classifiers, downsample and n_slip grids that are not empty",
+        ));
+    }
+    if !p
+        .downsample
+        .iter()
+        .all(|d| d.is_finite() && *d > 0.0 && *d <= 1.0)
+    {
+        return Err(bad("`downsample`: expected proportions in (0, 1]"));
+    }
+    if !p.n_slip.iter().all(|n| (1..=10_000).contains(n)) {
+        return Err(bad("`n_slip`: expected frame counts from 1 to 10000"));
+    }
+    if !(p.onset_threshold_mm.is_finite() && p.onset_threshold_mm > 0.0) {
+        return Err(bad(
+            "`onset_threshold_mm`: expected a positive number of mm",
+        ));
+    }
+    if !(p.wall_seconds.is_finite() && p.wall_seconds >= 0.0) {
+        return Err(bad(
+            "`wall_seconds`: expected a number of seconds, 0 or more",
+        ));
+    }
+    Ok(())
+}
+
 fn merge_shards(args: MergeArgs) -> Result<()> {
     let started = std::time::Instant::now();
     let mut first: Option<(PathBuf, SweepProvenance)> = None;
     let mut parts = Vec::new();
     let mut seen: Vec<(Shard, PathBuf)> = Vec::new();
     let mut wall = 0.0f64;
+    // the merge must not write over one of its own inputs
+    let same_file = |a: &Path, b: &Path| match (a.canonicalize(), b.canonicalize()) {
+        (Ok(x), Ok(y)) => x == y,
+        _ => false,
+    };
+    for csv in &args.shards {
+        anyhow::ensure!(
+            !same_file(csv, &args.out)
+                && !same_file(
+                    &csv.with_extension("json"),
+                    &args.out.with_extension("json")
+                ),
+            "--out {} is the shard {} (or its provenance): write the merged sweep to another file",
+            args.out.display(),
+            csv.display()
+        );
+    }
     for csv in &args.shards {
         let meta_path = csv.with_extension("json");
         let text = std::fs::read_to_string(&meta_path).with_context(|| {
@@ -583,6 +632,7 @@ fn merge_shards(args: MergeArgs) -> Result<()> {
                 other.display()
             );
         }
+        check_provenance(&meta_path, &p)?;
         seen.push((shard, csv.clone()));
         wall = wall.max(p.wall_seconds);
         // what may differ between the parts of one sweep
@@ -600,7 +650,11 @@ fn merge_shards(args: MergeArgs) -> Result<()> {
                 );
             }
         }
-        parts.push((csv.clone(), read_rows(csv)?));
+        let rows = read_rows(csv)?;
+        // the rows as `tmo report` would take them: a tampered or damaged score is refused
+        // here, not written into a merged sweep the report then refuses
+        tmo::report::checks::sweep(csv, &rows)?;
+        parts.push((csv.clone(), rows));
     }
     let (_, mut provenance) = first.context("no shards given")?;
     let count = seen[0].0.count;

@@ -14,7 +14,7 @@ pub struct Strategy {
 
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
 pub enum StrategyError {
-    #[error("`{0}`: expected NFrxNSen with whole numbers of at least 1, e.g. 2x2 or 1Fr2Sen")]
+    #[error("`{0}`: expected NFrMSen (or NxM) with N from 1 to 1000 frames and M from 1 to 255 sensors, e.g. 2Fr2Sen or 2x2")]
     Syntax(String),
     #[error("strategy {0} needs {1} sensors, but the rig has {2}")]
     TooManySensors(Strategy, u32, u32),
@@ -38,10 +38,16 @@ impl std::str::FromStr for Strategy {
         } else {
             lower.split_once('x').ok_or_else(err)?
         };
-        let n = |t: &str| t.parse::<u32>().ok().filter(|v| *v >= 1).ok_or_else(err);
+        // a strategy that waits for more frames than a trial has can never react
+        let n = |t: &str, most: u32| {
+            t.parse::<u32>()
+                .ok()
+                .filter(|v| (1..=most).contains(v))
+                .ok_or_else(err)
+        };
         Ok(Strategy {
-            frames: n(a)?,
-            sensors: n(b)?,
+            frames: n(a, 1000)?,
+            sensors: n(b, 255)?,
         })
     }
 }
@@ -132,7 +138,18 @@ mod tests {
             }
         );
         assert_eq!(s("1fr1sen").to_string(), "1Fr1Sen");
-        for bad in ["", "0x1", "2x", "x2", "2Fr", "a x b", "2y2"] {
+        for bad in [
+            "",
+            "0x1",
+            "2x",
+            "x2",
+            "2Fr",
+            "a x b",
+            "2y2",
+            "4294967295x1",
+            "65536x1",
+            "1x256",
+        ] {
             assert!(bad.parse::<Strategy>().is_err(), "{bad}");
         }
         assert!(s("1x3").check(3).is_ok());

@@ -73,9 +73,10 @@ pub struct ProtocolFile {
     /// Batch seed; trial i of the batch runs with a seed derived from it.
     #[serde(default)]
     pub seed: u64,
-    /// Objects from the library (`tmo sim objects`); default per kind.
+    /// Objects from the library (`tmo sim objects`); default per kind when left out (an
+    /// empty list is refused: it would not mean the default).
     #[serde(default)]
-    pub objects: Vec<String>,
+    pub objects: Option<Vec<String>>,
     /// Hand roll, degrees.
     #[serde(default = "default_grasps")]
     pub grasps_deg: Vec<f64>,
@@ -84,7 +85,7 @@ pub struct ProtocolFile {
     pub models: Vec<PathBuf>,
     /// Strategies as `NFrxNSen` (`2x2`) or `2Fr2Sen`; default per kind.
     #[serde(default)]
-    pub strategies: Vec<String>,
+    pub strategies: Option<Vec<String>>,
     #[serde(default)]
     pub outcome: Outcome,
     /// Limits checked before any command is sent; the defaults suit the T-MO on a UR5.
@@ -354,6 +355,42 @@ impl ProtocolFile {
     }
 }
 
+/// A list field as given, or the kind's default when it was left out; an empty list is
+/// refused, since it would not mean the default.
+fn given_or_default(
+    name: &str,
+    given: &Option<Vec<String>>,
+    err: &dyn Fn(&str, String) -> ProtocolError,
+    default: impl FnOnce() -> Vec<String>,
+) -> Result<Vec<String>, ProtocolError> {
+    match given {
+        Some(list) if list.is_empty() => Err(err(
+            name,
+            "expected at least one entry (leave the field out for the kind's default)".into(),
+        )),
+        Some(list) => Ok(list.clone()),
+        None => Ok(default()),
+    }
+}
+
+/// Refuses a list in which an entry repeats an earlier one: its cells would run (and count)
+/// twice.
+fn refuse_repeats<T: PartialEq>(
+    name: &str,
+    items: &[T],
+    err: &dyn Fn(&str, String) -> ProtocolError,
+) -> Result<(), ProtocolError> {
+    for (i, item) in items.iter().enumerate() {
+        if let Some(k) = items[..i].iter().position(|x| x == item) {
+            return Err(err(
+                &format!("{name}.{i}"),
+                format!("the same as {name}.{k}: each cell runs once"),
+            ));
+        }
+    }
+    Ok(())
+}
+
 /// Reads, parses and validates a protocol file.
 pub fn load(path: &Path, rig_sensors: u32) -> Result<Plan, ProtocolError> {
     let text = std::fs::read_to_string(path).map_err(|e| ProtocolError::unreadable(path, &e))?;
@@ -388,11 +425,20 @@ pub fn validate(
     if file.repetitions == 0 {
         return Err(err("repetitions", "expected at least 1".into()));
     }
-    let objects = if file.objects.is_empty() {
+    let objects = given_or_default("objects", &file.objects, &err, || {
         params::default_objects(file.kind)
-    } else {
-        file.objects.clone()
-    };
+    })?;
+    refuse_repeats("objects", &objects, &err)?;
+    refuse_repeats(
+        "grasps_deg",
+        &file
+            .grasps_deg
+            .iter()
+            .map(|g| g.to_bits())
+            .collect::<Vec<_>>(),
+        &err,
+    )?;
+    refuse_repeats("models", &file.models, &err)?;
     for (i, o) in objects.iter().enumerate() {
         if library.get(o).is_err() {
             return Err(err(
@@ -467,7 +513,7 @@ pub fn validate(
                 return Err(err(
                     &format!("models.{i}"),
                     format!(
-                        "model file {} not found; make one from collected trials with `tmo train TRIALS --out {}` (README, \"The same, step by step\"), or run `tmo reproduce --preset quick`, which collects, trains and runs every protocol",
+                        "model file {} not found; make one from collected trials with `tmo train TRIALS --out {}` (docs/commands.md, \"The pipeline, step by step\"), or run `tmo reproduce --preset quick`, which collects, trains and runs every protocol",
                         resolved.display(),
                         resolved.display()
                     ),
@@ -482,13 +528,11 @@ pub fn validate(
         ));
     }
 
-    let strategy_texts = if file.strategies.is_empty() {
+    let strategy_texts = given_or_default("strategies", &file.strategies, &err, || {
         params::default_strategies(file.kind)
-    } else {
-        file.strategies.clone()
-    };
+    })?;
     let mut strategies = Vec::new();
-    if !needs_models && !file.strategies.is_empty() {
+    if !needs_models && file.strategies.is_some() {
         return Err(err(
             "strategies",
             "strategies apply only to online protocols (nothing reacts in this one)".into(),
@@ -506,6 +550,12 @@ pub fn validate(
             strategy
                 .check(limit)
                 .map_err(|e| err(&field, format!("{e}")))?;
+            if let Some(k) = strategies.iter().position(|s| *s == strategy) {
+                return Err(err(
+                    &field,
+                    format!("{strategy} again (strategies.{k}): each cell runs once"),
+                ));
+            }
             strategies.push(strategy);
         }
     }

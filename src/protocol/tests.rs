@@ -232,3 +232,29 @@ fn simulator_parameters_are_set_by_name_and_checked() {
     .unwrap_err();
     assert_eq!(e.field, "sim.physics.finger_travel_mm", "{e}");
 }
+
+/// Issue 41, P-a and P-c: an empty list is not the default, and a repeated entry would run
+/// (and count) its cells twice.
+#[test]
+fn empty_and_repeated_lists_are_refused() {
+    let e = check(&format!("{MINIMAL}objects = []\n")).unwrap_err();
+    assert_eq!(e.field, "objects", "{e}");
+    assert!(e.message.contains("leave the field out"), "{e}");
+    let e = check(&format!("{MINIMAL}strategies = []\n")).unwrap_err();
+    assert_eq!(e.field, "strategies", "{e}");
+    let e = check(&format!(
+        "{MINIMAL}objects = [\"banana\", \"softball\", \"banana\"]\n"
+    ))
+    .unwrap_err();
+    assert_eq!(e.field, "objects.2", "{e}");
+    assert!(e.message.contains("objects.0"), "{e}");
+    let e = check(&format!("{MINIMAL}strategies = [\"2x2\", \"2Fr2Sen\"]\n")).unwrap_err();
+    assert_eq!(e.field, "strategies.1", "{e}");
+    let e = check("kind = \"hand_release\"\nmodels = [\"m.json\", \"m.json\"]\n").unwrap_err();
+    assert_eq!(e.field, "models.1", "{e}");
+    let e = check(&format!("{MINIMAL}grasps_deg = [0, 180, 0]\n")).unwrap_err();
+    assert_eq!(e.field, "grasps_deg.2", "{e}");
+    // P-b: a strategy waiting for more frames than any trial has
+    let e = check(&format!("{MINIMAL}strategies = [\"4294967295x1\"]\n")).unwrap_err();
+    assert_eq!(e.field, "strategies.0", "{e}");
+}

@@ -110,7 +110,7 @@ pub fn offline_sweep(inputs: &Inputs) -> Option<Table> {
                 .expect("a group has rows");
             let mean = rows.iter().map(|r| r.macro_f1).sum::<f64>() / rows.len() as f64;
             t.push(vec![
-                Cell::text(s.path.display().to_string()),
+                Cell::text(short_label(&s.path)),
                 Cell::text(classifier),
                 Cell::Count(rows.len() as u64),
                 Cell::number(Some(best.macro_f1), 3),
@@ -121,6 +121,28 @@ pub fn offline_sweep(inputs: &Inputs) -> Option<Table> {
         }
     }
     Some(t)
+}
+
+/// A file's name for a table's row label: relative to the working directory when it lies
+/// under it, else its last two parts (`06_hand_models/global.json`): an absolute path
+/// breaks, and says too much, when a report is shared.
+fn short_label(path: &std::path::Path) -> String {
+    if path.is_relative() {
+        return path.display().to_string();
+    }
+    if let Some(rel) = std::env::current_dir()
+        .ok()
+        .and_then(|cwd| path.strip_prefix(cwd).ok().map(|p| p.to_path_buf()))
+    {
+        return rel.display().to_string();
+    }
+    let parts: Vec<_> = path.components().rev().take(2).collect();
+    parts
+        .iter()
+        .rev()
+        .map(|c| c.as_os_str().to_string_lossy())
+        .collect::<Vec<_>>()
+        .join("/")
 }
 
 /// Macro F1 per classifier and scope; per sensor for local models.
@@ -146,7 +168,7 @@ pub fn offline_evaluations(inputs: &Inputs) -> Option<Table> {
         let scope = format!("{:?}", e.scope).to_lowercase();
         let row = |sensor: String, s: &crate::slip::metrics::Scores| {
             vec![
-                Cell::text(e.model.clone()),
+                Cell::text(short_label(std::path::Path::new(&e.model))),
                 Cell::text(e.classifier.clone()),
                 Cell::text(scope.clone()),
                 Cell::text(sensor),
@@ -368,7 +390,7 @@ pub fn calibration(inputs: &Inputs) -> Option<Table> {
     Some(t)
 }
 
-/// object | added mass | trials | success | slips | lag | overgrasp, as the paper's Fig. 10.
+/// object | added mass | trials | success | slips | lag | overgrasp, as the paper's Fig. 13.
 pub fn first_time_lift(inputs: &Inputs) -> Option<Table> {
     let (rows, title) = completed(inputs.lift_rows(), |r| r.fault.is_some(), "First-time lift")?;
     let mut t = Table::new(
@@ -406,4 +428,26 @@ pub fn first_time_lift(inputs: &Inputs) -> Option<Table> {
         ]);
     }
     Some(t)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::short_label;
+    use std::path::Path;
+
+    #[test]
+    fn row_labels_are_short_names_not_absolute_paths() {
+        assert_eq!(
+            short_label(Path::new("results/sweep.csv")),
+            "results/sweep.csv"
+        );
+        assert_eq!(
+            short_label(Path::new(
+                "/elsewhere/r/replicate-01/06_hand_models/global.json"
+            )),
+            "06_hand_models/global.json"
+        );
+        let here = std::env::current_dir().unwrap().join("a/b.json");
+        assert_eq!(short_label(&here), "a/b.json");
+    }
 }

@@ -101,6 +101,22 @@ pub fn sweep(path: &Path, rows: &[SweepRow]) -> Result<(), InputError> {
         c.optional(row, "c", r.c, 0.0, f64::MAX)?;
         c.optional(row, "gamma", r.gamma, 0.0, f64::MAX)?;
         c.check(row, "seconds", r.seconds, 0.0, f64::MAX)?;
+        let cell = (&r.classifier, &r.scope, &r.downsample, &r.n_slip);
+        if let Some(k) = rows[..i]
+            .iter()
+            .position(|o| (&o.classifier, &o.scope, &o.downsample, &o.n_slip) == cell)
+        {
+            return Err(InputError::Format {
+                path: path.to_path_buf(),
+                message: format!(
+                    "row {row}: the cell {} d {} n_slip {} again (row {}): each cell is scored once",
+                    r.classifier,
+                    r.downsample,
+                    r.n_slip,
+                    k + 1
+                ),
+            });
+        }
         let d = r.downsample.parse::<f64>().unwrap_or(f64::NAN);
         if !(d.is_finite() && d > 0.0 && d <= 1.0) {
             return Err(InputError::Format {
@@ -115,16 +131,83 @@ pub fn sweep(path: &Path, rows: &[SweepRow]) -> Result<(), InputError> {
     Ok(())
 }
 
-pub fn catches(path: &Path, rows: &[OutcomeRow]) -> Result<(), InputError> {
+/// A batch's rows against its `batch.json`: one row for each trial it names, none twice,
+/// none it does not name (rows copied or left over would otherwise count as trials).
+pub fn rows_are_the_trials<'a>(
+    path: &Path,
+    trials: &[String],
+    ids: impl Iterator<Item = &'a str>,
+) -> Result<(), InputError> {
+    let bad = |message: String| InputError::Format {
+        path: path.to_path_buf(),
+        message,
+    };
+    let mut seen = std::collections::HashSet::new();
+    for (i, id) in ids.enumerate() {
+        if !seen.insert(id) {
+            return Err(bad(format!(
+                "row {}: trial `{id}` again: each trial is scored once",
+                i + 1
+            )));
+        }
+        if !trials.iter().any(|t| t == id) {
+            return Err(bad(format!(
+                "row {}: trial `{id}` is not one of the {} trials batch.json names",
+                i + 1,
+                trials.len()
+            )));
+        }
+    }
+    if let Some(missing) = trials.iter().find(|t| !seen.contains(t.as_str())) {
+        return Err(bad(format!(
+            "no row for trial `{missing}`, which batch.json names ({} rows for {} trials)",
+            seen.len(),
+            trials.len()
+        )));
+    }
+    Ok(())
+}
+
+/// Catch rows of a batch of `kind`. Times are from each trial's start, so never negative;
+/// a latency is the reaction's time less the onset's.
+pub fn catches(
+    path: &Path,
+    kind: crate::protocol::Kind,
+    rows: &[OutcomeRow],
+) -> Result<(), InputError> {
     let c = Rows { path };
     for (i, r) in rows.iter().enumerate() {
         let row = i + 1;
         c.check(row, "grasp_deg", r.grasp_deg, -360.0, 360.0)?;
         c.check(row, "extra_mass_g", r.extra_mass_g, 0.0, LARGEST)?;
-        c.optional(row, "onset_s", r.onset_s, -LARGEST, LARGEST)?;
-        c.optional(row, "reaction_s", r.reaction_s, -LARGEST, LARGEST)?;
+        c.optional(row, "onset_s", r.onset_s, 0.0, LARGEST)?;
+        c.optional(row, "reaction_s", r.reaction_s, 0.0, LARGEST)?;
         c.optional(row, "latency_s", r.latency_s, -LARGEST, LARGEST)?;
         c.optional(row, "slip_distance_mm", r.slip_distance_mm, 0.0, LARGEST)?;
+        let bad = |message: String| InputError::Format {
+            path: path.to_path_buf(),
+            message: format!("row {row}: {message}"),
+        };
+        if let (Some(o), Some(t), Some(l)) = (r.onset_s, r.reaction_s, r.latency_s) {
+            if (t - o - l).abs() > 1e-6 * (1.0 + t.abs()) {
+                return Err(bad(format!(
+                    "`latency_s` = {l}: expected reaction_s - onset_s = {}",
+                    t - o
+                )));
+            }
+        }
+        // The rail rig has one fingertip: a row whose strategy needs more is another
+        // kind's (a batch.json whose kind was changed).
+        // (collect trials have no strategy: `-`)
+        if kind == crate::protocol::Kind::RailCatch && !matches!(r.strategy.as_str(), "" | "-") {
+            let strategy: Result<crate::online::strategy::Strategy, _> = r.strategy.parse();
+            if !strategy.is_ok_and(|s| s.sensors == 1) {
+                return Err(bad(format!(
+                    "strategy `{}` is not a rail strategy (one fingertip, NFr1Sen): is batch.json's kind right?",
+                    r.strategy
+                )));
+            }
+        }
     }
     Ok(())
 }
@@ -156,6 +239,22 @@ pub fn calibrations(path: &Path, rows: &[CalibrationRow]) -> Result<(), InputErr
 }
 
 pub fn evaluation(path: &Path, e: &Evaluation) -> Result<(), InputError> {
+    use clap::ValueEnum;
+    let known = crate::slip::classifier::ClassifierKind::value_variants();
+    if !known.iter().any(|k| k.name() == e.classifier) {
+        return Err(InputError::Format {
+            path: path.to_path_buf(),
+            message: format!(
+                "`classifier` = {:?}: expected one of {}",
+                e.classifier,
+                known
+                    .iter()
+                    .map(|k| k.name())
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            ),
+        });
+    }
     let c = Rows { path };
     c.scores(1, "overall.", &e.overall)?;
     for (i, s) in e.per_sensor.iter().enumerate() {

@@ -107,20 +107,27 @@ fn load_batch(dir: &Path) -> Result<Batch, InputError> {
             message: "no outcomes.json: the batch has not finished (run `tmo run --resume`)".into(),
         });
     }
+    kind_as_its_protocol_says(dir, &manifest)?;
+    let trials = |ids: Vec<&str>| {
+        super::checks::rows_are_the_trials(&outcomes, &manifest.trials, ids.into_iter())
+    };
     let rows = match manifest.kind {
         Kind::FirstTimeLift => {
             let rows: Vec<LiftRow> = json(&outcomes)?;
+            trials(rows.iter().map(|r| r.trial_id.as_str()).collect())?;
             super::checks::lifts(&outcomes, &rows)?;
             BatchRows::Lift(rows)
         }
         Kind::CalibrateLift => {
             let rows: Vec<CalibrationRow> = json(&outcomes)?;
+            trials(rows.iter().map(|r| r.trial_id.as_str()).collect())?;
             super::checks::calibrations(&outcomes, &rows)?;
             BatchRows::Calibration(rows)
         }
-        _ => {
+        kind => {
             let rows: Vec<OutcomeRow> = json(&outcomes)?;
-            super::checks::catches(&outcomes, &rows)?;
+            trials(rows.iter().map(|r| r.trial_id.as_str()).collect())?;
+            super::checks::catches(&outcomes, kind, &rows)?;
             BatchRows::Catch(rows)
         }
     };
@@ -129,6 +136,45 @@ fn load_batch(dir: &Path) -> Result<Batch, InputError> {
         manifest,
         rows,
     })
+}
+
+/// A batch's kind and mode against the protocol it ran, where that protocol can still be
+/// read (the batch directory's `protocol.toml`, or the file `batch.json` names) with the
+/// SHA-256 `batch.json` records: an edited kind would tabulate one experiment's rows as
+/// another's.
+fn kind_as_its_protocol_says(dir: &Path, manifest: &Manifest) -> Result<(), InputError> {
+    let copy = dir.join("protocol.toml");
+    let path = if copy.is_file() {
+        copy
+    } else {
+        PathBuf::from(&manifest.protocol)
+    };
+    if !path.is_file() {
+        return Ok(());
+    }
+    let Ok(text) = std::fs::read_to_string(&path) else {
+        return Ok(());
+    };
+    if crate::trial::sha256_hex(text.as_bytes()) != manifest.protocol_sha256 {
+        return Ok(());
+    }
+    let Ok(protocol) = crate::protocol::ProtocolFile::parse(&path, &text) else {
+        return Ok(());
+    };
+    if (protocol.kind, protocol.mode) != (manifest.kind, manifest.mode) {
+        return Err(InputError::Format {
+            path: dir.join("batch.json"),
+            message: format!(
+                "kind {} ({:?}), but the protocol it ran ({}) is {} ({:?})",
+                manifest.kind,
+                manifest.mode,
+                path.display(),
+                protocol.kind,
+                protocol.mode
+            ),
+        });
+    }
+    Ok(())
 }
 
 fn load_sweep(path: &Path) -> Result<Sweep, InputError> {
@@ -206,7 +252,34 @@ pub fn load(paths: &[PathBuf]) -> Result<Inputs, InputError> {
         }
     }
     inputs.batches = join_shards(std::mem::take(&mut inputs.batches))?;
+    refuse_repeated_batches(&inputs.batches)?;
     Ok(inputs)
+}
+
+/// Refuses a batch given twice: the same directory twice, a copy of it, or a batch beside
+/// its own `--shard` parts. Batches of one protocol and seed are the same trials, so any
+/// trial id they share would be counted twice.
+fn refuse_repeated_batches(batches: &[Batch]) -> Result<(), InputError> {
+    for (j, b) in batches.iter().enumerate() {
+        for a in &batches[..j] {
+            let (m, n) = (&a.manifest, &b.manifest);
+            if (&m.protocol_sha256, m.seed, m.kind, m.mode)
+                != (&n.protocol_sha256, n.seed, n.kind, n.mode)
+            {
+                continue;
+            }
+            if let Some(t) = n.trials.iter().find(|t| m.trials.contains(t)) {
+                return Err(InputError::Format {
+                    path: b.dir.clone(),
+                    message: format!(
+                        "trial `{t}` of the same batch (protocol, seed) as {} is given again: a batch counts once (give it, or all of its --shard parts, once)",
+                        a.dir.display()
+                    ),
+                });
+            }
+        }
+    }
+    Ok(())
 }
 
 /// Joins the parts of batches split with `tmo run --shard K/N` into one batch each (rows in

@@ -5,8 +5,9 @@
 //! Each step writes into its own directory under the output directory and, when it has
 //! finished, a `step.json` naming the SHA-256 of its inputs (its settings and the outputs
 //! of the steps it reads) and of its outputs. `--resume` skips a step whose `step.json`
-//! matches its inputs as they are now, finishes a batch step that was interrupted (its
-//! trials are kept), and reruns a step whose inputs changed. A step is only ever marked
+//! matches its inputs as they are now, this build, and its outputs as they are now;
+//! finishes a batch step that was interrupted (its trials are kept); and reruns a step
+//! whose inputs changed or whose outputs did. A step is only ever marked
 //! done once all its files are in place, so a Ctrl-C or kill -9 loses no finished step.
 
 pub mod evidence;
@@ -135,6 +136,9 @@ pub enum End {
         /// Steps run now and steps already done (`replicate-01/rail_sweep`).
         ran: Vec<String>,
         kept: Vec<String>,
+        /// Finished steps run again, and why (their outputs changed since they finished, or
+        /// another build of tmo made them).
+        remade: Vec<String>,
         report: Box<page::Written>,
     },
     Interrupted {
@@ -145,6 +149,7 @@ pub enum End {
     Shard {
         ran: Vec<String>,
         kept: Vec<String>,
+        remade: Vec<String>,
         record: Box<shards::ShardRecord>,
     },
 }
@@ -346,6 +351,7 @@ pub fn reproduce(
         return Ok(End::Shard {
             ran: tally.ran,
             kept: tally.kept,
+            remade: tally.remade,
             record: Box::new(record),
         });
     }
@@ -363,6 +369,7 @@ pub fn reproduce(
     Ok(End::Finished {
         ran: tally.ran,
         kept: tally.kept,
+        remade: tally.remade,
         report,
     })
 }
@@ -381,6 +388,7 @@ struct Run<'a> {
 struct Steps {
     ran: Vec<String>,
     kept: Vec<String>,
+    remade: Vec<String>,
 }
 
 /// Runs the jobs (a replicate of a run each), `options.jobs` at a time, and gives each
@@ -480,6 +488,10 @@ fn run_replicate(
         let mut t = tally.lock().expect("no worker panicked");
         match end {
             StepEnd::Ran => t.ran.push(name),
+            StepEnd::Remade(why) => {
+                t.remade.push(format!("{name}: {why}"));
+                t.ran.push(name);
+            }
             StepEnd::Kept => t.kept.push(name),
             StepEnd::Interrupted => return Ok(Some(name)),
         }
@@ -507,8 +519,36 @@ fn link_tree(from: &Path, to: &Path) -> Result<(), ReproduceError> {
 
 enum StepEnd {
     Ran,
+    /// A finished step run again, and why.
+    Remade(String),
     Kept,
     Interrupted,
+}
+
+/// Whether the finished step in `dir` can be kept for `inputs`: `Ok(())` if its record
+/// says these inputs, this build of tmo, and outputs that are still the ones it recorded;
+/// otherwise why not (`None`: no finished step with these inputs at all).
+fn check_finished(dir: &Path, inputs: &str) -> Result<Result<(), Option<String>>, ReproduceError> {
+    let Some(record) = read_record(dir).filter(|r| r.inputs_sha256 == inputs) else {
+        return Ok(Err(None));
+    };
+    let (version, revision) = crate::trial::TrialMeta::code_version();
+    if record.tmo_version != version || record.git_revision != revision {
+        return Ok(Err(Some(format!(
+            "made by tmo {} ({}), not this build ({version}, {revision})",
+            record.tmo_version, record.git_revision
+        ))));
+    }
+    // Its outputs are read again: a file edited, replaced or damaged since the step
+    // finished would otherwise be kept, and every later step would build on it.
+    if digest_dir(dir)? != record.outputs_sha256 {
+        return Ok(Err(Some(
+            "its outputs changed since it finished (their SHA-256 is not the one step.json \
+             recorded)"
+                .into(),
+        )));
+    }
+    Ok(Ok(()))
 }
 
 /// Runs one step of one replicate unless it is already done with the same inputs.
@@ -519,11 +559,12 @@ fn run_step(
 ) -> Result<StepEnd, ReproduceError> {
     let dir = ctx.out.join(step.dir());
     let inputs = sha256_text(&step.inputs(ctx)?);
-    if read_record(&dir).is_some_and(|r| r.inputs_sha256 == inputs) {
-        return Ok(StepEnd::Kept);
-    }
+    let remade = match check_finished(&dir, &inputs)? {
+        Ok(()) => return Ok(StepEnd::Kept),
+        Err(why) => why,
+    };
     if let Some(from) = ctx.reuse.map(|r| r.join(step.dir())) {
-        if read_record(&from).is_some_and(|r| r.inputs_sha256 == inputs) {
+        if check_finished(&from, &inputs)?.is_ok() {
             if dir.exists() {
                 std::fs::remove_dir_all(&dir).map_err(io(&dir))?;
             }
@@ -532,10 +573,10 @@ fn run_step(
         }
     }
     // A step interrupted with the same inputs carries on (a batch keeps its trials); one
-    // whose inputs changed starts again.
+    // whose inputs changed, or a finished one that cannot be kept, starts again.
     let same_inputs =
         std::fs::read_to_string(dir.join("step.inputs")).is_ok_and(|h| h.trim() == inputs);
-    if dir.exists() && !same_inputs {
+    if dir.exists() && (!same_inputs || remade.is_some()) {
         std::fs::remove_dir_all(&dir).map_err(io(&dir))?;
     }
     std::fs::create_dir_all(&dir).map_err(io(&dir))?;
@@ -563,5 +604,5 @@ fn run_step(
             .expect("a record serialises")
             .as_bytes(),
     )?;
-    Ok(StepEnd::Ran)
+    Ok(remade.map_or(StepEnd::Ran, StepEnd::Remade))
 }

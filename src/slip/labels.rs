@@ -47,6 +47,35 @@ fn default_rest_samples() -> usize {
     6
 }
 
+/// Most slip frames a label may take: ten thousand frames is minutes of slip at any
+/// tactile sensor's rate, far past any slip a grasp survives.
+pub const MAX_N_SLIP: usize = 10_000;
+
+impl OnsetSpec {
+    /// Whether the onset rule's numbers are ones it can work with; the error says which.
+    pub fn check(&self) -> Result<(), String> {
+        let positive = |name: &str, v: f64| {
+            if v.is_finite() && v > 0.0 {
+                Ok(())
+            } else {
+                Err(format!("`{name}` = {v}: expected a positive number"))
+            }
+        };
+        positive("drop_threshold_mm", self.drop_threshold_mm)?;
+        positive("hold_window_s", self.hold_window_s)?;
+        positive("resolution_mm", self.resolution_mm)?;
+        if !(1..=10_000).contains(&self.confirm_samples)
+            || !(1..=10_000).contains(&self.rest_samples)
+        {
+            return Err(format!(
+                "`confirm_samples` = {}, `rest_samples` = {}: expected 1..=10000 samples",
+                self.confirm_samples, self.rest_samples
+            ));
+        }
+        Ok(())
+    }
+}
+
 impl Default for OnsetSpec {
     fn default() -> Self {
         Self {

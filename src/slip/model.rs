@@ -33,6 +33,7 @@ pub enum Classifier {
 
 /// One classifier with its scaler: for one sensor (local) or all (global).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct SensorModel {
     /// `None` for a global model.
     pub sensor: Option<u8>,
@@ -251,8 +252,10 @@ impl SensorModel {
     }
 }
 
-/// The contents of a model file.
+/// The contents of a model file. Unknown keys are refused: a misspelt or foreign field
+/// would otherwise be silently ignored.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct ModelFile {
     pub format: String,
     pub version: u32,
@@ -498,6 +501,37 @@ impl ModelFile {
                 format!("expected a positive number, got {}", f.max_pin_step_px),
             );
         }
+        let n_slip = self.labels.n_slip;
+        if !(1..=super::labels::MAX_N_SLIP).contains(&n_slip) {
+            return bad(
+                "labels.n_slip".into(),
+                format!(
+                    "expected 1..={} slip frames, got {n_slip}",
+                    super::labels::MAX_N_SLIP
+                ),
+            );
+        }
+        if let Err(why) = self.labels.onset.check() {
+            return bad("labels.onset".into(), why);
+        }
+        if !(self.downsample.is_finite() && self.downsample > 0.0 && self.downsample <= 1.0) {
+            return bad(
+                "downsample".into(),
+                format!("expected a proportion in (0, 1], got {}", self.downsample),
+            );
+        }
+        let mut listed = self.sensors.clone();
+        listed.sort_unstable();
+        listed.dedup();
+        if self.sensors.is_empty() || listed.len() != self.sensors.len() {
+            return bad(
+                "sensors".into(),
+                format!(
+                    "expected the trained sensors, each once, got {:?}",
+                    self.sensors
+                ),
+            );
+        }
         if self.models.is_empty() {
             return bad("models".into(), "expected at least one classifier".into());
         }
@@ -559,6 +593,13 @@ impl ModelFile {
                         ),
                     )
                 }
+            }
+            if matches!(m.classifier, Classifier::Threshold(_)) && m.scaler.is_some() {
+                // the threshold reads raw pin speeds: a scaler would change what it compares
+                return bad(
+                    field("scaler"),
+                    "a threshold classifier has no scaler (it works on raw pin speeds)".into(),
+                );
             }
             if !matches!(m.classifier, Classifier::Threshold(_)) {
                 let Some(sc) = &m.scaler else {
@@ -1194,5 +1235,46 @@ mod tests {
         let mut v = trained(ClassifierKind::Threshold);
         v["models"][0]["classifier"]["threshold"] = (-0.5).into();
         refused(&v, "models.0.classifier.threshold");
+    }
+
+    /// Issue 41, M-a, M-b, M-c: labels no trainer writes, a threshold with a scaler, and
+    /// keys the format does not have are refused on load, as every reader loads here.
+    #[test]
+    fn labels_scalers_and_keys_no_trainer_writes_are_refused() {
+        let logreg = trained(ClassifierKind::Logreg);
+        for n_slip in [0u64, 1_000_000] {
+            let mut v = logreg.clone();
+            v["labels"]["n_slip"] = n_slip.into();
+            refused(&v, "labels.n_slip");
+        }
+        let mut v = logreg.clone();
+        v["labels"]["onset"]["drop_threshold_mm"] = (-1.0).into();
+        refused(&v, "labels.onset");
+        let mut v = logreg.clone();
+        v["downsample"] = 0.0.into();
+        refused(&v, "downsample");
+        let mut v = logreg.clone();
+        v["sensors"] = serde_json::json!([0, 0]);
+        refused(&v, "sensors");
+        let mut v = trained(ClassifierKind::Threshold);
+        v["models"][0]["scaler"] = logreg["models"][0]["scaler"].clone();
+        v["models"][0]["scaler"]["mean"] = serde_json::json!(vec![0.0; 5]);
+        v["models"][0]["scaler"]["scale"] = serde_json::json!(vec![1.0; 5]);
+        refused(&v, "models.0.scaler");
+        for (at, key) in [("", "colour"), ("models.0", "bias")] {
+            let mut v = logreg.clone();
+            let o = if at.is_empty() {
+                &mut v
+            } else {
+                &mut v["models"][0]
+            };
+            o[key] = 1.into();
+            match load(&v) {
+                Err(ModelFileError::Parse { message, .. }) => {
+                    assert!(message.contains(key), "{message}")
+                }
+                other => panic!("expected `{key}` refused, got {other:?}"),
+            }
+        }
     }
 }

@@ -186,6 +186,40 @@ pub enum TrialError {
     },
     #[error("{path} is the same trial log as {first} (a copy, or given twice): each trial counts once; leave one of them out")]
     Duplicate { path: PathBuf, first: PathBuf },
+    #[error("{path}: {what}, not a trial log: expected a regular .mcap file (a device, pipe or socket would be read for ever)")]
+    NotAFile { path: PathBuf, what: &'static str },
+}
+
+/// What `path` is, if it is not a regular file or a directory (links followed).
+fn special_file(path: &Path) -> Option<&'static str> {
+    use std::os::unix::fs::FileTypeExt;
+    let t = fs::metadata(path).ok()?.file_type();
+    if t.is_file() || t.is_dir() {
+        None
+    } else if t.is_fifo() {
+        Some("a named pipe (FIFO)")
+    } else if t.is_char_device() || t.is_block_device() {
+        Some("a device")
+    } else if t.is_socket() {
+        Some("a socket")
+    } else {
+        Some("not a regular file")
+    }
+}
+
+/// A trial log's bytes, read only from a regular file: `/dev/zero`, `/dev/stdin` or a FIFO
+/// named `*.mcap` is refused, not read until memory runs out or for ever.
+pub fn read_log_file(path: &Path) -> Result<Vec<u8>, TrialError> {
+    if let Some(what) = special_file(path) {
+        return Err(TrialError::NotAFile {
+            path: path.into(),
+            what,
+        });
+    }
+    fs::read(path).map_err(|source| TrialError::Io {
+        path: path.into(),
+        source,
+    })
 }
 
 /// Refuses a set of logs in which one file's bytes repeat another's: a copied log (or a
@@ -473,10 +507,7 @@ pub fn load_trials(paths: &[PathBuf]) -> Result<Vec<(PathBuf, String, Trial)>, T
     expand_trial_paths(paths)?
         .into_par_iter()
         .map(|path| {
-            let bytes = fs::read(&path).map_err(|source| TrialError::Io {
-                path: path.clone(),
-                source,
-            })?;
+            let bytes = read_log_file(&path)?;
             let hash = sha256_hex(&bytes);
             let trial = read_trial_bytes(&path, &bytes)?;
             Ok((path, hash, trial))
@@ -512,7 +543,18 @@ pub fn expand_trial_paths(paths: &[PathBuf]) -> Result<Vec<PathBuf>, TrialError>
                 })
                 .collect();
             found.sort();
+            if let Some((q, what)) = found.iter().find_map(|q| Some((q, special_file(q)?))) {
+                return Err(TrialError::NotAFile {
+                    path: q.clone(),
+                    what,
+                });
+            }
             out.extend(found);
+        } else if let Some(what) = special_file(p) {
+            return Err(TrialError::NotAFile {
+                path: p.clone(),
+                what,
+            });
         } else if p.exists() {
             out.push(p.clone());
         } else {

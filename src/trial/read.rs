@@ -1,7 +1,6 @@
 //! Reading a trial log back, refusing a damaged or hostile file with an error that names it
 //! before anything large is allocated for it.
 
-use std::fs;
 use std::path::Path;
 
 use tmo_hal::PinFrame;
@@ -35,10 +34,7 @@ enum Channels {
 }
 
 fn read(path: &Path, channels: Channels) -> Result<Trial, TrialError> {
-    let buf = fs::read(path).map_err(|source| TrialError::Io {
-        path: path.into(),
-        source,
-    })?;
+    let buf = super::read_log_file(path)?;
     parse(path, &buf, channels)
 }
 
@@ -258,6 +254,7 @@ mod tests {
     use super::*;
     use crate::trial::tests::sample_trial;
     use crate::trial::write_trial;
+    use std::fs;
 
     /// The sample trial written as a log `t.mcap` in a fresh directory: the directory (kept
     /// for as long as the test needs the file), the log's path and its bytes.
