@@ -22,24 +22,29 @@ use cli::sim::SimCommand;
 use cli::slip::{DatasetCommand, EvaluateArgs, TrainArgs};
 use cli::sweep::SweepArgs;
 
+/// The exit codes, as `docs/commands.md` gives them.
+const EXIT_CODES_HELP: &str = "Exit codes:\n  0    success\n  2    error: bad input, a device fault, a failed write, a missing trial path, a replay that read no log\n  3    a replay that finished but skipped damaged trial logs (named on standard error)\n  130  stopped by Ctrl-C: the rig is made safe, finished trials are kept, `--resume` goes on\n\nCommand reference: docs/commands.md";
+
 #[derive(Parser)]
 #[command(
     name = "tmo",
     // The git revision too: trial logs and models record it, and a bug report needs it.
     version = concat!(env!("CARGO_PKG_VERSION"), " (", env!("TMO_GIT_REVISION"), ")"),
-    about = "Tactile slip-detection experiments on the Tactile Model O hand"
+    about = "Tactile slip-detection experiments on the Tactile Model O hand",
+    after_help = EXIT_CODES_HELP
 )]
 struct Cli {
     #[command(subcommand)]
     command: Command,
     /// Say only results, warnings and errors: no progress bars, no notes.
-    #[arg(short, long, global = true)]
+    // global options come after each command's own in its help (display order)
+    #[arg(short, long, global = true, display_order = 900)]
     quiet: bool,
     /// Also say each item as it finishes (trial, sweep cell, search evaluation, replayed log).
-    #[arg(short, long, global = true, action = clap::ArgAction::Count)]
+    #[arg(short, long, global = true, action = clap::ArgAction::Count, display_order = 901)]
     verbose: u8,
     /// Colour help and errors: `auto` on a terminal unless NO_COLOR is set.
-    #[arg(long, global = true, value_enum, default_value_t = cli::output::ColorWhen::Auto, value_name = "WHEN")]
+    #[arg(long, global = true, value_enum, default_value_t = cli::output::ColorWhen::Auto, value_name = "WHEN", display_order = 902)]
     color: cli::output::ColorWhen,
 }
 

@@ -18,7 +18,7 @@ use tmo_learn::svm::SvmParams;
 const C: f64 = 3.989;
 const GAMMA: f64 = 0.02;
 /// Training rows of each timed fit, then every row (61,315: 40 trials at d 0.4, the
-/// README's training set's size).
+/// the step-by-step pipeline's training set's size).
 const SIZES: [usize; 4] = [2_000, 5_000, 10_000, 20_000];
 /// The fit whose model times per-frame prediction (as `scripts/time_sklearn.py` does).
 const PREDICT_ROWS: usize = 20_000;

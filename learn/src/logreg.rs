@@ -45,7 +45,7 @@ fn padded_width(m: usize) -> usize {
 /// a row, and it was 44 % of a LogReg-only sweep's time (perf, d 0.5 and 1.0). Loading and
 /// storing each entry once per 8 rows (the previous loop) kept the core waiting on loads;
 /// an 8 x 16 register tile loads two vectors and eight broadcasts per row for 128
-/// multiply-adds. Measured on the README's data, a LogReg-only sweep at d 0.5 and 1.0 (30
+/// multiply-adds. Measured on the step-by-step pipeline's data, a LogReg-only sweep at d 0.5 and 1.0 (30
 /// cells, 2 cores): the cells took 13.7 s, then 9.6 s so, with the same CSV.
 fn add_weighted_outer_products(hess: &mut [f64], m: usize, hx: &[f64], x: &[f64], rows: usize) {
     let width = padded_width(m);
@@ -143,7 +143,7 @@ fn row_dots<T: Copy + Into<f64>>(rows: &[T], stride: usize, w: &[f64], out: &mut
 
 /// [`add_weighted_outer_products_portable`] compiled for 4-wide vectors, for CPUs without
 /// AVX-512 (multiplies and adds apart, as Rust never fuses them, so the sums are the same to
-/// the bit). On the README's training rows at d 1 (151k rows, 9 Newton steps, one thread) a
+/// the bit). On the step-by-step pipeline's training rows at d 1 (151k rows, 9 Newton steps, one thread) a
 /// fit took 1.98 s one row at a time and 0.68 s so.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
@@ -381,7 +381,7 @@ impl ValidLogRegParams {
             // The Newton step would lower the objective by about decrease / 2. Below the
             // objective's own rounding (a sum over every row) no step can be seen to help, and
             // the line search used to halve down to nothing and take another step, up to the
-            // step limit: measured, 1 LogReg cell in 10 of the README grid took 20-45 s
+            // step limit: measured, 1 LogReg cell in 10 of the step-by-step pipeline's grid took 20-45 s
             // instead of 1-3 s. Here the optimum is as exact as f64 can tell.
             if decrease <= OBJECTIVE_RESOLUTION * value.abs().max(1.0) {
                 break;

@@ -1,5 +1,5 @@
 //! First-time lift figures: object and hand height over one lift with its stages shaded
-//! (paper Fig. 9), and slips and overgrasp against mass (Fig. 10).
+//! (paper Fig. 12), and slips and overgrasp against mass (Fig. 13).
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -292,7 +292,7 @@ fn mass_plot<DB: DrawingBackend>(
     Ok(())
 }
 
-/// Fig. 9 (the successful lift with the most slip responses) and Fig. 10 per object.
+/// Fig. 12 (the successful lift with the most slip responses) and Fig. 13 per object.
 pub fn lift_figures(inputs: &Inputs, dir: &Path) -> Result<Vec<PathBuf>, PlotError> {
     let mut out = Vec::new();
     let rows = inputs.lift_rows();
@@ -300,7 +300,7 @@ pub fn lift_figures(inputs: &Inputs, dir: &Path) -> Result<Vec<PathBuf>, PlotErr
         return Ok(out);
     }
     for (object, points) in by_mass(&rows) {
-        let stem = dir.join(format!("fig10_lift_by_mass_{}", super::slug(&object)));
+        let stem = dir.join(format!("fig13_lift_by_mass_{}", super::slug(&object)));
         out.extend(crate::figure_files!(stem, SIZE, |root| mass_plot(
             &root, &object, &points
         )));
@@ -318,7 +318,7 @@ pub fn lift_figures(inputs: &Inputs, dir: &Path) -> Result<Vec<PathBuf>, PlotErr
         let trial = crate::trial::read_trial(&path)?;
         if let Some(l) = LiftTrace::from_trial(&trial, 1.0) {
             out.extend(crate::figure_files!(
-                dir.join("fig9_lift_heights"),
+                dir.join("fig12_lift_heights"),
                 SIZE,
                 |root| { trace(&root, &l) }
             ));

@@ -119,10 +119,10 @@ pub fn caption(file_stem: &str) -> Option<String> {
         "fig5_f1_svm_rbf" => fig5("SVM with an RBF kernel"),
         "fig5_f1_logreg" => fig5("logistic regression"),
         "fig5_f1_threshold" => fig5("threshold on the mean pin speed"),
-        "hand_outcomes" => "Fig. 7: TP, FP and FN of the global and the local classifiers over the strategies, with the hand at 0 and at 180 deg (the paper: the local classifier loses TPs at 180 deg, the global hardly). Findings wh-global-beats-local, wh-global-generalises, wh-fn-local-rotated, wh-fp-sensitive-strategy.".to_string(),
-        "hand_slip_distance" => "Fig. 8: slip distance D before the regrasp caught the object, by strategy, scope and grasp (the paper: 16-45 mm, smallest for 1Fr2Sen). Findings wh-distance, wh-distance-sensitive-smallest, wh-distance-local-rotated.".to_string(),
-        "fig9_lift_heights" => "First-time lift: object and hand heights through lifts, as the paper's pickup figure shows them (a lift succeeds when the hand rises noticeably before the object). The paper's Fig. 9, the eleven objects' scores, is the objects table above. Findings lift-all-lifted, lift-cat.".to_string(),
-        stem if stem.starts_with("fig10_lift_by_mass") => "Fig. 10: first-time lift by mass: slips per lift and overgrasp (how far past the least lifting grasp the hand closed; the paper: 39 % at 100-300 g, 105 % above). Findings lift-slips-rise-with-mass, lift-overgrasp-light, lift-overgrasp-heavy.".to_string(),
+        "fig7_hand_outcomes" => "Fig. 7: TP, FP and FN of the global and the local classifiers over the strategies, with the hand at 0 and at 180 deg (the paper: the local classifier loses TPs at 180 deg, the global hardly). Findings wh-global-beats-local, wh-global-generalises, wh-fn-local-rotated, wh-fp-sensitive-strategy.".to_string(),
+        "fig8_hand_slip_distance" => "Fig. 8: slip distance D before the regrasp caught the object, by strategy, scope and grasp (the paper: 16-45 mm, smallest for 1Fr2Sen). Findings wh-distance, wh-distance-sensitive-smallest, wh-distance-local-rotated.".to_string(),
+        "fig12_lift_heights" => "Fig. 12: object and hand heights through a first-time lift (a lift succeeds when the object rises with the hand, after the hand has risen alone while it tightened). Findings lift-all-lifted, lift-cat.".to_string(),
+        stem if stem.starts_with("fig13_lift_by_mass") => "Fig. 13: first-time lift by mass: slips per lift and overgrasp (how far past the least lifting grasp the hand closed; the paper: 39 % at 100-300 g, 105 % above). Findings lift-slips-rise-with-mass, lift-overgrasp-light, lift-overgrasp-heavy.".to_string(),
         _ => return None,
     })
 }

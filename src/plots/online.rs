@@ -80,68 +80,86 @@ fn bars<DB: DrawingBackend>(
         "Online release: outcomes per strategy and grasp",
         (FONT, 20),
     )?;
-    let areas = root.split_evenly((panels.len().max(1), 1));
+    // the legend has its own strip on the right, so the axis can fit the bars
+    let width = root.dim_in_pixel().0 as i32;
+    let (plots, legend) = root.split_horizontally(width - 200);
+    draw_legend(&legend)?;
+    let areas = plots.split_evenly((panels.len().max(1), 1));
     for (area, (scope, bars)) in areas.iter().zip(panels) {
-        let top = bars
+        let tallest = bars
             .iter()
             .map(|b| b.tp + b.fp + b.fn_ + b.other)
             .max()
-            .unwrap_or(1) as f64;
+            .unwrap_or(1);
+        let top = count_axis_top(tallest);
         let labels: Vec<String> = bars.iter().map(|b| b.label.clone()).collect();
         let mut chart = ChartBuilder::on(area)
-            .caption(format!("{scope} model"), (FONT, 15))
+            .caption(format!("{scope} model"), (FONT, 17))
             .margin(8)
-            .x_label_area_size(30)
+            .x_label_area_size(34)
             .y_label_area_size(50)
-            // headroom above the bars for the legend's four entries
-            .build_cartesian_2d(-0.5..(bars.len() as f64 - 0.5), 0.0..top * 1.7)?;
+            .build_cartesian_2d(-0.5..(bars.len() as f64 - 0.5), 0.0..top as f64)?;
         chart
             .configure_mesh()
             .light_line_style(TRANSPARENT)
             .disable_x_mesh()
             .x_labels(bars.len())
             .x_label_formatter(&|v| category(&labels, *v))
+            // counts: whole-number ticks only
+            .y_labels(count_ticks(top))
             .y_desc("trials")
             .y_label_formatter(&|v| format!("{v:.0}"))
-            .label_style((FONT, 12))
-            .axis_desc_style((FONT, 13))
+            .label_style((FONT, 14))
+            .axis_desc_style((FONT, 15))
             .draw()?;
-        for (k, (colour, name)) in [
-            (TP_COLOUR, "TP"),
-            (FP_COLOUR, "FP"),
-            (FN_COLOUR, "FN"),
-            (OTHER_COLOUR, "no slip, or held with none"),
-        ]
-        .into_iter()
-        .enumerate()
-        {
-            chart
-                .draw_series(bars.iter().enumerate().map(|(i, b)| {
-                    let counts = [b.tp, b.fp, b.fn_, b.other];
-                    let base: usize = counts[..k].iter().sum();
-                    let x = i as f64;
-                    Rectangle::new(
-                        [
-                            (x - 0.35, base as f64),
-                            (x + 0.35, (base + counts[k]) as f64),
-                        ],
-                        colour.filled(),
-                    )
-                }))?
-                .label(name)
-                .legend(move |(x, y)| {
-                    Rectangle::new([(x, y - 5), (x + 12, y + 5)], colour.filled())
-                });
+        for (k, (colour, _)) in OUTCOMES.into_iter().enumerate() {
+            chart.draw_series(bars.iter().enumerate().map(|(i, b)| {
+                let counts = [b.tp, b.fp, b.fn_, b.other];
+                let base: usize = counts[..k].iter().sum();
+                let x = i as f64;
+                Rectangle::new(
+                    [
+                        (x - 0.35, base as f64),
+                        (x + 0.35, (base + counts[k]) as f64),
+                    ],
+                    colour.filled(),
+                )
+            }))?;
         }
-        chart
-            .configure_series_labels()
-            .position(SeriesLabelPosition::UpperRight)
-            .background_style(WHITE.mix(0.9))
-            .border_style(BLACK)
-            .label_font((FONT, 12))
-            .draw()?;
     }
     Ok(())
+}
+
+/// The stacked bars' parts, bottom up.
+const OUTCOMES: [(RGBColor, &str); 4] = [
+    (TP_COLOUR, "TP"),
+    (FP_COLOUR, "FP"),
+    (FN_COLOUR, "FN"),
+    (OTHER_COLOUR, "no slip, or held"),
+];
+
+fn draw_legend<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>) -> DrawResult<DB> {
+    for (k, (colour, name)) in OUTCOMES.into_iter().enumerate() {
+        let y = 60 + 26 * k as i32;
+        area.draw(&Rectangle::new([(10, y - 7), (26, y + 7)], colour.filled()))?;
+        area.draw(&Text::new(
+            name,
+            (34, y - 8),
+            (FONT, 15).into_font().color(&BLACK),
+        ))?;
+    }
+    Ok(())
+}
+
+/// The top of a count axis: a little above the tallest bar, a whole number.
+fn count_axis_top(tallest: usize) -> usize {
+    (tallest as f64 * 1.08).ceil().max(1.0) as usize
+}
+
+/// How many ticks a count axis from 0 to `top` may have so that none falls between whole
+/// numbers (plotters picks round steps no finer than the count allows).
+fn count_ticks(top: usize) -> usize {
+    (top + 1).min(11)
 }
 
 /// Slip distances (caught trials) per strategy, in strategy order.
@@ -233,12 +251,12 @@ pub fn hand_figures(inputs: &Inputs, dir: &Path) -> Result<Vec<PathBuf>, PlotErr
     }
     let panels = outcome_bars(&rows);
     let height = (330 * panels.len() as u32 + 40).max(520);
-    let mut out = crate::figure_files!(dir.join("hand_outcomes"), (1200, height), |root| {
+    let mut out = crate::figure_files!(dir.join("fig7_hand_outcomes"), (1200, height), |root| {
         bars(&root, &panels)
     });
     let groups = distances_by_strategy(&rows);
     out.extend(crate::figure_files!(
-        dir.join("hand_slip_distance"),
+        dir.join("fig8_hand_slip_distance"),
         SIZE,
         |root| { boxes(&root, &groups) }
     ));
@@ -300,5 +318,43 @@ mod tests {
             d,
             vec![("1Fr1Sen".into(), vec![1.0]), ("2Fr2Sen".into(), vec![3.0])]
         );
+    }
+
+    /// The outcome figure's count axes: whole-number ticks only, and an axis that ends just
+    /// above the tallest bar (it used to tick 0, 0, 1, 1, 2, 2 for three trials and run to
+    /// 60 for bars of 39, to leave room for a legend drawn over the plot).
+    #[test]
+    fn count_axes_tick_whole_numbers_and_fit_the_bars() {
+        for tallest in [1, 2, 3, 5, 7, 12, 39, 40, 99, 250] {
+            let top = count_axis_top(tallest);
+            assert!(top >= tallest && (top as f64) <= (tallest as f64 * 1.08).ceil() + 0.5);
+            let mut panels = BTreeMap::new();
+            panels.insert(
+                "global".to_string(),
+                vec![Bar {
+                    label: "2Fr2Sen 0°".into(),
+                    tp: tallest,
+                    fp: 0,
+                    fn_: 0,
+                    other: 0,
+                }],
+            );
+            let mut svg = String::new();
+            {
+                let root = SVGBackend::with_string(&mut svg, (1200, 520)).into_drawing_area();
+                bars(&root, &panels).unwrap();
+            }
+            // the y tick labels: the texts that are whole numbers
+            let ticks: Vec<i64> = svg
+                .split("</text>")
+                .filter_map(|t| t.rsplit('>').next()?.trim().parse::<i64>().ok())
+                .collect();
+            assert!(ticks.len() >= 2, "{tallest}: ticks {ticks:?}");
+            assert!(
+                ticks.windows(2).all(|w| w[0] < w[1]),
+                "{tallest}: ticks {ticks:?}"
+            );
+            assert!(*ticks.last().unwrap() <= top as i64, "{tallest}: {ticks:?}");
+        }
     }
 }

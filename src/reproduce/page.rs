@@ -332,6 +332,7 @@ fn caveats(preset: Preset, judged: &[Judged], w: &Written) -> Vec<String> {
     let mut out = vec![
         "A verdict is **yes** only where the claim holds with its 95 % interval clear of the rule's margin, **no** where the opposite holds that way, and **not resolved** where the interval straddles it (docs/reproduce.md). \"Replicates holding\" counts the replicates in which the claim held at the measured values alone.".to_string(),
         "A **calibrated** finding is one a simulator value was chosen while looking at (sim/data/parameters.toml); it is not evidence that the simulator predicts it, and is counted apart.".to_string(),
+        "An **FP** in the findings is the paper's \"action triggered before slip\", judged from the simulator's ground truth. The tables below give the markers' verdicts: an early reaction that stopped the object before it ever moved shows there as \"held, no slip\", not as an FP, so a table's FP count can be smaller than the finding's (docs/reproduce.md, \"Scoring catch trials\").".to_string(),
     ];
     let unresolved: Vec<&str> = judged
         .iter()

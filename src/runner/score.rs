@@ -98,7 +98,7 @@ fn number(v: &serde_json::Value, key: &str) -> Option<f64> {
     v.get(key)?.as_f64()
 }
 
-/// One first-time lift, as the paper's Fig. 10 needs it.
+/// One first-time lift, as the paper's Fig. 13 needs it.
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct LiftRow {
     pub trial_id: String,

@@ -205,13 +205,13 @@ impl SweepSpec {
     /// optimum is unique, and a start from the previous cell took 0.52 of a cold start's
     /// time (`cargo bench --bench warm_start`). The RBF SVM's start reaches the optimum
     /// within the solver's tolerance: 0.61 of the time at d 1, n_slip 12-15 in that bench,
-    /// with no test prediction changed; over the README's grid its cells took 1,034 s
+    /// with no test prediction changed; over the step-by-step pipeline's grid its cells took 1,034 s
     /// against 1,424 s cold (the whole grid 620 s against 793 s), and 10 of its 150 cells'
     /// test macro F1 moved, by at most 0.0009. (Before the start's kernel rows were computed
     /// 64 at a time and its gradient summed in parallel, the start cost about what it saved
     /// there.) With a search, each cell's search is its own, the same as unchained; only its
     /// final fit starts from the previous cell's final fit, made at whatever point that
-    /// cell's search chose. On the README's data, RBF cells at d 0.2, 0.6 and 1.0 searched
+    /// cell's search chose. On the step-by-step pipeline's data, RBF cells at d 0.2, 0.6 and 1.0 searched
     /// with `--iters 12 --search-rows 4000` took 893 s of CPU against 1,270 s unchained
     /// (463 s wall against 656 s), with every search's choice the same and 15 of 45 cells'
     /// test macro F1 moved, by at most 0.0008.
@@ -271,7 +271,7 @@ impl SweepSpec {
     /// for `slip_rows` and `static_rows` training rows (before down-sampling): only its ratio
     /// to other cells' costs matters (the sweep runs the costliest first, and its progress
     /// advances by cost so that its ETA does not swing as cheap cells follow dear ones).
-    /// Measured on the README's 40 hand trials, n_slip 13, fixed hyperparameters: an RBF
+    /// Measured on the step-by-step pipeline's 40 hand trials, n_slip 13, fixed hyperparameters: an RBF
     /// cell took 3.7 s at 16k training rows, 11 s at 61k and 36 s at 151k (fit and scoring
     /// both grow about linearly there); a LogReg cell 0.28 s and 3.1 s; a threshold cell
     /// 0.10 s and 0.31 s (the linear SVM is put between the two learned ones). A search
@@ -695,7 +695,7 @@ mod tests {
         };
         let rbf =
             |spec: &SweepSpec, d| spec.cell_cost(&cell(ClassifierKind::SvmRbf, d), 1400, 150_000);
-        // the README's measured cells: 3.7 s at d 0.1 and 36 s at d 1.0
+        // the measured cells of the step-by-step pipeline's grid: 3.7 s at d 0.1 and 36 s at d 1.0
         assert!((rbf(&spec, 0.1) - 3.7).abs() < 0.5, "{}", rbf(&spec, 0.1));
         assert!((rbf(&spec, 1.0) - 36.0).abs() < 3.0, "{}", rbf(&spec, 1.0));
         let threshold = spec.cell_cost(&cell(ClassifierKind::Threshold, 1.0), 1400, 150_000);

@@ -23,7 +23,7 @@
 //!
 //! Decision values follow scikit-learn's sign: positive means the positive class.
 //!
-//! Where a sweep's RBF time goes, and why it is near its floor (the README's fixed grid, 150
+//! Where a sweep's RBF time goes, and why it is near its floor (the step-by-step pipeline's fixed grid, 150
 //! RBF cells, counted and profiled 2026-11-26): 179 G kernel values of 60 features each.
 //! 76 G score the test rows (every test row against every support vector); 65 G are
 //! [`screening`]'s whole passes over the rows outside the subset (about one is needed per

@@ -181,7 +181,7 @@ pub enum BatchError {
     Csv { path: PathBuf, message: String },
     #[error("{path}: {message}")]
     ModelDoesNotFitRig { path: PathBuf, message: String },
-    #[error("model file {0} not found: train one from collected trials with `tmo train TRIALS --out {0}` (README, \"step by step\"), or run `tmo reproduce --preset quick`, which collects, trains and runs every protocol")]
+    #[error("model file {0} not found: train one from collected trials with `tmo train TRIALS --out {0}` (docs/commands.md, \"The pipeline, step by step\"), or run `tmo reproduce --preset quick`, which collects, trains and runs every protocol")]
     MissingModel(PathBuf),
     #[error("the batch has {trials} trials (objects x masses x grasps x models x strategies x repetitions); at most {MAX_TRIALS} can run in one batch")]
     TooManyTrials { trials: u128 },
