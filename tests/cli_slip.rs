@@ -470,3 +470,29 @@ fn trial_paths_that_are_not_files_are_refused() {
     let e = fails(&tmo(d, &["train", "trials", "--out", "m.json"]));
     assert!(e.contains("t.mcap: a named pipe"), "{e}");
 }
+
+/// Issue 41, item 13: `train --out` takes the output lock, as `run`, `sweep` and
+/// `reproduce` do: a second writer of the same model file is refused while the first runs.
+#[test]
+fn a_model_file_has_one_writer() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    // a live tmo (a served simulator) stands in for a first training of m.json
+    let mut first = std::process::Command::new(env!("CARGO_BIN_EXE_tmo"))
+        .current_dir(d)
+        .args(["sim", "serve", "--hardware"])
+        .arg(std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("hardware/tmo.toml"))
+        .args(["--out", "served.toml", "--for", "60"])
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
+    std::fs::write(d.join("m.json.lock"), first.id().to_string()).unwrap();
+    let e = fails(&tmo(d, &["train", "nowhere", "--out", "m.json"]));
+    assert!(e.contains("another tmo"), "{e}");
+    first.kill().unwrap();
+    first.wait().unwrap();
+    // its writer gone, the lock is taken over (and the missing trials are the error)
+    let e = fails(&tmo(d, &["train", "nowhere", "--out", "m.json"]));
+    assert!(e.contains("nowhere") && !e.contains("another tmo"), "{e}");
+}

@@ -318,6 +318,8 @@ fn check_model_out(out: &std::path::Path) -> Result<()> {
 
 pub fn train(args: TrainArgs) -> Result<()> {
     check_model_out(&args.out)?;
+    // one writer per model file: two trainings aimed at one path would leave the last's
+    let _lock = tmo::output::lock::OutputLock::acquire(&args.out)?;
     let labels = label_spec(&args.labels, &args.trials)?;
     let (ds, refs, features) = load_dataset(&args.trials, &labels)?;
     let started = std::time::Instant::now();

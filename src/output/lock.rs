@@ -1,8 +1,8 @@
 //! One writer per output: a lock file (`<target>.lock`) created exclusively, holding the
 //! writer's process id, removed when the writer is done. A second `tmo` aiming at the same
 //! batch directory, sweep or reproduction is refused at once instead of interleaving its
-//! files with the first's. A lock left by a process that no longer runs (killed with -9) is
-//! taken over.
+//! files with the first's. A lock left by a process that no longer runs (killed with -9),
+//! or whose process id now belongs to another program, is taken over.
 
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -22,6 +22,24 @@ pub enum LockError {
 #[derive(Debug)]
 pub struct OutputLock {
     path: PathBuf,
+}
+
+/// Whether `pid` is a running tmo: alive, and (where `/proc` says) the same program as
+/// this one. A lock's pid outlives its writer and is reused: a live pid of another program
+/// (`1`, say) must not block every run for ever.
+fn a_tmo_runs_as(pid: u32) -> bool {
+    if !alive(pid) {
+        return false;
+    }
+    let comm = |who: &str| std::fs::read_to_string(format!("/proc/{who}/comm")).ok();
+    match (comm(&pid.to_string()), comm("self")) {
+        (Some(theirs), Some(ours)) => {
+            let theirs = theirs.trim();
+            theirs == ours.trim() || theirs == "tmo"
+        }
+        // no /proc: a live process is taken to be the writer
+        _ => true,
+    }
 }
 
 fn alive(pid: u32) -> bool {
@@ -71,7 +89,7 @@ impl OutputLock {
                         .ok()
                         .and_then(|t| t.trim().parse::<u32>().ok());
                     match pid {
-                        Some(pid) if pid != std::process::id() && alive(pid) => {
+                        Some(pid) if pid != std::process::id() && a_tmo_runs_as(pid) => {
                             return Err(LockError::Held {
                                 target: target.to_path_buf(),
                                 pid,
@@ -108,11 +126,21 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let target = dir.path().join("batch");
         let first = OutputLock::acquire(&target).unwrap();
-        // this process's own lock is not "another tmo"; a live other process's is
-        std::fs::write(dir.path().join("batch.lock"), "1").unwrap();
+        // a live process of this program: refused (a copy of `sleep` under this program's
+        // name stands in for a second tmo)
+        let ours = std::fs::read_to_string("/proc/self/comm").unwrap();
+        let twin = dir.path().join(ours.trim());
+        std::fs::copy("/bin/sleep", &twin).unwrap();
+        let mut other = std::process::Command::new(&twin).arg("30").spawn().unwrap();
+        std::fs::write(dir.path().join("batch.lock"), other.id().to_string()).unwrap();
         let e = OutputLock::acquire(&target).unwrap_err();
-        assert!(matches!(e, LockError::Held { pid: 1, .. }), "{e}");
+        assert!(matches!(e, LockError::Held { .. }), "{e}");
         assert!(e.to_string().contains("another tmo"), "{e}");
+        other.kill().unwrap();
+        other.wait().unwrap();
+        // issue 41: a live pid of another program (init) is no writer: taken over
+        std::fs::write(dir.path().join("batch.lock"), "1").unwrap();
+        drop(OutputLock::acquire(&target).unwrap());
         // a lock whose process is gone
         std::fs::write(dir.path().join("batch.lock"), "4000000000").unwrap();
         let taken = OutputLock::acquire(&target).unwrap();
