@@ -487,6 +487,14 @@ fn a_model_file_has_one_writer() {
         .stderr(std::process::Stdio::null())
         .spawn()
         .unwrap();
+    // until it has exec'd, the child bears this test thread's name, not tmo's
+    let comm = format!("/proc/{}/comm", first.id());
+    for _ in 0..500 {
+        if std::fs::read_to_string(&comm).is_ok_and(|c| c.trim() == "tmo") {
+            break;
+        }
+        std::thread::sleep(std::time::Duration::from_millis(10));
+    }
     std::fs::write(d.join("m.json.lock"), first.id().to_string()).unwrap();
     let e = fails(&tmo(d, &["train", "nowhere", "--out", "m.json"]));
     assert!(e.contains("another tmo"), "{e}");

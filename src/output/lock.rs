@@ -132,6 +132,14 @@ mod tests {
         let twin = dir.path().join(ours.trim());
         std::fs::copy("/bin/sleep", &twin).unwrap();
         let mut other = std::process::Command::new(&twin).arg("30").spawn().unwrap();
+        // until it has exec'd, the child still bears this thread's name
+        let comm = format!("/proc/{}/comm", other.id());
+        for _ in 0..500 {
+            if std::fs::read_to_string(&comm).is_ok_and(|c| c == ours) {
+                break;
+            }
+            std::thread::sleep(std::time::Duration::from_millis(10));
+        }
         std::fs::write(dir.path().join("batch.lock"), other.id().to_string()).unwrap();
         let e = OutputLock::acquire(&target).unwrap_err();
         assert!(matches!(e, LockError::Held { .. }), "{e}");
