@@ -311,3 +311,167 @@ fn a_bad_row_is_named_and_nothing_is_written() {
         "nothing is written from a bad file"
     );
 }
+
+/// The fixture as another lab might hand it over: its own column names (`run`, `taxel`),
+/// 1-based taxels, a trial name with a `/`, one trial logged at twice its sensor's update
+/// rate (every reading twice) and one at two thirds of the others' rate.
+fn foreign_variant() -> String {
+    let good = std::fs::read_to_string(fixture()).unwrap();
+    let mut lines = good.lines();
+    let header = lines
+        .next()
+        .unwrap()
+        .replace("trial,", "run,")
+        .replace(",element,", ",taxel,");
+    let mut out = vec![header];
+    for line in lines {
+        let mut f: Vec<String> = line.split(',').map(String::from).collect();
+        f[4] = (f[4].parse::<u64>().unwrap() + 1).to_string();
+        let (frame, t): (u64, f64) = (f[2].parse().unwrap(), f[3].parse().unwrap());
+        match f[0].as_str() {
+            "2022-02-21-17-22-56" => f[0] = "lab/2022-02-21-17-22-56".into(),
+            "2022-02-22-08-10-01" => {
+                // the logger saw each reading twice (0.1 ms apart: within the fixture's
+                // own uneven intervals)
+                f[2] = (2 * frame).to_string();
+                out.push(f.join(","));
+                f[2] = (2 * frame + 1).to_string();
+                f[3] = format!("{:.5}", t + 0.0001);
+            }
+            "2022-02-22-15-15-00" => f[3] = format!("{:.5}", t * 1.5),
+            _ => {}
+        }
+        out.push(f.join(","));
+    }
+    out.join("\n") + "\n"
+}
+
+#[test]
+fn another_labs_file_imports_with_flags_only() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::write(d.join("theirs.csv"), foreign_variant()).unwrap();
+    let import = |extra: &[&str]| {
+        let mut args = vec![
+            "import",
+            "csv",
+            "theirs.csv",
+            "--out",
+            "theirs",
+            "--units",
+            "counts",
+            "--split-column",
+            "split",
+        ];
+        args.extend_from_slice(extra);
+        tmo(d, &args)
+    };
+    // each step of the way, the message names the flag that reads the file as it is
+    let e = fails(&import(&[]));
+    assert!(
+        e.contains("no `trial` column") && e.contains("--columns trial="),
+        "{e}"
+    );
+    let e = fails(&import(&[
+        "--columns",
+        "trial=run",
+        "--columns",
+        "element=taxel",
+    ]));
+    assert!(e.contains("look 1-based; pass --one-based"), "{e}");
+    assert!(!d.join("theirs").exists());
+    let e = fails(&import(&["--columns", "trial=run,element=tax"]));
+    assert!(e.contains("--columns element=tax: no `tax` column"), "{e}");
+
+    let flags = ["--columns", "trial=run,element=taxel", "--one-based"];
+    let first = import(&flags);
+    let (stdout, stderr) = (ok(&first), String::from_utf8_lossy(&first.stderr));
+    assert!(stdout.contains("4 trial(s)"), "{stdout}");
+    assert!(
+        stderr.contains("repeat the previous frame's readings") && stderr.contains("--dedupe"),
+        "{stderr}"
+    );
+    assert!(
+        stderr.contains("frame rates differ between the 4 trials"),
+        "{stderr}"
+    );
+    assert!(
+        stderr.contains("`lab/2022-02-21-17-22-56` -> lab_2022-02-21-17-22-56.mcap"),
+        "{stderr}"
+    );
+    std::fs::remove_dir_all(d.join("theirs")).unwrap();
+
+    let mut with_dedupe = flags.to_vec();
+    with_dedupe.push("--dedupe");
+    let second = import(&with_dedupe);
+    let (stdout, stderr) = (ok(&second), String::from_utf8_lossy(&second.stderr));
+    assert!(!stderr.contains("repeat the previous"), "{stderr}");
+    assert!(
+        stderr.contains("--dedupe dropped") && stderr.contains("in 4 of 4 trial(s)"),
+        "{stderr}"
+    );
+    assert!(stdout.contains("Hz (median; "), "{stdout}");
+
+    // the doubled trial, deduplicated, is the fixture's own trial deduplicated (the
+    // fixture repeats some readings itself)
+    let plain = tempfile::tempdir().unwrap();
+    ok(&tmo(
+        plain.path(),
+        &[
+            "import",
+            "csv",
+            fixture().to_str().unwrap(),
+            "--out",
+            "xela",
+            "--split-column",
+            "split",
+            "--dedupe",
+        ],
+    ));
+    let frames = |path: &Path| {
+        let csv = d.join("one.csv");
+        ok(&tmo(
+            d,
+            &[
+                "dataset",
+                "export",
+                path.to_str().unwrap(),
+                "--format",
+                "interchange",
+                "--out",
+                csv.to_str().unwrap(),
+            ],
+        ));
+        // sensor, frame, t_s, element, x, y
+        std::fs::read_to_string(&csv)
+            .unwrap()
+            .lines()
+            .skip(1)
+            .map(|l| l.split(',').skip(1).take(6).collect::<Vec<_>>().join(","))
+            .collect::<Vec<_>>()
+    };
+    let ours = frames(&plain.path().join("xela/train/2022-02-22-08-10-01.mcap"));
+    let theirs = frames(&d.join("theirs/train/2022-02-22-08-10-01.mcap"));
+    assert_eq!(ours.len(), theirs.len());
+    assert_eq!(ours, theirs);
+
+    // rates that differ between trials are said, not refused
+    let trained = tmo(
+        d,
+        &[
+            "train",
+            "theirs/train",
+            "--classifier",
+            "logreg",
+            "--n-slip",
+            "30",
+            "--out",
+            "m.json",
+        ],
+    );
+    ok(&trained);
+    assert!(
+        String::from_utf8_lossy(&trained.stderr).contains("frame rates differ"),
+        "{trained:?}"
+    );
+}

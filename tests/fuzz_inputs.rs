@@ -434,6 +434,7 @@ fn interchange_options() -> tmo::import::ImportOptions {
         units: tmo::import::Units::Counts,
         split_column: Some("split".into()),
         max_step: None,
+        ..Default::default()
     }
 }
 

@@ -3,7 +3,7 @@
 use std::collections::BTreeMap;
 use std::path::PathBuf;
 
-use anyhow::{bail, Context, Result};
+use anyhow::{bail, Result};
 use tmo::import::{log_path, read_interchange, ImportOptions, Units};
 
 #[derive(clap::Subcommand)]
@@ -34,6 +34,35 @@ pub struct CsvArgs {
     /// counts as a lost element (tmo's pin tracker uses 20 px). Default: no limit.
     #[arg(long)]
     max_step: Option<f64>,
+    /// The file's own names of interchange columns, as NAME=THEIRS pairs separated by commas
+    /// (e.g. element=taxel,trial=run); the flag may be given more than once.
+    #[arg(long, value_name = "NAME=THEIRS,...")]
+    columns: Vec<String>,
+    /// Element indices count from 1 in the file (the importer says so when it sees it).
+    #[arg(long)]
+    one_based: bool,
+    /// Drop frames whose readings repeat the previous frame's exactly (a sensor slower than
+    /// the log that recorded it) and number the rest anew; the count is said.
+    #[arg(long)]
+    dedupe: bool,
+}
+
+/// `--columns element=taxel,trial=run` as interchange name -> the file's name.
+fn column_map(given: &[String]) -> Result<BTreeMap<String, String>> {
+    let mut map = BTreeMap::new();
+    for pair in given.iter().flat_map(|g| g.split(',')) {
+        let Some((ours, theirs)) = pair.split_once('=') else {
+            bail!("--columns `{pair}`: expected NAME=THEIRS (e.g. element=taxel)");
+        };
+        let (ours, theirs) = (ours.trim(), theirs.trim());
+        if ours.is_empty() || theirs.is_empty() {
+            bail!("--columns `{pair}`: expected NAME=THEIRS with both names given");
+        }
+        if map.insert(ours.to_string(), theirs.to_string()).is_some() {
+            bail!("--columns names `{ours}` twice");
+        }
+    }
+    Ok(map)
 }
 
 pub fn run(command: ImportCommand) -> Result<()> {
@@ -48,6 +77,9 @@ pub fn run(command: ImportCommand) -> Result<()> {
         units: args.units,
         split_column: args.split_column,
         max_step: args.max_step,
+        columns: column_map(&args.columns)?,
+        one_based: args.one_based,
+        dedupe: args.dedupe,
     };
     // Every file is read and checked before anything is written: nothing half-imported.
     let mut trials = Vec::new();
@@ -81,31 +113,49 @@ pub fn run(command: ImportCommand) -> Result<()> {
             trials.push((path, t));
         }
     }
+    let Some((_, first)) = trials.first() else {
+        bail!("no trials in the given files");
+    };
+    let imported: Vec<_> = trials.iter().map(|(_, t)| t.clone()).collect();
+    let (warnings, notes) = tmo::import::import_notes(&imported, opts.dedupe);
+    for w in warnings {
+        eprintln!("warning: {w}");
+    }
+    for n in notes {
+        super::output::note(n);
+    }
     let bar = super::output::counting_bar("importing", "trials");
     bar.set_length(trials.len() as u64);
     let mut splits: BTreeMap<String, usize> = BTreeMap::new();
-    for (path, t) in &trials {
-        tmo::trial::write_trial(path, &t.trial)
-            .with_context(|| format!("importing trial `{}`", t.name))?;
+    for (k, (path, t)) in trials.iter().enumerate() {
+        if let Err(e) = tmo::trial::write_trial(path, &t.trial) {
+            bar.finish_and_clear();
+            // The logs are made from the CSV, which is untouched: a half import is only
+            // in the way of the next try, so it goes.
+            for (written, _) in &trials[..k] {
+                let _ = std::fs::remove_file(written);
+            }
+            bail!(
+                "importing trial `{}`: {e}; nothing was imported (the {k} log(s) written before it were removed): run the same command again",
+                t.name
+            );
+        }
         *splits
             .entry(t.split.clone().unwrap_or_default())
             .or_default() += 1;
         bar.inc(1);
     }
     bar.finish_and_clear();
-    let Some((_, first)) = trials.first() else {
-        bail!("no trials in the given files");
-    };
     let p = &first.trial.meta.parameters;
     let get = |k: &str| p.get(k).map_or("", String::as_str);
     outln!(
-        "{} trial(s): {} sensor(s) ({}) of {} elements, {}, about {} Hz, labels from the {}",
+        "{} trial(s): {} sensor(s) ({}) of {} elements, {}, {}, labels from the {}",
         trials.len(),
         first.trial.meta.sensors,
         get("sensor_names"),
         first.trial.meta.pins,
         get("units"),
-        get("rate_hz"),
+        tmo::import::rate_summary(&imported),
         get("label_source")
     );
     for (split, n) in &splits {

@@ -251,6 +251,9 @@ pub fn replay_with(
                     "{mpath} cannot replay {tpath}: its {what} is {theirs}, the model's {ours}"
                 );
             }
+            if let Some(why) = m.features.rate_differs(&own) {
+                eprintln!("warning: {mpath} on {tpath}: {why}");
+            }
         }
     }
     if let Some(addr) = live {

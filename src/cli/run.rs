@@ -195,8 +195,18 @@ pub fn run(args: RunArgs) -> Result<u8> {
         live: live.as_ref(),
         on_trial: Some(&|line: &str| super::output::detail(&bar, line)),
     };
-    let end = run_batch(&request, &mut rig, &stop, &bar)
-        .with_context(|| args.protocol.display().to_string())?;
+    let end = run_batch(&request, &mut rig, &stop, &bar).map_err(|e| {
+        let resumable = e.is_failed_write();
+        let e = anyhow::Error::new(e).context(args.protocol.display().to_string());
+        if resumable {
+            e.context(format!(
+                "finished trials are kept in {}; run again with --resume to finish",
+                out.display()
+            ))
+        } else {
+            e
+        }
+    })?;
     bar.finish_and_clear();
     let summary = match end {
         BatchEnd::Finished(s) => *s,

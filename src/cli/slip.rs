@@ -240,6 +240,9 @@ pub fn load_dataset(
             ds.trials_without_onset.join(", ")
         ));
     }
+    if let Some(spread) = &ds.rate_spread {
+        eprintln!("warning: {spread}");
+    }
     Ok((ds, refs, features))
 }
 
@@ -537,6 +540,9 @@ pub fn evaluate(args: EvaluateArgs) -> Result<()> {
             "{}: cannot read these trials: their {what} is {theirs}, the model's {ours}",
             args.model.display()
         );
+    }
+    if let Some(why) = model.features.rate_differs(&features) {
+        eprintln!("warning: {}: {why}", args.model.display());
     }
     let (overall, per_sensor) = model.evaluate(&ds)?;
     if !args.json {

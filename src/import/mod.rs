@@ -12,6 +12,7 @@
 //! event per frame time, `{"slip": true|false}`); [`crate::slip::labels::trial_slip_window`]
 //! reads them in place of the marker track.
 
+mod notes;
 mod parse;
 mod write;
 
@@ -22,7 +23,8 @@ use tmo_hal::{MarkerSample, PinFrame};
 
 use crate::trial::{Trial, TrialEvent, TrialMeta, TRIAL_FORMAT_VERSION};
 
-pub use parse::read_interchange;
+pub use notes::{import_notes, rate_summary};
+pub use parse::{read_interchange, INTERCHANGE_COLUMNS};
 pub use write::{export_interchange, write_interchange, z_by_frame, ExportError};
 
 pub use crate::trial::LABEL_TOPIC;
@@ -48,7 +50,34 @@ pub struct ImportOptions {
     /// Largest per-frame step of an element that is a measurement, in `units`; `None`: no
     /// limit (tmo's own 20 px guard is for tracked pins only).
     pub max_step: Option<f64>,
+    /// The file's own names of interchange columns (`element` -> `taxel`, say).
+    pub columns: BTreeMap<String, String>,
+    /// Element indices count from 1 in the file.
+    pub one_based: bool,
+    /// Drop frames whose readings repeat the previous frame's exactly (a sensor that
+    /// updates slower than the log that recorded it), numbering the rest anew.
+    pub dedupe: bool,
 }
+
+impl Default for ImportOptions {
+    fn default() -> Self {
+        Self {
+            sensor_name: "unnamed".into(),
+            units: Units::Px,
+            split_column: None,
+            max_step: None,
+            columns: BTreeMap::new(),
+            one_based: false,
+            dedupe: false,
+        }
+    }
+}
+
+/// Slowest and fastest plausible frame rates, Hz: a median interval outside them is a time
+/// column in other units (ms, ticks) or a typo, not a sensor.
+pub const RATE_RANGE_HZ: (f64, f64) = (0.1, 100_000.0);
+/// Largest `t_s` magnitude, s (Unix times in seconds fit; nanoseconds do not).
+pub const MAX_TIME_S: f64 = 1e10;
 
 /// Where a trial's slip labels come from.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -93,6 +122,14 @@ pub struct ImportedTrial {
     pub name: String,
     pub split: Option<String>,
     pub trial: Trial,
+    /// Frames whose readings repeat the previous frame's exactly: dropped with
+    /// [`ImportOptions::dedupe`], else counted so the importer can say so.
+    pub repeated_frames: u64,
+    pub dropped_repeats: u64,
+    /// Frame intervals more than half again or less than half the trial's median, of all.
+    pub uneven_intervals: (usize, usize),
+    /// The trial's frame rate (one over its median interval per frame number), Hz.
+    pub rate_hz: Option<f64>,
 }
 
 /// What a file held, beside its trials.
@@ -140,21 +177,38 @@ pub(crate) fn build_trial(
     file: (&Path, &str),
     opts: &ImportOptions,
 ) -> Result<ImportedTrial, String> {
+    if log_file_name(name) == ".mcap" {
+        return Err(format!(
+            "trial `{name}`: its name gives its log no file name; name trials with a letter or digit"
+        ));
+    }
+    if let Some(split) = &rows.split {
+        if log_file_name(split) == ".mcap" {
+            return Err(format!(
+                "trial `{name}`: split `{split}` gives its folder no name; name splits with a letter or digit"
+            ));
+        }
+    }
     let mut frames = Vec::new();
     let mut z_events = Vec::new();
     let mut intervals = Vec::new();
+    let (mut repeated_frames, mut dropped_repeats) = (0u64, 0u64);
     for (sensor_name, by_frame) in &rows.sensors {
         let sensor = sensors
             .iter()
             .position(|s| s == sensor_name)
             .expect("sensor names come from the file") as u8;
         let mut previous: Option<(u64, f64)> = None;
-        for (&seq, f) in by_frame {
+        let mut last_reading: Option<&FrameRows> = None;
+        let mut last_kept: Option<(u64, f64)> = None;
+        // With --dedupe, frames are numbered anew from the first frame's number.
+        let mut next_seq = by_frame.keys().next().copied().unwrap_or(0);
+        for (&file_seq, f) in by_frame {
             if let Some(missing) =
                 (0..elements).find(|&e| f.elements.get(e).is_none_or(Option::is_none))
             {
                 return Err(format!(
-                    "trial `{name}`, sensor `{sensor_name}`, frame {seq} (from line {}): element {missing} is missing; every frame needs elements 0..{}",
+                    "trial `{name}`, sensor `{sensor_name}`, frame {file_seq} (from line {}): element {missing} is missing; every frame needs elements 0..{}",
                     f.line,
                     elements - 1
                 ));
@@ -162,13 +216,29 @@ pub(crate) fn build_trial(
             if let Some((prev_seq, prev_t)) = previous {
                 if f.time_s <= prev_t {
                     return Err(format!(
-                        "trial `{name}`, sensor `{sensor_name}`: frame {seq} (line {}) has t_s {} but frame {prev_seq} had {prev_t}; times must rise with frame numbers",
+                        "trial `{name}`, sensor `{sensor_name}`: frame {file_seq} (line {}) has t_s {} but frame {prev_seq} had {prev_t}; times must rise with frame numbers",
                         f.line, f.time_s
                     ));
                 }
-                intervals.push((f.time_s - prev_t) / (seq - prev_seq) as f64);
             }
-            previous = Some((seq, f.time_s));
+            previous = Some((file_seq, f.time_s));
+            let repeats =
+                last_reading.is_some_and(|last| last.elements == f.elements && last.z == f.z);
+            last_reading = Some(f);
+            if repeats {
+                repeated_frames += 1;
+                if opts.dedupe {
+                    dropped_repeats += 1;
+                    continue;
+                }
+            }
+            let seq = if opts.dedupe { next_seq } else { file_seq };
+            next_seq = seq + 1;
+            // per frame number: a lost frame's gap is not an uneven interval
+            if let Some((kept_seq, kept_t)) = last_kept {
+                intervals.push((f.time_s - kept_t) / (seq - kept_seq) as f64);
+            }
+            last_kept = Some((seq, f.time_s));
             let z: Option<Vec<f32>> = f.z.iter().copied().collect();
             match z {
                 Some(z) if z.len() == elements => z_events.push(TrialEvent {
@@ -179,7 +249,7 @@ pub(crate) fn build_trial(
                 _ if f.z.iter().all(Option::is_none) => {}
                 _ => {
                     return Err(format!(
-                        "trial `{name}`, sensor `{sensor_name}`, frame {seq} (from line {}): `z` is given for some elements and not others; give it for all of a frame's elements or none",
+                        "trial `{name}`, sensor `{sensor_name}`, frame {file_seq} (from line {}): `z` is given for some elements and not others; give it for all of a frame's elements or none",
                         f.line
                     ))
                 }
@@ -206,6 +276,32 @@ pub(crate) fn build_trial(
     // Arrival order across sensors, as a rig's host would have seen them.
     frames.sort_by(|a, b| a.time_s.total_cmp(&b.time_s).then(a.sensor.cmp(&b.sensor)));
     let t_first = frames.first().map_or(0.0, |f| f.time_s);
+    let t_last = frames.last().map_or(0.0, |f| f.time_s);
+    if let Some(onset) = rows.onset_s.flatten().map(f64::from_bits) {
+        if !(t_first..=t_last).contains(&onset) {
+            return Err(format!(
+                "trial `{name}`: onset_s {onset} is outside its frames' times ({t_first} to {t_last} s); an onset is a frame time of the trial's slip (leave onset_s empty for a trial without slip)"
+            ));
+        }
+    }
+    intervals.sort_by(f64::total_cmp);
+    let median_interval = intervals.get(intervals.len() / 2).copied();
+    let rate_hz = median_interval.map(|dt| 1.0 / dt);
+    if let Some(rate) = rate_hz {
+        let (slowest, fastest) = RATE_RANGE_HZ;
+        if !(slowest..=fastest).contains(&rate) {
+            return Err(format!(
+                "trial `{name}`: its frames are {} s apart (median), a rate of {rate:.3e} Hz; expected {slowest} to {fastest} Hz (is t_s in seconds?)",
+                1.0 / rate
+            ));
+        }
+    }
+    let uneven = median_interval.map_or(0, |m| {
+        intervals
+            .iter()
+            .filter(|&&dt| !(0.5 * m..=1.5 * m).contains(&dt))
+            .count()
+    });
     let mut events = Vec::new();
     match source {
         LabelSource::SlipColumn => {
@@ -227,17 +323,16 @@ pub(crate) fn build_trial(
     z_events.sort_by(|a, b| a.time_s.total_cmp(&b.time_s));
     let has_z = !z_events.is_empty();
     events.extend(z_events);
-    intervals.sort_by(f64::total_cmp);
-    let rate_hz = intervals
-        .get(intervals.len() / 2)
-        .map_or(String::new(), |dt| format!("{:.3}", 1.0 / dt));
     let mut parameters = BTreeMap::from([
         ("source_file".to_string(), file.0.display().to_string()),
         ("source_sha256".to_string(), file.1.to_string()),
         ("sensor_name".to_string(), opts.sensor_name.clone()),
         ("sensor_names".to_string(), sensors.join(",")),
         ("units".to_string(), opts.units.name().to_string()),
-        ("rate_hz".to_string(), rate_hz),
+        (
+            "rate_hz".to_string(),
+            rate_hz.map_or(String::new(), |r| format!("{r:.3}")),
+        ),
         ("label_source".to_string(), source.name().to_string()),
         (
             MAX_STEP_PARAMETER.to_string(),
@@ -249,6 +344,12 @@ pub(crate) fn build_trial(
     }
     if has_z {
         parameters.insert("z".to_string(), format!("{Z_TOPIC_PREFIX}<sensor>"));
+    }
+    if opts.dedupe {
+        parameters.insert(
+            "repeated_frames_dropped".to_string(),
+            dropped_repeats.to_string(),
+        );
     }
     let arrivals_s = frames.iter().map(|f| f.time_s).collect();
     let trial = Trial {
@@ -269,6 +370,10 @@ pub(crate) fn build_trial(
         name: name.to_string(),
         split: rows.split,
         trial,
+        repeated_frames,
+        dropped_repeats,
+        uneven_intervals: (uneven, intervals.len()),
+        rate_hz,
     })
 }
 

@@ -10,6 +10,22 @@ use super::{
 };
 
 const REQUIRED: [&str; 7] = ["trial", "sensor", "frame", "t_s", "element", "x", "y"];
+/// Every interchange column a `--columns` mapping may name.
+pub const INTERCHANGE_COLUMNS: [&str; 13] = [
+    "trial",
+    "sensor",
+    "frame",
+    "t_s",
+    "element",
+    "x",
+    "y",
+    "z",
+    "slip",
+    "onset_s",
+    "object_mm",
+    "hand_mm",
+    "object",
+];
 /// Largest element value a trial log holds (the log reader's bound on pin coordinates).
 const MAX_VALUE: f64 = 1e5;
 /// More elements than any sensor has; a bigger index is a typo, not a sensor.
@@ -29,12 +45,37 @@ fn columns(
     header: &csv::StringRecord,
     opts: &ImportOptions,
 ) -> Result<(Columns, LabelSource, Vec<String>), String> {
-    let find = |name: &str| header.iter().position(|h| h.trim() == name);
+    if let Some(unknown) = opts
+        .columns
+        .keys()
+        .find(|k| !INTERCHANGE_COLUMNS.contains(&k.as_str()))
+    {
+        return Err(format!(
+            "--columns {unknown}=...: `{unknown}` is not an interchange column (expected one of {})",
+            INTERCHANGE_COLUMNS.join(", ")
+        ));
+    }
+    let in_file = |h: &str| header.iter().any(|c| c.trim() == h);
+    for (ours, theirs) in &opts.columns {
+        if !in_file(theirs) {
+            return Err(format!(
+                "--columns {ours}={theirs}: no `{theirs}` column (found: {})",
+                header.iter().collect::<Vec<_>>().join(", ")
+            ));
+        }
+    }
+    // An interchange column is read under the file's own name where --columns gives one;
+    // a file column renamed away is not also read under its own name.
+    let find = |name: &str| match opts.columns.get(name) {
+        Some(theirs) => header.iter().position(|h| h.trim() == theirs),
+        None if opts.columns.values().any(|v| v == name) => None,
+        None => header.iter().position(|h| h.trim() == name),
+    };
     let mut required = [0; 7];
     for (slot, name) in required.iter_mut().zip(REQUIRED) {
         *slot = find(name).ok_or_else(|| {
             format!(
-                "no `{name}` column; the interchange CSV needs {} (found: {})",
+                "no `{name}` column; the interchange CSV needs {} (found: {}); a column of another name is mapped with --columns {name}=<its name>",
                 REQUIRED.join(", "),
                 header.iter().collect::<Vec<_>>().join(", ")
             )
@@ -159,6 +200,7 @@ pub fn read_interchange(path: &Path, opts: &ImportOptions) -> Result<ImportSumma
     let mut trials: HashMap<String, TrialRows> = HashMap::new();
     let mut sensor_names: Vec<String> = Vec::new();
     let mut elements = 0usize;
+    let mut lowest_element = u64::MAX;
     let mut rows = 0u64;
     let mut record = csv::StringRecord::new();
     loop {
@@ -191,7 +233,19 @@ pub fn read_interchange(path: &Path, opts: &ImportOptions) -> Result<ImportSumma
             .to_string();
         let frame = whole(&record, c_frame, "frame").map_err(row_err)?;
         let t = number(&record, c_t, "t_s").map_err(row_err)?;
-        let element = whole(&record, c_element, "element").map_err(row_err)?;
+        if t.abs() > crate::import::MAX_TIME_S {
+            return Err(row_err(format!(
+                "column `t_s`: {t} is beyond +-{:e} s; times are in seconds",
+                crate::import::MAX_TIME_S
+            )));
+        }
+        let mut element = whole(&record, c_element, "element").map_err(row_err)?;
+        if opts.one_based {
+            element = element.checked_sub(1).ok_or_else(|| {
+                row_err("column `element`: 0 with --one-based (indices from 1)".into())
+            })?;
+        }
+        lowest_element = lowest_element.min(element);
         if element >= MAX_ELEMENTS {
             return Err(row_err(format!(
                 "column `element`: {element}: expected an index below {MAX_ELEMENTS}"
@@ -326,6 +380,11 @@ pub fn read_interchange(path: &Path, opts: &ImportOptions) -> Result<ImportSumma
     if order.is_empty() {
         return Err(file_err("no rows after the header".into()));
     }
+    if lowest_element == 1 {
+        return Err(file_err(
+            "no row has element 0: the element indices look 1-based; pass --one-based".into(),
+        ));
+    }
     if sensor_names.len() > usize::from(u8::MAX) {
         return Err(file_err(format!(
             "{} sensors; at most {}",
@@ -367,6 +426,7 @@ mod tests {
             units: Units::Counts,
             split_column: None,
             max_step: None,
+            ..Default::default()
         }
     }
 
@@ -468,7 +528,7 @@ mod tests {
 
     #[test]
     fn an_onset_column_and_marker_heights_are_label_sources_too() {
-        let onset = "trial,sensor,frame,t_s,element,x,y,onset_s\nb,s,0,0.0,0,1,1,0.05\nb,s,1,0.02,0,1,2,0.05\nc,s,0,0.0,0,1,1,\nc,s,1,0.02,0,1,1,\n";
+        let onset = "trial,sensor,frame,t_s,element,x,y,onset_s\nb,s,0,0.0,0,1,1,0.05\nb,s,1,0.02,0,1,2,0.05\nb,s,2,0.04,0,1,3,0.05\nb,s,3,0.06,0,1,4,0.05\nc,s,0,0.0,0,1,1,\nc,s,1,0.02,0,1,1,\n";
         let s = read(onset, &opts()).unwrap();
         let w: Vec<_> = s
             .trials
@@ -559,5 +619,72 @@ mod tests {
             e.contains(":5:") && e.contains("one value per trial"),
             "{e}"
         );
+    }
+
+    #[test]
+    fn names_times_and_onsets_that_make_no_trial_are_refused() {
+        let row = |trial: &str, t0: &str, t1: &str, onset: &str| {
+            format!("trial,sensor,frame,t_s,element,x,y,onset_s\n{trial},s,0,{t0},0,1,1,{onset}\n{trial},s,1,{t1},0,1,2,{onset}\n")
+        };
+        for name in [".", ".."] {
+            let e = message(read(&row(name, "0", "0.02", ""), &opts()).unwrap_err());
+            assert!(e.contains("no file name"), "{e}");
+        }
+        let e = message(read(&row("a", "0", "1e-300", ""), &opts()).unwrap_err());
+        assert!(e.contains("expected 0.1 to 100000 Hz"), "{e}");
+        let e = message(read(&row("a", "0", "1e12", ""), &opts()).unwrap_err());
+        assert!(
+            e.contains(":3:") && e.contains("times are in seconds"),
+            "{e}"
+        );
+        for onset in ["-0.5", "1e308", "0.03"] {
+            let e = message(read(&row("a", "0", "0.02", onset), &opts()).unwrap_err());
+            assert!(e.contains("outside its frames' times"), "{onset}: {e}");
+        }
+        assert!(read(&row("a", "0", "0.02", "0.02"), &opts()).is_ok());
+    }
+
+    #[test]
+    fn mapped_columns_one_based_elements_and_repeated_readings_are_read_as_asked() {
+        let text = "run,sensor,frame,t_s,taxel,x,y,slip\na,s,0,0.0,1,1,1,0\na,s,1,0.01,1,1,1,0\na,s,2,0.02,1,2,1,0\na,s,3,0.03,1,2,1,1\na,s,4,0.04,1,3,1,1\n";
+        let e = message(read(text, &opts()).unwrap_err());
+        assert!(e.contains("--columns trial=<its name>"), "{e}");
+        let mapped = ImportOptions {
+            columns: [("trial", "run"), ("element", "taxel")]
+                .map(|(a, b)| (a.to_string(), b.to_string()))
+                .into(),
+            ..opts()
+        };
+        let e = message(read(text, &mapped).unwrap_err());
+        assert!(e.contains("look 1-based; pass --one-based"), "{e}");
+        let one_based = ImportOptions {
+            one_based: true,
+            ..mapped.clone()
+        };
+        let s = read(text, &one_based).unwrap();
+        let t = &s.trials[0];
+        assert_eq!(t.trial.frames.len(), 5);
+        assert_eq!(t.repeated_frames, 2);
+        let deduped = read(
+            text,
+            &ImportOptions {
+                dedupe: true,
+                ..one_based.clone()
+            },
+        )
+        .unwrap();
+        let t = &deduped.trials[0];
+        assert_eq!((t.dropped_repeats, t.trial.frames.len()), (2, 3));
+        let seqs: Vec<_> = t.trial.frames.iter().map(|f| (f.seq, f.time_s)).collect();
+        assert_eq!(seqs, [(0, 0.0), (1, 0.02), (2, 0.04)]);
+        // the labels stay at their times: the slip starts at 0.03 s still
+        let (onset, _) = trial_slip_window(&t.trial, &OnsetSpec::default());
+        assert_eq!(onset, Some(0.03));
+        let unknown = ImportOptions {
+            columns: [("taxel".to_string(), "x".to_string())].into(),
+            ..opts()
+        };
+        let e = message(read(text, &unknown).unwrap_err());
+        assert!(e.contains("`taxel` is not an interchange column"), "{e}");
     }
 }

@@ -193,6 +193,7 @@ mod tests {
             units: Units::Mm,
             split_column: None,
             max_step: None,
+            ..Default::default()
         };
         let back = read_interchange(&path, &opts).unwrap().trials;
         assert_eq!(back.len(), 2);
@@ -218,6 +219,9 @@ mod tests {
             with_z in any::<bool>(),
         ) {
             let mut original = trial(sensors, elements, rate_hz, &gaps, &values);
+            // an onset is one of the trial's times (the importer refuses others)
+            let (t0, t1) = (original.frames[0].time_s, original.frames.last().unwrap().time_s);
+            let onset = onset.map(|share| t0 + share * (t1 - t0));
             if with_z {
                 // each frame's z: its x values reversed (any numbers will do)
                 let z: Vec<_> = original
@@ -243,6 +247,7 @@ mod tests {
                 units: Units::Mm,
                 split_column: None,
                 max_step: None,
+                ..Default::default()
             };
             let back = read_interchange(&path, &opts).unwrap().trials.remove(0).trial;
             prop_assert_eq!(&back.frames, &original.frames);

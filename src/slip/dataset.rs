@@ -105,10 +105,11 @@ pub fn load_labelled(
                 .join(", "),
         ));
     };
-    let features = trial_features(&first.2).map_err(|message| LoadError::Features {
+    let mut features = trial_features(&first.2).map_err(|message| LoadError::Features {
         path: first.0.clone(),
         message,
     })?;
+    let mut rates: Vec<(&str, f64)> = Vec::new();
     for (path, _, t) in &loaded {
         if let Some(why) = t.unusable() {
             return Err(LoadError::Unusable {
@@ -135,7 +136,16 @@ pub fn load_labelled(
                 first.0.display()
             )));
         }
+        if let Some(rate) = own.frame_rate_hz {
+            rates.push((t.meta.trial_id.as_str(), f64::from(rate)));
+        }
     }
+    // The dataset's rate (a model records it) is its trials' median; rates may differ
+    // between trials, since velocities are per frame within each.
+    let mut sorted: Vec<f64> = rates.iter().map(|r| r.1).collect();
+    sorted.sort_by(f64::total_cmp);
+    features.frame_rate_hz = sorted.get(sorted.len() / 2).map(|&r| r as f32);
+    let rate_spread = crate::slip::features::RateSpread::of(&rates);
     let refs = loaded
         .iter()
         .map(|(p, h, t)| TrialRef {
@@ -145,11 +155,9 @@ pub fn load_labelled(
         })
         .collect();
     let trials: Vec<_> = loaded.into_iter().map(|(_, _, t)| t).collect();
-    Ok((
-        Dataset::from_trials(&trials, &features, labels),
-        refs,
-        features,
-    ))
+    let mut dataset = Dataset::from_trials(&trials, &features, labels);
+    dataset.rate_spread = rate_spread;
+    Ok((dataset, refs, features))
 }
 
 /// How frames are labelled.
@@ -188,6 +196,8 @@ pub struct Dataset {
     pub skipped_frames: usize,
     /// Trials in which no slip onset was found in the marker track.
     pub trials_without_onset: Vec<String>,
+    /// The trials' frame rates, where they differ by more than 15 % (said, not refused).
+    pub rate_spread: Option<crate::slip::features::RateSpread>,
 }
 
 #[derive(

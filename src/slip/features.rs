@@ -78,6 +78,40 @@ pub struct FeatureSpec {
 /// Frame rates closer than this (relative) are the same rate for a model.
 const RATE_TOLERANCE: f32 = 0.15;
 
+/// Trials whose frame rates differ by more than [`RATE_TOLERANCE`]: velocities are per
+/// frame, so the same slip moves an element further per frame at a lower rate. Each
+/// trial's own frames are what the method needs evenly spaced; different rates between
+/// trials are allowed and said.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RateSpread {
+    pub slowest: (String, f64),
+    pub fastest: (String, f64),
+    pub trials: usize,
+}
+
+impl RateSpread {
+    /// The spread of `(trial, rate in Hz)`, if it is wider than the tolerance.
+    pub fn of(rates: &[(&str, f64)]) -> Option<Self> {
+        let slowest = rates.iter().min_by(|a, b| a.1.total_cmp(&b.1))?;
+        let fastest = rates.iter().max_by(|a, b| a.1.total_cmp(&b.1))?;
+        (fastest.1 - slowest.1 > f64::from(RATE_TOLERANCE) * slowest.1).then(|| Self {
+            slowest: (slowest.0.to_string(), slowest.1),
+            fastest: (fastest.0.to_string(), fastest.1),
+            trials: rates.len(),
+        })
+    }
+}
+
+impl std::fmt::Display for RateSpread {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "frame rates differ between the {} trials, from {:.1} Hz (`{}`) to {:.1} Hz (`{}`): velocities are per frame, so the same slip reads faster per frame at the lower rate",
+            self.trials, self.slowest.1, self.slowest.0, self.fastest.1, self.fastest.0
+        )
+    }
+}
+
 impl FeatureSpec {
     pub fn new(pins: usize) -> Self {
         Self {
@@ -90,7 +124,8 @@ impl FeatureSpec {
 
     /// What in `data` (the features of some trials) differs from `self` so that a model made
     /// with `self` cannot read it, if anything: `(what, data's value, self's value)`. The
-    /// element count, units and step limit must agree; frame rates within 15 % do.
+    /// element count, units and step limit must agree; the frame rate may differ
+    /// ([`FeatureSpec::rate_differs`] says when to warn).
     pub fn mismatch(&self, data: &FeatureSpec) -> Option<(&'static str, String, String)> {
         if self.pins != data.pins {
             return Some((
@@ -116,16 +151,19 @@ impl FeatureSpec {
             };
             return Some(("element step limit", limit(data), limit(self)));
         }
-        if let (Some(m), Some(d)) = (self.frame_rate_hz, data.frame_rate_hz) {
-            if (m - d).abs() > RATE_TOLERANCE * m {
-                return Some((
-                    "frame rate (velocities are per frame)",
-                    format!("{d:.1} Hz"),
-                    format!("{m:.1} Hz"),
-                ));
-            }
-        }
         None
+    }
+
+    /// A warning when `data`'s frame rate is more than 15 % from `self`'s (a model's
+    /// training rate): velocities are per frame, so it reads the same slip at another
+    /// speed per frame.
+    pub fn rate_differs(&self, data: &FeatureSpec) -> Option<String> {
+        let (m, d) = (self.frame_rate_hz?, data.frame_rate_hz?);
+        ((m - d).abs() > RATE_TOLERANCE * m).then(|| {
+            format!(
+                "the trials' frame rate is {d:.1} Hz, the model's training data's {m:.1} Hz: velocities are per frame, so the model reads their slips at another speed per frame"
+            )
+        })
     }
 
     pub fn len(&self) -> usize {
@@ -262,6 +300,23 @@ mod tests {
         // tmo's 20 px pin guard would take every such step for a lost element
         frame_features(&FeatureSpec::new(16), &prev, &cur, &mut out).unwrap();
         assert!(out.iter().all(|&v| v == 0.0));
+    }
+
+    #[test]
+    fn rates_that_differ_are_said_not_refused() {
+        let at = |hz: f32| FeatureSpec {
+            frame_rate_hz: Some(hz),
+            ..FeatureSpec::new(16)
+        };
+        assert_eq!(at(60.0).mismatch(&at(30.0)), None);
+        assert!(at(60.0).rate_differs(&at(55.0)).is_none());
+        let why = at(60.0).rate_differs(&at(30.0)).unwrap();
+        assert!(why.contains("30.0 Hz") && why.contains("60.0 Hz"), "{why}");
+        assert_eq!(RateSpread::of(&[("a", 58.8), ("b", 60.0)]), None);
+        let spread = RateSpread::of(&[("a", 58.8), ("slow", 39.2), ("b", 60.0)]).unwrap();
+        assert_eq!(spread.slowest, ("slow".to_string(), 39.2));
+        assert_eq!(spread.fastest, ("b".to_string(), 60.0));
+        assert_eq!(RateSpread::of(&[]), None);
     }
 
     fn frame(seq: u64, pins: Vec<[f32; 2]>) -> PinFrame {

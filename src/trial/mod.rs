@@ -243,7 +243,7 @@ pub fn refuse_duplicates<'a>(
 fn describe_write_error(e: &std::io::Error) -> String {
     // ENOSPC and EDQUOT: the kind is not stable on every toolchain, the OS code is
     if e.kind() == std::io::ErrorKind::StorageFull || matches!(e.raw_os_error(), Some(28 | 122)) {
-        format!("the disk is full ({e}); free space and run again with --resume")
+        format!("the disk is full ({e}); free space and run again")
     } else {
         e.to_string()
     }

@@ -220,6 +220,18 @@ pub enum BatchError {
     Calibration(#[from] crate::runner::score::GMinError),
 }
 
+impl BatchError {
+    /// Whether the batch stopped on a failed write (a full disk, say): its finished trials
+    /// are kept, and `--resume` goes on once the cause is mended.
+    pub fn is_failed_write(&self) -> bool {
+        match self {
+            BatchError::InTrial { source, .. } => source.is_failed_write(),
+            BatchError::Log(crate::trial::TrialError::Write { .. }) | BatchError::Io { .. } => true,
+            _ => false,
+        }
+    }
+}
+
 /// Most trials one batch may hold: far beyond any experiment (the paper's largest is 600
 /// trials), and small enough that the grid's list fits in memory.
 pub const MAX_TRIALS: u128 = 1_000_000;
