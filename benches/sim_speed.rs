@@ -51,6 +51,7 @@ fn main() {
             sensors: r.tactile_sensors(),
             live: None,
             state_period_s: None,
+            in_flight: None,
         };
         let t0 = Instant::now();
         let rec = devices.run(script, simulated_s, |_| {}).unwrap();

@@ -520,3 +520,90 @@ fn a_live_viewer_sees_the_served_rig() {
         assert_eq!(s["data"]["position_mm"].as_array().unwrap().len(), 3, "{s}");
     }
 }
+
+/// A rig that goes away mid-trial (the served simulator killed) stops the batch with exit
+/// 2; what the trial in flight had recorded is kept beside the batch as a faulted log
+/// (with the fault), not counted as done, and `--resume` runs that trial again.
+#[test]
+fn a_device_lost_mid_trial_leaves_that_trial_as_a_faulted_log() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    common::ok(&common::tmo(
+        d,
+        &[
+            "sim", "collect", "--rig", "rail", "--trials", "8", "--seed", "5", "--out", "rail",
+        ],
+    ));
+    common::ok(&common::tmo(
+        d,
+        &[
+            "train",
+            "rail",
+            "--classifier",
+            "threshold",
+            "--out",
+            "rail.json",
+        ],
+    ));
+    let server = common::serve_sim(d, &["--rig", "rail"]);
+    std::fs::write(
+        d.join("rail.toml"),
+        "kind = \"rail_catch\"\nrepetitions = 3\nmodels = [\"rail.json\"]\nstrategies = [\"1x1\"]\n[rail_catch]\nretract_speed_mm_s = [3.0, 5.0]\n",
+    )
+    .unwrap();
+    let child = Command::new(env!("CARGO_BIN_EXE_tmo"))
+        .current_dir(d)
+        .args(["run", "rail.toml", "--backend", "real"])
+        .args(["--hardware", "served.toml", "--out", "b"])
+        .stdin(Stdio::null())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    // the first trial finished, the second well under way: the rig goes
+    let first = d.join("b/trial-00000.mcap");
+    let started = Instant::now();
+    while !first.exists() {
+        assert!(
+            started.elapsed() < Duration::from_secs(120),
+            "no first trial"
+        );
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    std::thread::sleep(Duration::from_millis(600));
+    drop(server);
+    let out = child.wait_with_output().unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    let kept = d.join("b/trial-00001.faulted-1.mcap");
+    assert!(
+        err.contains("is kept as") && err.contains("trial-00001.faulted-1.mcap"),
+        "{err}"
+    );
+    assert!(!d.join("b/trial-00001.mcap").exists());
+    let trial = tmo::trial::read_trial(&kept).unwrap();
+    assert_eq!(trial.meta.trial_id, "trial-00001");
+    assert!(trial.frames.len() > 10, "{} frames", trial.frames.len());
+    assert!(trial.meta.parameters["fault"].starts_with("device: "));
+    let fault = trial.events.iter().find(|e| e.topic == "/fault").unwrap();
+    assert_eq!(fault.data["fault"], "device");
+    // the rig back, the batch finishes: the faulted log stays beside it
+    std::fs::remove_file(d.join("served.toml")).unwrap();
+    let _server = common::serve_sim(d, &["--rig", "rail"]);
+    let resumed = common::tmo(
+        d,
+        &[
+            "run",
+            "rail.toml",
+            "--backend",
+            "real",
+            "--hardware",
+            "served.toml",
+            "--out",
+            "b",
+            "--resume",
+        ],
+    );
+    common::ok(&resumed);
+    assert!(d.join("b/trial-00001.mcap").exists() && kept.exists());
+}

@@ -196,7 +196,7 @@ pub fn run(args: RunArgs) -> Result<u8> {
         on_trial: Some(&|line: &str| super::output::detail(&bar, line)),
     };
     let end = run_batch(&request, &mut rig, &stop, &bar).map_err(|e| {
-        let resumable = e.is_failed_write();
+        let resumable = e.is_resumable();
         let e = anyhow::Error::new(e).context(args.protocol.display().to_string());
         if resumable {
             e.context(format!(

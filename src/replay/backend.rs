@@ -190,6 +190,7 @@ pub fn replay_devices(trial: &Trial, start_s: f64) -> (ReplayDevices, CommandLog
         sensors,
         live: None,
         state_period_s: None,
+        in_flight: None,
     };
     (devices, log)
 }

@@ -36,6 +36,9 @@ pub struct Devices<C, H, A, M, S> {
     /// How often the runners record the hand's and arm's state (see `runner::state`);
     /// `None` where the devices have no state of their own to report (replay).
     pub state_period_s: Option<f64>,
+    /// Where a trial that a device error cut short leaves what it had recorded (see
+    /// [`super::trial_run::InFlight`]); `None` where nobody keeps it.
+    pub in_flight: Option<super::trial_run::InFlight>,
 }
 
 /// The simulated rig's devices.
@@ -58,6 +61,7 @@ impl SimDevices {
             sensors: rig.tactile_sensors(),
             live: None,
             state_period_s: Some(super::state::STATE_PERIOD_S),
+            in_flight: None,
         }
     }
 }

@@ -332,6 +332,7 @@ mod tests {
             sensors,
             live: None,
             state_period_s,
+            in_flight: None,
         };
         let model = threshold_model();
         let online = Online {
@@ -563,6 +564,7 @@ mod tests {
             sensors,
             live: None,
             state_period_s: None,
+            in_flight: None,
         };
         let p = ReleaseParams {
             contact: Some(ContactGrasp {

@@ -384,6 +384,7 @@ mod tests {
             sensors,
             live: None,
             state_period_s: None,
+            in_flight: None,
         };
         let model = threshold_model();
         let online = Online {

@@ -32,6 +32,7 @@ use crate::slip::model::ModelFile;
 use crate::trial::TrialEvent;
 use devices::{device, Devices, Recording, ScenarioError};
 pub use state::event;
+pub use trial_run::InFlight;
 
 /// Why a trial was aborted; the hand held its position and the arm stopped.
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]

@@ -132,6 +132,7 @@ pub fn open_real(hw: HardwareFile, limits: SafetyLimits) -> Result<RealRig, Batc
         sensors,
         live: None,
         state_period_s: Some(super::state::STATE_PERIOD_S),
+        in_flight: None,
     };
     Ok(RealRig { hw, devices })
 }
@@ -159,6 +160,8 @@ pub fn run_real_trial(
     };
     let RealRig { hw, devices } = rig;
     devices.live = live.map(|l| l.trial(started_unix_s.saturating_mul(1_000_000_000), false));
+    let in_flight = super::trial_run::InFlight::default();
+    devices.in_flight = Some(in_flight.clone());
     let max_speed = hw.hand.max_speed_per_s;
     let watch = watch(hw);
     let result = match &plan.params {
@@ -219,7 +222,32 @@ pub fn run_real_trial(
             if let Ok(held) = devices.hand.present_positions() {
                 let _ = devices.hand.set_targets(held);
             }
-            return Err(e.into());
+            // What the trial recorded up to the fault goes with the error, to be kept as
+            // a faulted log beside the batch (the trial itself runs again on --resume).
+            let partial = in_flight.lock().ok().and_then(|mut slot| slot.take());
+            let Some(mut record) = partial else {
+                return Err(e.into());
+            };
+            record.events.push(super::event(
+                record.ended_s,
+                "/fault",
+                serde_json::json!({ "fault": "device", "message": e.to_string() }),
+            ));
+            parameters.insert("fault".into(), format!("device: {e}"));
+            let mut trial = finish_trial(
+                plan,
+                planned,
+                models,
+                record,
+                parameters,
+                ("real", devices.sensors.len() as u8, hw.cameras.pins),
+                started_unix_s,
+            );
+            trial.sources.extend(hw.source.clone());
+            return Err(BatchError::FaultInFlight {
+                source: Box::new(e.into()),
+                trial: Box::new(trial),
+            });
         }
     };
     let mut trial = finish_trial(

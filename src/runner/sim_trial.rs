@@ -62,6 +62,7 @@ fn safe_sim_devices(
         sensors: rig.tactile_sensors(),
         live: None,
         state_period_s: Some(super::state::STATE_PERIOD_S),
+        in_flight: None,
     }
 }
 

@@ -18,6 +18,35 @@ pub(super) struct TrialRun<'m> {
     pub monitor: FrameMonitor<'m>,
     pub rec: Recording,
     pub events: Vec<TrialEvent>,
+    in_flight: Option<InFlight>,
+    finished: bool,
+}
+
+/// Where a trial that ends without [`TrialRun::finish`] (a device error taken up with `?`
+/// anywhere in a runner) leaves what it recorded: the frames, markers and events up to the
+/// fault. The real backend keeps it as `*.faulted.mcap`. A drop guard rather than a
+/// wrapper around every runner's body, so that no error path of any runner can miss it.
+pub type InFlight = std::sync::Arc<std::sync::Mutex<Option<RunRecord>>>;
+
+impl Drop for TrialRun<'_> {
+    fn drop(&mut self) {
+        if self.finished {
+            return;
+        }
+        let Some(sink) = &self.in_flight else { return };
+        let ended_s = self.rec.arrivals_s.last().copied().unwrap_or(self.t0);
+        let record = RunRecord {
+            recording: std::mem::take(&mut self.rec),
+            armed_s: None,
+            reaction: None,
+            fault: None,
+            ended_s,
+            events: std::mem::take(&mut self.events),
+        };
+        if let Ok(mut slot) = sink.lock() {
+            *slot = Some(record);
+        }
+    }
 }
 
 /// One tick's outcome: the monitor's verdict on the frames that arrived, the time after
@@ -44,6 +73,8 @@ impl<'m> TrialRun<'m> {
             monitor: FrameMonitor::new(dev.sensors.len(), online, watch, t0),
             rec: Recording::default(),
             events: Vec::new(),
+            in_flight: dev.in_flight.clone(),
+            finished: false,
         }
     }
 
@@ -87,19 +118,20 @@ impl<'m> TrialRun<'m> {
 
     /// The trial's record, ended at `ended_s`.
     pub fn finish(
-        self,
+        mut self,
         ended_s: f64,
         armed_s: Option<f64>,
         reaction: Option<Reaction>,
         fault: Option<Fault>,
     ) -> RunRecord {
+        self.finished = true;
         RunRecord {
-            recording: self.rec,
+            recording: std::mem::take(&mut self.rec),
             armed_s,
             reaction,
             fault,
             ended_s,
-            events: self.events,
+            events: std::mem::take(&mut self.events),
         }
     }
 }

@@ -199,6 +199,18 @@ pub enum BatchError {
     },
     #[error("{dir} already holds {trials} trial(s) of a batch: pass --resume to finish it, or choose another --out")]
     AlreadyThere { dir: PathBuf, trials: usize },
+    /// A device fault mid-trial, with what the trial had recorded until then.
+    #[error("{source}")]
+    FaultInFlight {
+        source: Box<BatchError>,
+        trial: Box<crate::trial::Trial>,
+    },
+    /// A device fault mid-trial whose recording so far was kept at `path`.
+    #[error("{source} (what the trial recorded until then is kept as {path})")]
+    FaultKept {
+        source: Box<BatchError>,
+        path: PathBuf,
+    },
     #[error("trial {trial_id}: {source}")]
     InTrial {
         trial_id: String,
@@ -221,12 +233,17 @@ pub enum BatchError {
 }
 
 impl BatchError {
-    /// Whether the batch stopped on a failed write (a full disk, say): its finished trials
-    /// are kept, and `--resume` goes on once the cause is mended.
-    pub fn is_failed_write(&self) -> bool {
+    /// Whether the batch stopped part way on something outside it (a failed write, a full
+    /// disk, a device lost mid-trial): its finished trials are kept, and `--resume` goes on
+    /// once the cause is mended.
+    pub fn is_resumable(&self) -> bool {
         match self {
-            BatchError::InTrial { source, .. } => source.is_failed_write(),
-            BatchError::Log(crate::trial::TrialError::Write { .. }) | BatchError::Io { .. } => true,
+            BatchError::InTrial { source, .. } => source.is_resumable(),
+            BatchError::Log(crate::trial::TrialError::Write { .. })
+            | BatchError::Io { .. }
+            | BatchError::FaultKept { .. }
+            | BatchError::FaultInFlight { .. }
+            | BatchError::Scenario(ScenarioError::Device { .. }) => true,
             _ => false,
         }
     }

@@ -79,6 +79,17 @@ pub enum BatchEnd {
     },
 }
 
+/// A device fault's error, its trial's recording until then written beside the batch as
+/// `<id>.faulted-<n>.mcap` (not counted as done: `--resume` runs the trial again).
+fn keep_faulted(out: &Path, t: &PlannedTrial, e: BatchError) -> Result<BatchError, BatchError> {
+    let BatchError::FaultInFlight { source, trial } = e else {
+        return Ok(e);
+    };
+    let path = faulted_trial_path(out, t);
+    write_trial(&path, &trial)?;
+    Ok(BatchError::FaultKept { source, path })
+}
+
 fn in_trial(t: &PlannedTrial, e: BatchError) -> BatchError {
     BatchError::InTrial {
         trial_id: t.trial_id.clone(),
@@ -345,6 +356,7 @@ fn run_missing(
                     }));
                 }
                 let result = run_real_trial(plan, t, models, rig, unix, stop, req.live)
+                    .or_else(|e| Err(keep_faulted(out, t, e)?))
                     .map_err(|e| in_trial(t, e))
                     .and_then(|trial| keep(t, &trial).map(Some));
                 let cut = matches!(result, Ok(Some(true)));
