@@ -96,6 +96,12 @@ fn the_quick_preset_writes_every_step_and_the_findings_report() {
     let md = std::fs::read_to_string(d.join("paper/findings.md")).unwrap();
     assert!(md.contains("| sf-offline-order |"), "{md}");
     assert!(md.contains("| verdict | finding | paper |"), "{md}");
+    // nothing names where the reproduction was made: a copy of it reads the same (X-b)
+    let here = d.to_str().unwrap();
+    for page in ["findings.md", "findings.html", "findings.json"] {
+        let text = std::fs::read_to_string(d.join("paper").join(page)).unwrap();
+        assert!(!text.contains(here), "{page} names {here}");
+    }
 
     // the sensitivity study: the rail's friction varied at both ends of its range
     for end in ["low", "high"] {

@@ -504,3 +504,60 @@ fn a_model_file_has_one_writer() {
     let e = fails(&tmo(d, &["train", "nowhere", "--out", "m.json"]));
     assert!(e.contains("nowhere") && !e.contains("another tmo"), "{e}");
 }
+
+/// Issue 41, item 13: Ctrl-C during a sweep starts no more cells, keeps every finished one
+/// and exits 130 with the way on; `--resume` finishes the grid.
+#[test]
+fn ctrl_c_stops_a_sweep_that_resumes() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    collect(d, "8", "trials", "5");
+    let grid = [
+        "sweep",
+        "trials",
+        "--classifiers",
+        "logreg",
+        "--downsample",
+        "0.2:1.0:0.1",
+        "--n-slip",
+        "1:15",
+        "--search",
+        "bayes",
+        "--iters",
+        "4",
+        "--folds",
+        "2",
+        "--out",
+        "s/sweep.csv",
+    ];
+    let child = std::process::Command::new(env!("CARGO_BIN_EXE_tmo"))
+        .current_dir(d)
+        .args(grid)
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let partial = d.join("s/sweep.csv.partial");
+    let started = std::time::Instant::now();
+    while std::fs::read_to_string(&partial).map_or(0, |t| t.lines().count()) < 3 {
+        assert!(started.elapsed().as_secs() < 120, "no cells finished");
+        std::thread::sleep(std::time::Duration::from_millis(10));
+    }
+    unsafe {
+        libc::kill(child.id() as i32, libc::SIGINT);
+    }
+    let out = child.wait_with_output().unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(130), "{err}");
+    assert!(
+        err.contains("interrupted") && err.contains("--resume"),
+        "{err}"
+    );
+    let kept = std::fs::read_to_string(&partial).unwrap().lines().count();
+    assert!(kept >= 3 && !d.join("s/sweep.csv").exists(), "{kept}");
+    let mut resume = grid.to_vec();
+    resume.push("--resume");
+    let stdout = ok(&tmo(d, &resume));
+    assert!(stdout.contains("already done"), "{stdout}");
+    assert_eq!(csv_rows(&d.join("s/sweep.csv")), 9 * 15);
+}

@@ -157,6 +157,9 @@ enum Edit {
     Delete(usize, usize),
     Repeat(usize, usize, usize),
     Token(usize, usize),
+    /// The whole line at a position, k times more: duplicated rows (issue 41's R-a, R-d and
+    /// D-b were rows and inputs given twice).
+    RepeatLine(usize, usize),
 }
 
 fn edits() -> impl Strategy<Value = Vec<Edit>> {
@@ -166,6 +169,7 @@ fn edits() -> impl Strategy<Value = Vec<Edit>> {
         (any::<usize>(), 1usize..64).prop_map(|(p, n)| Edit::Delete(p, n)),
         (any::<usize>(), 1usize..64, 1usize..20).prop_map(|(p, n, k)| Edit::Repeat(p, n, k)),
         (any::<usize>(), any::<usize>()).prop_map(|(p, t)| Edit::Token(p, t)),
+        (any::<usize>(), 1usize..4).prop_map(|(p, k)| Edit::RepeatLine(p, k)),
     ];
     prop::collection::vec(edit, 1..6)
 }
@@ -193,6 +197,24 @@ fn mutate(seed: &[u8], edits: &[Edit]) -> Vec<u8> {
             Edit::Token(p, t) => {
                 let s = at(p);
                 b.splice(s..s, TOKENS[t % TOKENS.len()].iter().copied());
+            }
+            Edit::RepeatLine(p, k) => {
+                let s = at(p).min(len);
+                let start = b[..s]
+                    .iter()
+                    .rposition(|&c| c == b'\n')
+                    .map_or(0, |i| i + 1);
+                let end = b[s..]
+                    .iter()
+                    .position(|&c| c == b'\n')
+                    .map_or(len, |i| s + i + 1);
+                let mut line = b[start..end].to_vec();
+                if line.last() != Some(&b'\n') {
+                    line.push(b'\n');
+                }
+                for _ in 0..k {
+                    b.splice(start..start, line.iter().copied());
+                }
             }
         }
     }
@@ -460,6 +482,18 @@ fn read_interchange(path: &Path) {
     }
 }
 
+/// The import's flags on: repeated frames dropped, names mapped (to themselves).
+fn read_interchange_with_flags(path: &Path) {
+    let opts = tmo::import::ImportOptions {
+        dedupe: true,
+        columns: [("element".to_string(), "element".to_string())].into(),
+        ..interchange_options()
+    };
+    if let Ok(summary) = tmo::import::read_interchange(path, &opts) {
+        let _ = tmo::import::import_notes(&summary.trials, true);
+    }
+}
+
 fn read_sweep(path: &Path) {
     if let Ok(inputs) = tmo::report::inputs::load(&[path.to_path_buf()]) {
         let _ = tmo::report::build::tables(&inputs);
@@ -531,6 +565,11 @@ proptest! {
     #[test]
     fn interchange_csvs(e in edits()) {
         survives("x.csv", mutate(interchange_csv(), &e), &[], read_interchange)?;
+    }
+
+    #[test]
+    fn interchange_csvs_with_flags(e in edits()) {
+        survives("x.csv", mutate(interchange_csv(), &e), &[], read_interchange_with_flags)?;
     }
 
     #[test]

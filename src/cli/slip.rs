@@ -258,9 +258,11 @@ pub fn dataset_export(args: ExportArgs) -> Result<()> {
             .iter()
             .map(|p| tmo::trial::read_trial(p))
             .collect::<Result<Vec<_>, _>>()?;
-        let file = std::fs::File::create(&args.out)
+        let mut file = tmo::output::atomic::AtomicFile::create(&args.out)
             .with_context(|| format!("cannot write {}", args.out.display()))?;
-        tmo::import::export_interchange(&trials, &labels.onset, std::io::BufWriter::new(file))
+        tmo::import::export_interchange(&trials, &labels.onset, &mut file)
+            .with_context(|| format!("cannot write {}", args.out.display()))?;
+        file.commit()
             .with_context(|| format!("cannot write {}", args.out.display()))?;
         outln!(
             "wrote {} trial(s) as interchange CSV to {}",

@@ -271,11 +271,17 @@ pub fn sweep(args: SweepArgs) -> Result<()> {
     if let Some(shard) = args.shard {
         identity.push_str(&format!("shard {shard}\n"));
     }
+    // Ctrl-C starts no more cells; the cells in flight finish and are kept (as every
+    // finished cell is), and `--resume` goes on from them.
+    let stop = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
+    let flag = stop.clone();
+    ctrlc::set_handler(move || flag.store(true, std::sync::atomic::Ordering::Relaxed))
+        .context("cannot install the Ctrl-C handler")?;
     let target = SweepTarget {
         out: &args.out,
         resume: args.resume,
         identity,
-        stop: None,
+        stop: Some(&stop),
         shard: args.shard,
     };
     let result = run_to_file(
@@ -336,7 +342,17 @@ pub fn sweep(args: SweepArgs) -> Result<()> {
         },
     );
     bar.finish_and_clear();
-    let result = result?;
+    let result = match result {
+        Err(e) if e.stopped() => {
+            eprintln!(
+                "interrupted: {} cell(s) finished this run are kept in {}; run again with --resume to finish",
+                cells_done.load(std::sync::atomic::Ordering::Relaxed),
+                tmo::slip::sweep_file::partial_path(&args.out).display()
+            );
+            std::process::exit(super::run::EXIT_INTERRUPTED);
+        }
+        other => other?,
+    };
     if result.cut_torn_line {
         super::output::note(
             "note: the partial results ended in a line cut short (a write that did not finish); that cell ran again",

@@ -1,5 +1,6 @@
 //! Where a command's outputs go: one writer per output directory or file ([`lock`]), and
 //! one output written in parts by several processes or cluster jobs ([`shard`]).
 
+pub mod atomic;
 pub mod lock;
 pub mod shard;

@@ -28,15 +28,24 @@ pub fn svg_to_pdf(svg: &Path, pdf: &Path) -> Result<(), String> {
     let page = svg2pdf::PageOptions { dpi: DPI };
     let bytes = svg2pdf::to_pdf(&tree, svg2pdf::ConversionOptions::default(), page)
         .map_err(|e| e.to_string())?;
-    std::fs::write(pdf, bytes).map_err(|e| e.to_string())
+    crate::output::atomic::write_atomic(pdf, &bytes).map_err(|e| e.to_string())
 }
 
-/// Marks the PNG at `path` as `DPI` dots per inch (a `pHYs` chunk after the header), so
-/// that a document places it at its stated size. The image itself is unchanged.
-pub fn state_png_dpi(path: &Path) -> Result<(), String> {
-    let bytes = std::fs::read(path).map_err(|e| e.to_string())?;
+/// Where a PNG is drawn before it is stated and put in place: `.<name>.partial.png` beside
+/// it (hidden, and with the extension that tells plotters the format).
+pub fn drawing_path(png: &Path) -> std::path::PathBuf {
+    let stem = png.file_stem().unwrap_or_default().to_string_lossy();
+    png.with_file_name(format!(".{stem}.partial.png"))
+}
+
+/// The PNG drawn at `drawn` marked as `DPI` dots per inch (a `pHYs` chunk after the
+/// header), so that a document places it at its stated size, written whole to `png`; the
+/// drawing is removed. The image itself is unchanged.
+pub fn state_png_dpi(drawn: &Path, png: &Path) -> Result<(), String> {
+    let bytes = std::fs::read(drawn).map_err(|e| e.to_string())?;
+    let _ = std::fs::remove_file(drawn);
     let stated = with_dpi(&bytes, DPI).ok_or("not a PNG with a header chunk")?;
-    std::fs::write(path, stated).map_err(|e| e.to_string())
+    crate::output::atomic::write_atomic(png, &stated).map_err(|e| e.to_string())
 }
 
 /// `png` with a `pHYs` chunk of `dpi` inserted after its `IHDR` (replacing any `pHYs`).

@@ -57,17 +57,24 @@ macro_rules! figure_files {
             path: path.to_path_buf(),
             message: e,
         };
+        // Each file is written whole or not at all (a full disk leaves no half figure).
+        let mut svg_text = String::new();
         {
-            let $root = plotters::prelude::SVGBackend::new(&svg, $size).into_drawing_area();
+            let $root = plotters::prelude::SVGBackend::with_string(&mut svg_text, $size)
+                .into_drawing_area();
             $figure.map_err(|e| err(&svg, e.to_string()))?;
             $root.present().map_err(|e| err(&svg, e.to_string()))?;
         }
+        $crate::output::atomic::write_atomic(&svg, svg_text.as_bytes())
+            .map_err(|e| err(&svg, e.to_string()))?;
+        // plotters picks the image format by extension: drawn as `.<stem>.partial.png`
+        let drawn = $crate::plots::files::drawing_path(&png);
         {
-            let $root = plotters::prelude::BitMapBackend::new(&png, $size).into_drawing_area();
+            let $root = plotters::prelude::BitMapBackend::new(&drawn, $size).into_drawing_area();
             $figure.map_err(|e| err(&png, e.to_string()))?;
             $root.present().map_err(|e| err(&png, e.to_string()))?;
         }
-        $crate::plots::files::state_png_dpi(&png).map_err(|e| err(&png, e))?;
+        $crate::plots::files::state_png_dpi(&drawn, &png).map_err(|e| err(&png, e))?;
         $crate::plots::files::svg_to_pdf(&svg, &pdf).map_err(|e| err(&pdf, e))?;
         vec![svg, pdf, png]
     }};

@@ -92,7 +92,7 @@ pub fn tables_page(title: &str, tables: &[Table], figure_paths: &[PathBuf]) -> S
 
 /// Writes `html` to `path`.
 pub fn write(path: &Path, html: &str) -> std::io::Result<()> {
-    std::fs::write(path, html)
+    crate::output::atomic::write_atomic(path, html.as_bytes())
 }
 
 #[cfg(test)]

@@ -197,9 +197,7 @@ pub fn read_record(dir: &Path) -> Option<StepRecord> {
 }
 
 fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), ReproduceError> {
-    let tmp = path.with_extension("writing");
-    std::fs::write(&tmp, bytes).map_err(io(&tmp))?;
-    std::fs::rename(&tmp, path).map_err(io(path))
+    crate::output::atomic::write_atomic(path, bytes).map_err(io(path))
 }
 
 /// Runs every step the preset asks for in each replicate (and, for a sensitivity study,

@@ -563,11 +563,13 @@ pub fn write_findings(
         super::sensitivity::mark_fragile(&mut judged, &outcomes);
         let md = super::sensitivity::markdown(&judged, &outcomes);
         let path = out.join("sensitivity.md");
-        std::fs::write(&path, &md).map_err(io(&path))?;
+        crate::output::atomic::write_atomic(&path, md.as_bytes()).map_err(io(&path))?;
         let path = out.join("sensitivity.json");
-        std::fs::write(
+        crate::output::atomic::write_atomic(
             &path,
-            serde_json::to_string_pretty(&outcomes).expect("outcomes serialise"),
+            serde_json::to_string_pretty(&outcomes)
+                .expect("outcomes serialise")
+                .as_bytes(),
         )
         .map_err(io(&path))?;
         sensitivity_md = Some(md);
@@ -633,7 +635,7 @@ pub fn write_findings(
         md += "\n";
         md += &table.replacen("# Sensitivity", "## Sensitivity", 1);
     }
-    std::fs::write(&written.md, md).map_err(io(&written.md))?;
+    crate::output::atomic::write_atomic(&written.md, md.as_bytes()).map_err(io(&written.md))?;
     let json = serde_json::json!({
         "preset": preset.name(),
         "replicates": written.replicates,
@@ -645,13 +647,16 @@ pub fn write_findings(
         "findings": judged,
         "measures": measures,
     });
-    std::fs::write(
+    crate::output::atomic::write_atomic(
         &written.json,
-        serde_json::to_string_pretty(&json).expect("findings serialise"),
+        serde_json::to_string_pretty(&json)
+            .expect("findings serialise")
+            .as_bytes(),
     )
     .map_err(io(&written.json))?;
     let page = html_page(*preset, &judged, &written, &tables);
-    std::fs::write(&written.html, page).map_err(io(&written.html))?;
+    crate::output::atomic::write_atomic(&written.html, page.as_bytes())
+        .map_err(io(&written.html))?;
     written.figures.retain(|p| p.exists());
     Ok(written)
 }

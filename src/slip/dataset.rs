@@ -375,7 +375,7 @@ impl Dataset {
 impl Dataset {
     /// Writes rows as CSV: trial_id, sensor, seq, time_s, label, then `dr_i` and `dtheta_i`.
     pub fn write_csv(&self, path: &std::path::Path) -> Result<(), csv::Error> {
-        let mut w = csv::Writer::from_path(path)?;
+        let mut w = csv::Writer::from_writer(crate::output::atomic::AtomicFile::create(path)?);
         let pins = self.dim / 2;
         let mut head: Vec<String> = ["trial_id", "sensor", "seq", "time_s", "label"]
             .iter()
@@ -398,7 +398,10 @@ impl Dataset {
             rec.extend(self.row(i).iter().map(|v| format!("{v:.6}")));
             w.write_record(&rec)?;
         }
-        w.flush()?;
+        let file = w
+            .into_inner()
+            .map_err(|e| csv::Error::from(e.into_error()))?;
+        file.commit()?;
         Ok(())
     }
 }

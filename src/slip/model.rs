@@ -400,9 +400,7 @@ impl ModelFile {
             }
         }
         let text = serde_json::to_string_pretty(&value).expect("models serialise");
-        let tmp = path.with_extension("json.partial");
-        std::fs::write(&tmp, text).map_err(io)?;
-        std::fs::rename(&tmp, path).map_err(io)
+        crate::output::atomic::write_atomic(path, text.as_bytes()).map_err(io)
     }
 
     pub fn load(path: &Path) -> Result<Self, ModelFileError> {

@@ -80,11 +80,8 @@ impl ScoredRows {
 /// Writes `bytes` to `path` through a temporary file renamed into place, so a reader (or a
 /// crash) sees the old file or the new one, never half of one.
 pub(crate) fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), BatchError> {
-    let tmp = path.with_extension("writing");
-    let io = |source| BatchError::Io {
+    crate::output::atomic::write_atomic(path, bytes).map_err(|source| BatchError::Io {
         path: path.to_path_buf(),
         source,
-    };
-    std::fs::write(&tmp, bytes).map_err(io)?;
-    std::fs::rename(&tmp, path).map_err(io)
+    })
 }
