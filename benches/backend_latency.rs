@@ -192,7 +192,7 @@ fn measure(wait: Wait, tick_s: f64, live: bool) -> Vec<f64> {
         }
     });
 
-    let view = live.then(|| tmo::live::LiveView::start("127.0.0.1:0".parse().unwrap()).unwrap());
+    let view = live.then(|| tmo::live::LiveView::start("127.0.0.1:0".parse().unwrap(), 3).unwrap());
     let viewer = view.as_ref().map(|v| slow_viewer(v.url(), stop.clone()));
     let mut publisher = view.as_ref().map(|v| v.trial(0, false));
     let (mut frames, mut arrivals) = (Vec::new(), Vec::new());

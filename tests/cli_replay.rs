@@ -245,3 +245,53 @@ fn a_replay_plays_its_trials_live_and_ctrl_c_skips_to_the_table() {
     assert!(out.status.success(), "{said}");
     assert!(said.contains("5 replays of 5 trial(s)"), "{said}");
 }
+
+/// Issue 42, Foxglove: `replay --live` with no model plays the trials only; a viewer's
+/// clock never runs back between trials; the view ends with a close frame; the SDK's
+/// subprotocol is required (the older `foxglove.websocket.v1` is refused, as documented).
+#[test]
+fn a_live_replay_without_a_model_plays_every_trial_on_one_clock_and_closes() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    // two trials of one sensor, 1.5 s each at 60 Hz
+    let mut csv = String::from("trial,sensor,frame,t_s,element,x,y,slip\n");
+    for trial in ["a", "b"] {
+        for f in 0..90 {
+            for e in 0..2 {
+                csv += &format!("{trial},s,{f},{:.5},{e},{},{e},0\n", f as f64 / 60.0, f + e);
+            }
+        }
+    }
+    std::fs::write(d.join("two.csv"), csv).unwrap();
+    ok(&tmo(d, &["import", "csv", "two.csv", "--out", "two"]));
+    let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_tmo"))
+        .current_dir(d)
+        .args(["replay", "two", "--live", "127.0.0.1:0"])
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let url = common::live::address(&mut child);
+    match common::live::connect(&url, "foxglove.websocket.v1") {
+        Err(tungstenite::Error::Http(r)) => assert_eq!(r.status(), 400),
+        other => panic!("the old subprotocol name: {:?}", other.map(|_| ())),
+    }
+    let mut ws = common::live::connect(&url, "foxglove.sdk.v1").unwrap();
+    let (frames, closed) = common::live::until_closed(&mut ws, "/tactile/0");
+    assert!(closed, "no close frame");
+    let times: Vec<u64> = frames.iter().map(|f| f.0).collect();
+    assert!(times.windows(2).all(|w| w[0] <= w[1]), "{times:?}");
+    // both trials: the frame numbers start again
+    let seqs: Vec<u64> = frames
+        .iter()
+        .map(|f| f.1["seq"].as_u64().unwrap())
+        .collect();
+    assert!(seqs.windows(2).any(|w| w[1] < w[0]), "{seqs:?}");
+    assert!(frames.len() > 90, "{} frames", frames.len());
+    let out = child.wait_with_output().unwrap();
+    assert!(out.status.success(), "{out:?}");
+    assert!(
+        String::from_utf8_lossy(&out.stderr).contains("nothing was replayed"),
+        "{out:?}"
+    );
+}

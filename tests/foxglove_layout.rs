@@ -72,11 +72,31 @@ fn check_path(path: &str) -> Result<(), String> {
         }
         rest = after;
     }
-    if has_fields(&schema, rest) {
-        Ok(())
-    } else {
-        Err(format!("{path}: {rest} is not a field of {topic}"))
+    if !has_fields(&schema, rest) {
+        return Err(format!("{path}: {rest} is not a field of {topic}"));
     }
+    // A Plot panel plots numbers: an array field needs an index or a slice (`[:]`), or
+    // the open-source Plot panel plots nothing for it.
+    let last = rest.rsplit('.').next().unwrap_or("");
+    if leaf_is_array(&schema, rest) && !last.ends_with(']') {
+        return Err(format!(
+            "{path}: {rest} is an array; plot its items with [:] or one with [n]"
+        ));
+    }
+    Ok(())
+}
+
+/// Whether the field chain ends at an array (an index or slice after it counts as taken).
+fn leaf_is_array(schema: &Value, chain: &str) -> bool {
+    let mut at = schema;
+    for field in chain.split('.').filter(|f| !f.is_empty()) {
+        let name = field.split('[').next().unwrap();
+        match at["properties"].get(name) {
+            Some(next) => at = next,
+            None => return false,
+        }
+    }
+    at["type"] == "array"
 }
 
 #[test]
@@ -136,7 +156,11 @@ fn every_panel_is_configured_and_reads_fields_tmo_writes() {
 #[test]
 fn the_path_check_refuses_what_is_not_written() {
     assert!(check_path("/classifier{data.sensor==0}.data.slip").is_ok());
-    assert!(check_path("/tactile/2.x").is_ok());
+    assert!(check_path("/tactile/2.x[:]").is_ok());
+    assert!(
+        check_path("/tactile/2.x").is_err(),
+        "an array plots nothing"
+    );
     assert!(check_path("/state/hand.data.positions[2]").is_ok());
     assert!(check_path("/state/arm.data.pose").is_err());
     assert!(check_path("/classifier.data.speed").is_err());

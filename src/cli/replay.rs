@@ -21,8 +21,8 @@ pub struct ReplayArgs {
     /// Trial logs (.mcap) or directories of them (a batch directory works).
     #[arg(required = true)]
     trials: Vec<PathBuf>,
-    /// Model files to compare.
-    #[arg(long = "model", required = true, num_args = 1..)]
+    /// Model files to compare (none with --live: the trials are played, not replayed).
+    #[arg(long = "model", required_unless_present = "live", num_args = 1..)]
     models: Vec<PathBuf>,
     /// Strategies as NFrMSen (or the short NxM), comma-separated (default: the paper's six; those needing
     /// more sensors than a trial has are left out for it).
@@ -160,7 +160,12 @@ pub fn replay(args: ReplayArgs) -> Result<bool> {
 /// the last one ends or Ctrl-C.
 fn play_live(addr: std::net::SocketAddr, trials: &[(String, Trial)]) -> Result<()> {
     use std::sync::atomic::{AtomicBool, Ordering};
-    let view = tmo::live::LiveView::start(addr)?;
+    let sensors = trials
+        .iter()
+        .map(|(_, t)| t.meta.sensors)
+        .max()
+        .unwrap_or(0);
+    let view = tmo::live::LiveView::start(addr, sensors)?;
     eprintln!(
         "live view at {}: in Foxglove, Open connection > Foxglove WebSocket > {} (each trial plays at wall-clock speed; Ctrl-C skips to the replay)",
         view.url(),
@@ -258,6 +263,13 @@ pub fn replay_with(
     }
     if let Some(addr) = live {
         play_live(addr, &trials)?;
+        if models.is_empty() {
+            super::output::note(format!(
+                "played {} trial(s); no --model, so nothing was replayed",
+                trials.len()
+            ));
+            return Ok(skipped > 0);
+        }
     }
     let mut jobs = Vec::new();
     for (ti, (_, t)) in trials.iter().enumerate() {

@@ -65,6 +65,10 @@ pub struct RunArgs {
     /// first, as `tmo replay --live` does.
     #[arg(long, value_name = "ADDR", num_args = 0..=1, default_missing_value = "127.0.0.1:8765")]
     live: Option<std::net::SocketAddr>,
+    /// With --live: keep serving after the batch ends (the last trial stays in the viewer,
+    /// which can still scrub it) until Ctrl-C.
+    #[arg(long, requires = "live")]
+    live_linger: bool,
     /// Print the batch's summary as JSON (counts, the report's tables, the files written)
     /// instead of as text; progress and notes go to standard error.
     #[arg(long)]
@@ -87,6 +91,7 @@ pub fn run_on_sim(protocol: PathBuf, out: PathBuf, resume: bool) -> Result<u8> {
         unattended: false,
         from: Vec::new(),
         live: None,
+        live_linger: false,
         json: false,
     })
 }
@@ -175,7 +180,9 @@ pub fn run(args: RunArgs) -> Result<u8> {
     };
     let live = match args.live {
         Some(addr) => {
-            let view = tmo::live::LiveView::start(addr)?;
+            // the hand's three fingertips, or the rail's one
+            let sensors = if plan.kind == Kind::RailCatch { 1 } else { 3 };
+            let view = tmo::live::LiveView::start(addr, sensors)?;
             eprintln!(
                 "live view at {}: in Foxglove, Open connection > Foxglove WebSocket > {} (simulated trials run one at a time, at wall-clock speed)",
                 view.url(),
@@ -247,6 +254,15 @@ pub fn run(args: RunArgs) -> Result<u8> {
         );
     } else {
         print_summary(&out, plan.kind, summary)?;
+    }
+    if let (true, Some(view)) = (args.live_linger, &live) {
+        eprintln!(
+            "the batch is done; the live view stays at {} until Ctrl-C",
+            view.url()
+        );
+        while !stop.load(std::sync::atomic::Ordering::Relaxed) {
+            std::thread::sleep(std::time::Duration::from_millis(50));
+        }
     }
     Ok(0)
 }

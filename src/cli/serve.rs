@@ -223,7 +223,8 @@ pub fn serve_cmd(args: ServeArgs) -> Result<()> {
     }
     let mut live = match args.live {
         Some(addr) => {
-            let view = tmo::live::LiveView::start(addr)?;
+            let sensors = if args.rig == ServedRig::Rail { 1 } else { 3 };
+            let view = tmo::live::LiveView::start(addr, sensors)?;
             eprintln!(
                 "live view at {}: in Foxglove, Open connection > Foxglove WebSocket > {}",
                 view.url(),

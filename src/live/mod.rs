@@ -8,7 +8,7 @@
 
 use std::collections::HashMap;
 use std::net::SocketAddr;
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
@@ -28,11 +28,8 @@ pub enum LiveError {
     Serve { addr: SocketAddr, message: String },
 }
 
-/// The channels the runners write (three fingertips at most).
-const ANNOUNCED_TOPICS: [&str; 12] = [
-    "/tactile/0",
-    "/tactile/1",
-    "/tactile/2",
+/// The channels the runners write beside one `/tactile/<k>` per fingertip.
+const ANNOUNCED_TOPICS: [&str; 9] = [
     "/marker",
     "/phase",
     "/command/hand",
@@ -58,13 +55,40 @@ struct Inner {
     channels: Mutex<HashMap<String, Arc<RawChannel>>>,
     /// Every fingertip's pin field as a well-known scene (live only: see `scene`).
     scene: foxglove::Channel<foxglove::messages::SceneUpdate>,
-    // kept for as long as the view: the server stops when its handle goes
-    _server: foxglove::WebSocketServerHandle,
+    /// The latest log time sent, ns: a trial's messages start after it, so a viewer's
+    /// clock never runs back at a trial boundary (trials of one batch share a start).
+    last_sent_ns: AtomicU64,
+    // kept for as long as the view; stopped gracefully when it goes (see Drop)
+    server: Mutex<Option<foxglove::WebSocketServerHandle>>,
+}
+
+/// How long a closing view waits for its clients to take the close frame.
+const CLOSE_WAIT: Duration = Duration::from_secs(2);
+
+impl Drop for Inner {
+    fn drop(&mut self) {
+        // A graceful stop sends each client a close frame; a client that never answers
+        // does not hold tmo's exit for more than CLOSE_WAIT.
+        let Some(server) = self.server.lock().ok().and_then(|mut s| s.take()) else {
+            return;
+        };
+        let (done, waited) = std::sync::mpsc::channel();
+        std::thread::spawn(move || {
+            server.stop().wait_blocking();
+            let _ = done.send(());
+        });
+        let _ = waited.recv_timeout(CLOSE_WAIT);
+    }
 }
 
 impl LiveView {
-    /// Serves on `addr` (port 0: any free port; [`LiveView::url`] says which).
-    pub fn start(addr: SocketAddr) -> Result<Self, LiveError> {
+    /// Serves on `addr` (port 0: any free port; [`LiveView::url`] says which) the channels
+    /// of a rig with `sensors` fingertips. The server speaks the SDK's subprotocols
+    /// `foxglove.sdk.v1` and `foxglove.sdk.v1.1` (Foxglove's app and its open-source
+    /// WebSocket clients ask for them); a client asking only for the older name
+    /// `foxglove.websocket.v1` is refused with HTTP 400, as the SDK does not let a server
+    /// add a name (docs/commands.md, "Live view").
+    pub fn start(addr: SocketAddr, sensors: u8) -> Result<Self, LiveError> {
         let ctx = foxglove::Context::new();
         let server = foxglove::WebSocketServer::new()
             .name("tmo")
@@ -83,12 +107,17 @@ impl LiveView {
                 port: server.port(),
                 host: addr.ip().to_string(),
                 channels: Mutex::new(HashMap::new()),
-                _server: server,
+                last_sent_ns: AtomicU64::new(0),
+                server: Mutex::new(Some(server)),
             }),
         };
-        // Every channel a runner writes exists before a viewer can connect: a viewer sees
+        // Every channel the rig writes exists before a viewer can connect: a viewer sees
         // the whole list at once, and no advertisement can cross its connecting (a channel
-        // made while a client was connecting was never advertised to it).
+        // made while a client was connecting was never advertised to it). Only the rig's
+        // own fingertips are announced.
+        for k in 0..sensors {
+            view.channel(&format!("/tactile/{k}"));
+        }
         for topic in ANNOUNCED_TOPICS {
             view.channel(topic);
         }
@@ -104,9 +133,16 @@ impl LiveView {
     /// base). `pace`: hold the trial to wall-clock speed (the simulator's clock would
     /// otherwise run thousands of times faster than anyone can watch).
     pub fn trial(&self, started_unix_ns: u64, pace: bool) -> LivePublisher {
+        // after everything sent so far (1 ms on), so times never run back between trials
+        let last = self.inner.last_sent_ns.load(Ordering::Relaxed);
+        let base_ns = if last == 0 {
+            started_unix_ns
+        } else {
+            started_unix_ns.max(last.saturating_add(1_000_000))
+        };
         LivePublisher {
             view: self.clone(),
-            base_ns: started_unix_ns,
+            base_ns,
             pace: pace.then(|| (Instant::now(), None)),
             frames: 0,
             markers: 0,
@@ -203,6 +239,9 @@ impl LiveView {
     }
 
     fn publish(&self, topic: &str, message: &[u8], log_time_ns: u64) {
+        self.inner
+            .last_sent_ns
+            .fetch_max(log_time_ns, Ordering::Relaxed);
         if let Some(c) = self.channel(topic) {
             c.log_with_meta(
                 message,

@@ -120,3 +120,77 @@ pub fn receive(
     }
     received
 }
+
+/// The live view's address from the first line `child` (its stderr piped) says.
+pub fn address(child: &mut Child) -> String {
+    let mut said = String::new();
+    BufReader::new(child.stderr.as_mut().unwrap())
+        .read_line(&mut said)
+        .unwrap();
+    said.split_whitespace()
+        .find(|w| w.starts_with("ws://"))
+        .unwrap_or_else(|| panic!("no address in {said:?}"))
+        .trim_end_matches(':')
+        .to_string()
+}
+
+/// Connects to `url` asking for `subprotocol` only.
+pub fn connect(
+    url: &str,
+    subprotocol: &str,
+) -> tungstenite::Result<
+    tungstenite::WebSocket<tungstenite::stream::MaybeTlsStream<std::net::TcpStream>>,
+> {
+    let mut request = url.into_client_request().unwrap();
+    request
+        .headers_mut()
+        .insert("Sec-WebSocket-Protocol", subprotocol.parse().unwrap());
+    let (ws, _) = tungstenite::connect(request)?;
+    if let tungstenite::stream::MaybeTlsStream::Plain(s) = ws.get_ref() {
+        s.set_read_timeout(Some(std::time::Duration::from_secs(30)))
+            .unwrap();
+    }
+    Ok(ws)
+}
+
+/// Subscribes to `topic` once advertised and collects `(log time ns, message)` until the
+/// server closes the connection; whether it sent a close frame.
+pub fn until_closed(
+    ws: &mut tungstenite::WebSocket<tungstenite::stream::MaybeTlsStream<std::net::TcpStream>>,
+    topic: &str,
+) -> (Vec<(u64, serde_json::Value)>, bool) {
+    let mut got = Vec::new();
+    let mut subscribed = false;
+    loop {
+        match ws.read() {
+            Ok(Message::Text(text)) => {
+                let v: serde_json::Value = serde_json::from_str(&text).unwrap();
+                if v["op"] != "advertise" || subscribed {
+                    continue;
+                }
+                let c = v["channels"]
+                    .as_array()
+                    .unwrap()
+                    .iter()
+                    .find(|c| c["topic"] == topic)
+                    .unwrap_or_else(|| panic!("{topic} is not advertised: {v}"))
+                    .clone();
+                let subscribe = serde_json::json!({"op": "subscribe", "subscriptions": [{"id": 1, "channelId": c["id"]}]});
+                ws.send(Message::text(subscribe.to_string())).unwrap();
+                subscribed = true;
+            }
+            Ok(Message::Binary(b)) if b.first() == Some(&1) => {
+                let log_time = u64::from_le_bytes(b[5..13].try_into().unwrap());
+                got.push((log_time, serde_json::from_slice(&b[13..]).unwrap()));
+            }
+            Ok(Message::Close(_)) => {
+                // the closing handshake: read on until the server ends it
+                while ws.read().is_ok() {}
+                return (got, true);
+            }
+            Ok(_) => {}
+            Err(tungstenite::Error::ConnectionClosed) => return (got, true),
+            Err(_) => return (got, false),
+        }
+    }
+}
