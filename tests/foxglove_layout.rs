@@ -119,6 +119,10 @@ fn every_panel_is_configured_and_reads_fields_tmo_writes() {
         if let Some(t) = config["topicPath"].as_str() {
             paths.push(t.to_string());
         }
+        // a Log panel reads the live view's foxglove.Log lines
+        if let Some(t) = config["topicToRender"].as_str() {
+            assert_eq!(t, tmo::live::LOG_TOPIC, "a Log panel shows {t}");
+        }
         // a 3D panel's topics: the live view's pin scene
         for topic in config["topics"]
             .as_object()

@@ -55,6 +55,9 @@ struct Inner {
     channels: Mutex<HashMap<String, Arc<RawChannel>>>,
     /// Every fingertip's pin field as a well-known scene (live only: see `scene`).
     scene: foxglove::Channel<foxglove::messages::SceneUpdate>,
+    /// Phases, commands, detections and faults as the well-known `foxglove.Log`, for
+    /// Foxglove's Log panel; the plots read the same events on their own channels.
+    log: foxglove::Channel<foxglove::messages::Log>,
     /// The latest log time sent, ns: a trial's messages start after it, so a viewer's
     /// clock never runs back at a trial boundary (trials of one batch share a start).
     last_sent_ns: AtomicU64,
@@ -100,10 +103,12 @@ impl LiveView {
                 message: e.to_string(),
             })?;
         let scene = ctx.channel_builder(scene::SCENE_TOPIC).build();
+        let log = ctx.channel_builder(LOG_TOPIC).build();
         let view = Self {
             inner: Arc::new(Inner {
                 ctx,
                 scene,
+                log,
                 port: server.port(),
                 host: addr.ip().to_string(),
                 channels: Mutex::new(HashMap::new()),
@@ -236,6 +241,14 @@ impl LiveView {
     fn send_event(&self, e: &TrialEvent, log_time_ns: u64) {
         let body = serde_json::to_vec(e).expect("events serialise");
         self.publish(&e.topic, &body, log_time_ns);
+        if let Some(line) = log_line(e, log_time_ns) {
+            self.inner.log.log_with_meta(
+                &line,
+                foxglove::PartialMetadata {
+                    log_time: Some(log_time_ns),
+                },
+            );
+        }
     }
 
     fn publish(&self, topic: &str, message: &[u8], log_time_ns: u64) {
@@ -251,6 +264,34 @@ impl LiveView {
             );
         }
     }
+}
+
+/// The topic of the live view's `foxglove.Log` lines.
+pub const LOG_TOPIC: &str = "/log";
+
+/// An event as a `foxglove.Log` line: phases and commands as info, detections as warnings,
+/// faults as errors; the per-frame classifier outputs and state samples are left to the
+/// plots (a line per frame would bury the rest).
+pub fn log_line(e: &TrialEvent, log_time_ns: u64) -> Option<foxglove::messages::Log> {
+    use foxglove::messages::log::Level;
+    let level = match e.topic.as_str() {
+        "/fault" => Level::Error,
+        "/detector" => Level::Warning,
+        "/phase" | "/command/hand" | "/command/arm" => Level::Info,
+        _ => return None,
+    };
+    let ns = 1_000_000_000;
+    Some(foxglove::messages::Log {
+        timestamp: Some(foxglove::messages::Timestamp::new(
+            u32::try_from(log_time_ns / ns).unwrap_or(u32::MAX),
+            (log_time_ns % ns) as u32,
+        )),
+        level: level as i32,
+        message: format!("{} {}", e.topic, e.data),
+        name: "tmo".into(),
+        file: String::new(),
+        line: 0,
+    })
 }
 
 /// Publishes one trial's messages as they are recorded.
@@ -330,5 +371,34 @@ impl LivePublisher {
                 std::thread::sleep(wait);
             }
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn events_become_log_lines_by_their_weight() {
+        use foxglove::messages::log::Level;
+        let event = |topic: &str| TrialEvent {
+            time_s: 1.0,
+            topic: topic.into(),
+            data: serde_json::json!({"phase": "lifting"}),
+        };
+        let line = log_line(&event("/phase"), 1_500_000_000).unwrap();
+        assert_eq!(line.level, Level::Info as i32);
+        assert_eq!(line.message, r#"/phase {"phase":"lifting"}"#);
+        assert_eq!(line.timestamp.unwrap().sec(), 1);
+        assert_eq!(
+            log_line(&event("/fault"), 0).unwrap().level,
+            Level::Error as i32
+        );
+        assert_eq!(
+            log_line(&event("/detector"), 0).unwrap().level,
+            Level::Warning as i32
+        );
+        assert!(log_line(&event("/classifier"), 0).is_none());
+        assert!(log_line(&event("/state/hand"), 0).is_none());
     }
 }

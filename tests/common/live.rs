@@ -89,6 +89,13 @@ pub fn receive(
                     Some(serde_json::json!("foxglove.SceneUpdate")),
                     "{channels:?}"
                 );
+                // phases, commands, detections and faults as Foxglove's own log lines
+                let log = channels.iter().find(|c| c["topic"] == "/log");
+                assert_eq!(
+                    log.map(|c| c["schemaName"].clone()),
+                    Some(serde_json::json!("foxglove.Log")),
+                    "{channels:?}"
+                );
                 let mut subscriptions = Vec::new();
                 for (k, (topic, schema)) in topics.iter().enumerate() {
                     let c = channels
