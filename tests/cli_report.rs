@@ -23,8 +23,30 @@ fn a_fixed_batch_gives_the_expected_markdown_and_csv() {
     let d = fixtures();
     let md = ok(&tmo(&d, &["report", "hand", "rail"]));
     assert_eq!(md, golden("expected.md"));
-    let csv = ok(&tmo(&d, &["report", "hand", "rail", "--format", "csv"]));
-    assert_eq!(csv, golden("expected.csv"));
+    // CSV on standard output is one table (issue 42): several are refused with their
+    // names, and --table picks each, which is its section of the golden file
+    let e = fails(&tmo(&d, &["report", "hand", "rail", "--format", "csv"]));
+    assert!(
+        e.contains("--table NAME") && e.contains("hand_online"),
+        "{e}"
+    );
+    let golden_csv = golden("expected.csv");
+    let sections: Vec<&str> = golden_csv.split("\n\n").collect();
+    assert!(sections.len() > 1);
+    for section in sections {
+        let (name, table) = section
+            .strip_prefix("# ")
+            .unwrap()
+            .split_once('\n')
+            .unwrap();
+        let csv = ok(&tmo(
+            &d,
+            &["report", "hand", "rail", "--format", "csv", "--table", name],
+        ));
+        assert_eq!(csv.trim_end(), table.trim_end(), "{name}");
+    }
+    let e = fails(&tmo(&d, &["report", "hand", "--table", "nope"]));
+    assert!(e.contains("no such table"), "{e}");
     let json = ok(&tmo(&d, &["report", "hand", "rail", "--format", "json"]));
     let v: serde_json::Value = serde_json::from_str(&json).unwrap();
     let overall = &v["hand_online"]["rows"][5];
@@ -50,8 +72,8 @@ fn out_writes_one_file_per_table() {
     );
     ok(&o);
     // each file is plain CSV (the file names the table), its first line the header, as
-    // `pandas.read_csv` expects; the same rows as the table's block on standard output
-    let all = String::from_utf8_lossy(&o.stdout).to_string();
+    // `pandas.read_csv` expects; the same rows as the table's section of the golden file
+    let all = golden("expected.csv");
     for name in ["rail_catch", "hand_online", "hand_objects"] {
         let text = std::fs::read_to_string(out.join(format!("{name}.csv"))).unwrap();
         assert!(!text.starts_with('#'), "{text}");
@@ -270,4 +292,45 @@ fn rows_that_are_not_the_batchs_trials_are_refused() {
         e.contains("eval.json") && e.contains("\"bogus\"") && e.contains("svm-rbf"),
         "{e}"
     );
+}
+
+/// Issue 42: `--out -` is standard output where a command writes one file, and refused
+/// (not a file named `-`) where it writes a directory or several files.
+#[test]
+fn out_dash_is_standard_output_or_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let e = fails(&tmo(d, &["report", "x", "--out", "-"]));
+    assert!(
+        e.contains("standard output") && e.contains("give a path"),
+        "{e}"
+    );
+    let e = fails(&tmo(d, &["sim", "collect", "--out", "-"]));
+    assert!(e.contains("give a path"), "{e}");
+    assert!(!d.join("-").exists());
+    collect_and_train(d, &["--trials", "5", "--seed", "3"], "t", "m.json");
+    let out = tmo(d, &["dataset", "export", "t", "--out", "-"]);
+    let csv = ok(&out);
+    assert!(
+        csv.starts_with("trial_id,sensor,seq,time_s,label,dr_0"),
+        "{csv}"
+    );
+    assert!(String::from_utf8_lossy(&out.stderr).contains("to standard output"));
+    let exported = tmo(
+        d,
+        &[
+            "dataset",
+            "export",
+            "t",
+            "--format",
+            "interchange",
+            "--out",
+            "-",
+        ],
+    );
+    assert!(ok(&exported).starts_with("trial,sensor,frame,t_s,element,x,y,onset_s"));
+    let json = ok(&tmo(d, &["evaluate", "m.json", "t", "--out", "-"]));
+    let v: serde_json::Value = serde_json::from_str(&json).unwrap();
+    assert!(v["overall"]["macro_f1"].is_number(), "{v}");
+    assert!(!d.join("-").exists());
 }

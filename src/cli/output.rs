@@ -123,6 +123,20 @@ impl ColorWhen {
     }
 }
 
+/// Whether `path` is `-`: standard output, where a command writes one file.
+pub fn is_stdout(path: &std::path::Path) -> bool {
+    path.as_os_str() == "-"
+}
+
+/// An `--out` that must be a path: the command writes a directory or several files, so
+/// `-` (standard output) cannot stand for it and would only make a file named `-`.
+pub fn a_path(s: &str) -> Result<std::path::PathBuf, String> {
+    if s == "-" {
+        return Err("`-` (standard output) cannot hold what this command writes (a directory or several files); give a path. `tmo dataset export` and `tmo evaluate` take `--out -`".into());
+    }
+    Ok(s.into())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -16,11 +16,15 @@ pub struct ReportArgs {
     format: Format,
     /// Also write each table to DIR/<table>.<md|csv|json> (with html: the page to
     /// DIR/report.html, figures inline when --plots draws them).
-    #[arg(long)]
+    #[arg(long, value_parser = super::output::a_path)]
     out: Option<PathBuf>,
     /// Draw the figures (SVG and PNG) into DIR.
     #[arg(long)]
     plots: Option<PathBuf>,
+    /// Only the table of this name (the names are those of --out's files); CSV on standard
+    /// output holds one table, so with several this picks it.
+    #[arg(long)]
+    table: Option<String>,
 }
 
 fn extension(f: Format) -> &'static str {
@@ -35,7 +39,30 @@ fn extension(f: Format) -> &'static str {
 
 pub fn report(args: ReportArgs) -> Result<()> {
     let inputs = report::inputs::load(&args.inputs)?;
-    let tables = report::build::tables(&inputs);
+    let mut tables = report::build::tables(&inputs);
+    let names = |tables: &[report::Table]| {
+        tables
+            .iter()
+            .map(|t| t.name.as_str())
+            .collect::<Vec<_>>()
+            .join(", ")
+    };
+    if let Some(name) = &args.table {
+        anyhow::ensure!(
+            tables.iter().any(|t| &t.name == name),
+            "--table {name}: no such table in these inputs (they give: {})",
+            names(&tables)
+        );
+        tables.retain(|t| &t.name == name);
+    }
+    // CSV on standard output is one table with its header first, as pandas reads it
+    if args.format == Format::Csv && tables.len() > 1 && args.out.is_none() {
+        anyhow::bail!(
+            "{} tables ({}): CSV on standard output holds one; pick it with --table NAME, or write one file per table with --out DIR",
+            tables.len(),
+            names(&tables)
+        );
+    }
     anyhow::ensure!(
         !tables.is_empty() || args.plots.is_some(),
         "nothing to report: the inputs hold no finished trials, sweep cells or evaluations \
@@ -44,7 +71,10 @@ pub fn report(args: ReportArgs) -> Result<()> {
     if args.format == Format::Html {
         return html_report(&args, &inputs, &tables);
     }
-    if !tables.is_empty() {
+    if args.format == Format::Csv && tables.len() == 1 {
+        crate::cli::output::write_out(format_args!("{}", tables[0].csv()?))?;
+    } else if !tables.is_empty() && args.format != Format::Csv {
+        // (CSV of several tables goes to --out's files only: refused above without it)
         crate::cli::output::write_out(format_args!("{}", report::render(&tables, args.format)?))?;
     }
     let mut written = Vec::new();
@@ -57,7 +87,7 @@ pub fn report(args: ReportArgs) -> Result<()> {
                 Format::Csv => t.csv()?,
                 _ => report::render(std::slice::from_ref(t), args.format)?,
             };
-            std::fs::write(&path, text)
+            tmo::output::atomic::write_atomic(&path, text.as_bytes())
                 .with_context(|| format!("cannot write {}", path.display()))?;
             written.push(path);
         }
@@ -87,7 +117,7 @@ fn html_report(
             std::fs::create_dir_all(dir)
                 .with_context(|| format!("cannot create {}", dir.display()))?;
             let path = dir.join("report.html");
-            std::fs::write(&path, page)
+            tmo::output::atomic::write_atomic(&path, page.as_bytes())
                 .with_context(|| format!("cannot write {}", path.display()))?;
             super::output::note(format!("wrote {}", path.display()));
         }

@@ -29,7 +29,7 @@ pub struct RunArgs {
     #[arg(long, value_enum, default_value = "sim")]
     backend: Backend,
     /// Batch directory (default results/<protocol name>).
-    #[arg(long)]
+    #[arg(long, value_parser = super::output::a_path)]
     out: Option<PathBuf>,
     /// Overrides the protocol's seed.
     #[arg(long)]

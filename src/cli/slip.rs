@@ -119,7 +119,7 @@ pub struct TrainArgs {
     #[arg(long)]
     strict: bool,
     /// The model file to write (JSON, docs/formats.md).
-    #[arg(long)]
+    #[arg(long, value_parser = super::output::a_path)]
     out: PathBuf,
 }
 
@@ -258,30 +258,55 @@ pub fn dataset_export(args: ExportArgs) -> Result<()> {
             .iter()
             .map(|p| tmo::trial::read_trial(p))
             .collect::<Result<Vec<_>, _>>()?;
-        let mut file = tmo::output::atomic::AtomicFile::create(&args.out)
-            .with_context(|| format!("cannot write {}", args.out.display()))?;
-        tmo::import::export_interchange(&trials, &labels.onset, &mut file)
-            .with_context(|| format!("cannot write {}", args.out.display()))?;
-        file.commit()
-            .with_context(|| format!("cannot write {}", args.out.display()))?;
-        outln!(
-            "wrote {} trial(s) as interchange CSV to {}",
-            trials.len(),
-            args.out.display()
-        );
+        let to_stdout = super::output::is_stdout(&args.out);
+        if to_stdout {
+            let stdout = std::io::BufWriter::new(std::io::stdout().lock());
+            tmo::import::export_interchange(&trials, &labels.onset, stdout)
+                .context("cannot write to standard output")?;
+        } else {
+            let mut file = tmo::output::atomic::AtomicFile::create(&args.out)
+                .with_context(|| format!("cannot write {}", args.out.display()))?;
+            tmo::import::export_interchange(&trials, &labels.onset, &mut file)
+                .with_context(|| format!("cannot write {}", args.out.display()))?;
+            file.commit()
+                .with_context(|| format!("cannot write {}", args.out.display()))?;
+        }
+        say_written(
+            format!("{} trial(s) as interchange CSV", trials.len()),
+            &args.out,
+        )?;
         return Ok(());
     }
     let (ds, _, _) = load_dataset(&args.trials, &labels)?;
     let ds = ds.downsample_static(args.labels.downsample_or(1.0), args.labels.seed);
-    ds.write_csv(&args.out)
-        .with_context(|| format!("cannot write {}", args.out.display()))?;
-    outln!(
-        "wrote {} rows ({} static, {} slip) to {}",
-        ds.len(),
-        ds.count(tmo::slip::Class::Static),
-        ds.count(tmo::slip::Class::Slip),
-        args.out.display()
-    );
+    if super::output::is_stdout(&args.out) {
+        let mut out = ds
+            .write_csv_to(std::io::BufWriter::new(std::io::stdout().lock()))
+            .context("cannot write to standard output")?;
+        std::io::Write::flush(&mut out).context("cannot write to standard output")?;
+    } else {
+        ds.write_csv(&args.out)
+            .with_context(|| format!("cannot write {}", args.out.display()))?;
+    }
+    say_written(
+        format!(
+            "{} rows ({} static, {} slip)",
+            ds.len(),
+            ds.count(tmo::slip::Class::Static),
+            ds.count(tmo::slip::Class::Slip)
+        ),
+        &args.out,
+    )
+}
+
+/// "wrote WHAT to OUT": on standard output, or on standard error when the output itself
+/// went to standard output (`--out -`), which then holds the CSV alone.
+fn say_written(what: String, out: &std::path::Path) -> Result<()> {
+    if super::output::is_stdout(out) {
+        super::output::note(format!("wrote {what} to standard output"));
+    } else {
+        outln!("wrote {what} to {}", out.display());
+    }
     Ok(())
 }
 
@@ -535,6 +560,8 @@ fn print_held_out(folds: &[tmo::slip::metrics::Scores]) -> Result<()> {
 }
 
 pub fn evaluate(args: EvaluateArgs) -> Result<()> {
+    // `--out -`: the JSON alone on standard output, as --json gives it
+    let json = args.json || args.out.as_deref().is_some_and(super::output::is_stdout);
     let model = ModelFile::load(&args.model)?;
     let (ds, refs, features) = load_dataset(&args.trials, &model.labels)?;
     if let Some((what, theirs, ours)) = model.features.mismatch(&features) {
@@ -547,7 +574,7 @@ pub fn evaluate(args: EvaluateArgs) -> Result<()> {
         eprintln!("warning: {}: {why}", args.model.display());
     }
     let (overall, per_sensor) = model.evaluate(&ds)?;
-    if !args.json {
+    if !json {
         outln!(
             "{} ({} scope) on {} rows",
             model.classifier.name(),
@@ -559,7 +586,7 @@ pub fn evaluate(args: EvaluateArgs) -> Result<()> {
             print_scores(&format!("sensor {s}"), scores)?;
         }
     }
-    if args.out.is_none() && !args.json {
+    if args.out.is_none() && !json {
         return Ok(());
     }
     let evaluation = tmo::slip::evaluation::Evaluation::of(
@@ -571,13 +598,15 @@ pub fn evaluate(args: EvaluateArgs) -> Result<()> {
         per_sensor,
     )?;
     let text = serde_json::to_string_pretty(&evaluation)?;
-    if args.json {
+    let out = args.out.as_ref().filter(|o| !super::output::is_stdout(o));
+    if json {
         outln!("{text}");
     }
-    if let Some(out) = &args.out {
-        std::fs::write(out, &text).with_context(|| format!("cannot write {}", out.display()))?;
+    if let Some(out) = out {
+        tmo::output::atomic::write_atomic(out, text.as_bytes())
+            .with_context(|| format!("cannot write {}", out.display()))?;
         // standard output holds the JSON alone when --json asks for it
-        if args.json {
+        if json {
             super::output::note(format!("wrote {}", out.display()));
         } else {
             outln!("wrote {}", out.display());

@@ -98,7 +98,7 @@ pub struct SweepArgs {
     #[arg(long, value_name = "K/N")]
     shard: Option<Shard>,
     /// The CSV to write; its provenance goes beside it as .json, its heatmaps as .png.
-    #[arg(long, default_value = "results/sweep.csv")]
+    #[arg(long, value_parser = super::output::a_path, default_value = "results/sweep.csv")]
     out: PathBuf,
     /// Print the best cells and the files written as JSON instead of as text (progress
     /// and notes go to standard error).
@@ -118,7 +118,7 @@ struct MergeArgs {
     #[arg(required = true)]
     shards: Vec<PathBuf>,
     /// The merged CSV to write (its provenance .json and figures beside it).
-    #[arg(long, default_value = "results/sweep.csv")]
+    #[arg(long, value_parser = super::output::a_path, default_value = "results/sweep.csv")]
     out: PathBuf,
 }
 
@@ -479,8 +479,11 @@ fn write_outputs(
     json: bool,
 ) -> Result<()> {
     let meta_path = out.with_extension("json");
-    std::fs::write(&meta_path, serde_json::to_string_pretty(provenance)?)
-        .with_context(|| format!("cannot write {}", meta_path.display()))?;
+    tmo::output::atomic::write_atomic(
+        &meta_path,
+        serde_json::to_string_pretty(provenance)?.as_bytes(),
+    )
+    .with_context(|| format!("cannot write {}", meta_path.display()))?;
     let figures = draw_heatmaps(out, provenance, rows)?;
     let best = best_cells(provenance, rows);
     if json {

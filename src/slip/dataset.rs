@@ -375,7 +375,14 @@ impl Dataset {
 impl Dataset {
     /// Writes rows as CSV: trial_id, sensor, seq, time_s, label, then `dr_i` and `dtheta_i`.
     pub fn write_csv(&self, path: &std::path::Path) -> Result<(), csv::Error> {
-        let mut w = csv::Writer::from_writer(crate::output::atomic::AtomicFile::create(path)?);
+        let file = crate::output::atomic::AtomicFile::create(path)?;
+        self.write_csv_to(file)?.commit()?;
+        Ok(())
+    }
+
+    /// [`Dataset::write_csv`] into any writer (standard output, say); gives it back.
+    pub fn write_csv_to<W: std::io::Write>(&self, out: W) -> Result<W, csv::Error> {
+        let mut w = csv::Writer::from_writer(out);
         let pins = self.dim / 2;
         let mut head: Vec<String> = ["trial_id", "sensor", "seq", "time_s", "label"]
             .iter()
@@ -398,11 +405,7 @@ impl Dataset {
             rec.extend(self.row(i).iter().map(|v| format!("{v:.6}")));
             w.write_record(&rec)?;
         }
-        let file = w
-            .into_inner()
-            .map_err(|e| csv::Error::from(e.into_error()))?;
-        file.commit()?;
-        Ok(())
+        w.into_inner().map_err(|e| csv::Error::from(e.into_error()))
     }
 }
 
