@@ -273,6 +273,14 @@ fn read_hardware(path: &Path) {
 
 fn read_model(path: &Path) {
     if let Ok(m) = tmo::slip::model::ModelFile::load(path) {
+        // a model that loads saves and loads again as the same model
+        let again = path.with_file_name("again.json");
+        m.save(&again).expect("a loaded model saves");
+        let back = tmo::slip::model::ModelFile::load(&again).expect("a saved model loads");
+        assert_eq!(
+            serde_json::to_value(&back).unwrap(),
+            serde_json::to_value(&m).unwrap()
+        );
         // a model that loads must also classify and describe itself without panicking
         let _ = m.fits(1, m.features.pins);
         let _ = m.unconverged();
@@ -474,10 +482,24 @@ fn the_interchange_seed_imports_as_one_trial_of_two_sensors() {
 
 fn read_interchange(path: &Path) {
     if let Ok(summary) = tmo::import::read_interchange(path, &interchange_options()) {
-        // what imports must also write as trial logs without panicking
+        // What imports is written as trial logs that every later reader takes: read back,
+        // usable, and loaded as train loads a dataset (an import that accepts what the
+        // project's own readers refuse fails the case with a panic).
         let out = path.with_file_name("logs");
+        let mut written = Vec::new();
         for t in &summary.trials {
-            let _ = tmo::trial::write_trial(&tmo::import::log_path(&out, t), &t.trial);
+            let log = tmo::import::log_path(&out, t);
+            tmo::trial::write_trial(&log, &t.trial).expect("an imported trial writes");
+            let back = tmo::trial::read_trial(&log).expect("an imported log reads back");
+            assert_eq!(back.unusable(), None, "{}", log.display());
+            written.push(log);
+        }
+        let labels = tmo::slip::dataset::LabelSpec {
+            n_slip: 5,
+            onset: Default::default(),
+        };
+        if let Err(e) = tmo::slip::dataset::load_labelled(&written, &labels) {
+            panic!("imported, then refused by train's loader: {e}");
         }
     }
 }
