@@ -105,10 +105,10 @@ fn heatmap<DB: DrawingBackend>(
     // only, uneven d steps) draw as a solid block; the axis labels give the values.
     let (cols, rows) = (g.n_slips.len(), g.downsamples.len());
     let mut chart = ChartBuilder::on(&chart_area)
-        .caption(title, (FONT, 20))
+        .caption(title, (FONT, 22))
         .margin(12)
-        .x_label_area_size(45)
-        .y_label_area_size(60)
+        .x_label_area_size(50)
+        .y_label_area_size(66)
         .build_cartesian_2d((-0.5)..(cols as f64 - 0.5), (-0.5)..(rows as f64 - 0.5))?;
     let n_label = |v: &f64| {
         let k = v.round();
@@ -138,9 +138,15 @@ fn heatmap<DB: DrawingBackend>(
         .y_labels(rows.clamp(2, 12) + 1)
         .x_label_formatter(&n_label)
         .y_label_formatter(&d_label)
-        .label_style((FONT, 14))
-        .axis_desc_style((FONT, 15))
+        .label_style((FONT, 17))
+        .axis_desc_style((FONT, 17))
         .draw()?;
+    // Each cell's value as large as the cell allows (the paper's grid is 15 x 10 cells;
+    // the quick preset's 8 x 4), so it reads at the page's size too.
+    let (plot_w, plot_h) = chart.plotting_area().dim_in_pixel();
+    let value_px = (f64::from(plot_w) / cols.max(1) as f64 / 2.6)
+        .min(f64::from(plot_h) / rows.max(1) as f64 / 2.2)
+        .clamp(10.0, 22.0);
     for (i, row) in g.f1.iter().enumerate() {
         for (j, v) in row.iter().enumerate() {
             let Some(v) = v else { continue };
@@ -154,7 +160,7 @@ fn heatmap<DB: DrawingBackend>(
             chart.draw_series(std::iter::once(Text::new(
                 format!("{:.2}", v),
                 (x, y),
-                (FONT, 11)
+                (FONT, value_px)
                     .into_font()
                     .color(&ink)
                     .pos(Pos::new(HPos::Center, VPos::Center)),
@@ -175,8 +181,8 @@ fn heatmap<DB: DrawingBackend>(
         .y_labels(6)
         .y_label_formatter(&|v| format!("{v:.2}"))
         .y_desc("macro F1")
-        .label_style((FONT, 13))
-        .axis_desc_style((FONT, 14))
+        .label_style((FONT, 16))
+        .axis_desc_style((FONT, 17))
         .draw()?;
     let steps = 100;
     bar.draw_series((0..steps).map(|k| {
@@ -350,6 +356,9 @@ fn speed_histogram<DB: DrawingBackend>(
 #[derive(Debug, Clone, PartialEq)]
 pub struct PinField {
     pub title: String,
+    /// Which trial and sensor the frame is of.
+    pub trial_id: String,
+    pub sensor: u8,
     pub pins: Vec<(f64, f64)>,
     pub moves: Vec<(f64, f64)>,
 }
@@ -363,6 +372,8 @@ fn field_of(trial: &Trial, sensor: u8, seq: u64, title: String) -> Option<PinFie
     }
     Some(PinField {
         title,
+        trial_id: trial.meta.trial_id.clone(),
+        sensor,
         pins: now
             .pins
             .iter()
@@ -401,8 +412,9 @@ pub fn example_fields(trials: &[Trial], ds: &Dataset, units: Units) -> Option<[P
     let t = &trials[trial as usize];
     let name = |what: &str, i: usize| {
         format!(
-            "{what}: {} sensor {sensor}, t = {:.2} s, |v| = {:.2} {}/frame",
-            t.meta.trial_id,
+            // short enough for half the figure at a size that reads: the trial and sensor
+            // are the figure's own title
+            "{what}: t = {:.2} s, |v| = {:.2} {}/frame",
             ds.time_s[i],
             speed(i),
             units.name()
@@ -441,7 +453,9 @@ fn quiver<DB: DrawingBackend>(
     let y_hi = ys.iter().copied().fold(f64::NEG_INFINITY, f64::max) + pad;
     let root = root.titled(
         &format!(
-            "Pin velocities (arrows x{}, sensor coordinates in {})",
+            "Pin velocities of {} sensor {} (arrows x{}, {})",
+            fields[0].trial_id,
+            fields[0].sensor,
             significant(scale),
             units.name()
         ),
@@ -450,10 +464,10 @@ fn quiver<DB: DrawingBackend>(
     let panels = root.split_evenly((1, 2));
     for (area, f) in panels.iter().zip(fields) {
         let mut chart = ChartBuilder::on(area)
-            .caption(&f.title, (FONT, 13))
+            .caption(&f.title, (FONT, 17))
             .margin(10)
-            .x_label_area_size(35)
-            .y_label_area_size(70)
+            .x_label_area_size(42)
+            .y_label_area_size(72)
             // image rows grow downwards
             .build_cartesian_2d(x_range.clone(), y_hi..y_lo)?;
         chart
@@ -461,8 +475,8 @@ fn quiver<DB: DrawingBackend>(
             .light_line_style(TRANSPARENT)
             .x_desc(format!("x ({})", units.name()))
             .y_desc(format!("y ({})", units.name()))
-            .label_style((FONT, 12))
-            .axis_desc_style((FONT, 13))
+            .label_style((FONT, 15))
+            .axis_desc_style((FONT, 16))
             .draw()?;
         chart.draw_series(
             f.pins
