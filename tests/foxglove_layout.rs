@@ -42,17 +42,19 @@ fn schema_of(topic: &str) -> Option<Value> {
     Some(serde_json::from_str(&text).unwrap())
 }
 
-/// Whether `schema` has the field chain `a.b.c` (array indexes `[n]` dropped).
-fn has_fields(schema: &Value, chain: &str) -> bool {
+/// The schema of the field chain `a.b.c` (array indexes `[n]` dropped), if it has it.
+fn field<'s>(schema: &'s Value, chain: &str) -> Option<&'s Value> {
     let mut at = schema;
     for field in chain.split('.').filter(|f| !f.is_empty()) {
         let name = field.split('[').next().unwrap();
-        match at["properties"].get(name) {
-            Some(next) => at = next,
-            None => return false,
-        }
+        at = at["properties"].get(name)?;
     }
-    true
+    Some(at)
+}
+
+/// Whether `schema` has the field chain `a.b.c`.
+fn has_fields(schema: &Value, chain: &str) -> bool {
+    field(schema, chain).is_some()
 }
 
 /// Checks one message path, `/topic{a.b==1}.c.d`, against the schemas.
@@ -88,15 +90,7 @@ fn check_path(path: &str) -> Result<(), String> {
 
 /// Whether the field chain ends at an array (an index or slice after it counts as taken).
 fn leaf_is_array(schema: &Value, chain: &str) -> bool {
-    let mut at = schema;
-    for field in chain.split('.').filter(|f| !f.is_empty()) {
-        let name = field.split('[').next().unwrap();
-        match at["properties"].get(name) {
-            Some(next) => at = next,
-            None => return false,
-        }
-    }
-    at["type"] == "array"
+    field(schema, chain).is_some_and(|f| f["type"] == "array")
 }
 
 #[test]

@@ -215,6 +215,19 @@ pub fn run_real_trial(
     // script on without its client, so the arm is told to stop (the UR backend reconnects
     // to do so if the connection was what failed) and the fingers hold. Best effort: the
     // device that failed may not answer.
+    let to_trial = |record, parameters| {
+        let mut trial = finish_trial(
+            plan,
+            planned,
+            models,
+            record,
+            parameters,
+            ("real", devices.sensors.len() as u8, hw.cameras.pins),
+            started_unix_s,
+        );
+        trial.sources.extend(hw.source.clone());
+        trial
+    };
     let record = match result {
         Ok(r) => r,
         Err(e) => {
@@ -234,31 +247,12 @@ pub fn run_real_trial(
                 serde_json::json!({ "fault": "device", "message": e.to_string() }),
             ));
             parameters.insert("fault".into(), format!("device: {e}"));
-            let mut trial = finish_trial(
-                plan,
-                planned,
-                models,
-                record,
-                parameters,
-                ("real", devices.sensors.len() as u8, hw.cameras.pins),
-                started_unix_s,
-            );
-            trial.sources.extend(hw.source.clone());
+            let trial = to_trial(record, parameters);
             return Err(BatchError::FaultInFlight {
                 source: Box::new(e.into()),
                 trial: Box::new(trial),
             });
         }
     };
-    let mut trial = finish_trial(
-        plan,
-        planned,
-        models,
-        record,
-        parameters,
-        ("real", devices.sensors.len() as u8, hw.cameras.pins),
-        started_unix_s,
-    );
-    trial.sources.extend(hw.source.clone());
-    Ok(trial)
+    Ok(to_trial(record, parameters))
 }
