@@ -328,12 +328,13 @@ pub fn replay_with(
     let mut outputs = Vec::new();
     if let Some(dir) = out {
         std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
-        let mut w = csv::Writer::from_path(dir.join("replay.csv"))?;
+        let mut w = csv::Writer::from_writer(Vec::new());
         for r in &rows {
             w.serialize(r)?;
         }
-        w.flush()?;
-        std::fs::write(dir.join("replay.md"), t.markdown())?;
+        let csv = w.into_inner().map_err(|e| e.into_error())?;
+        tmo::output::atomic::write_atomic(&dir.join("replay.csv"), &csv)?;
+        tmo::output::atomic::write_atomic(&dir.join("replay.md"), t.markdown().as_bytes())?;
         outputs = vec![dir.join("replay.csv"), dir.join("replay.md")];
         if !json {
             outln!(

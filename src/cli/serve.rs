@@ -190,7 +190,7 @@ pub fn serve_cmd(args: ServeArgs) -> Result<()> {
         args.hardware.display(),
         toml::to_string_pretty(&served)?
     );
-    std::fs::write(&args.out, text)
+    tmo::output::atomic::write_atomic(&args.out, text.as_bytes())
         .with_context(|| format!("cannot write {}", args.out.display()))?;
     outln!(
         "serving the simulated rig ({object}): cameras {}, markers {}, hand bus {}, UR at {ur_ip} (RTDE {rtde_port}, URScript {script_port}), control {control_addr}",

@@ -333,7 +333,8 @@ fn sim_collect(args: CollectArgs) -> Result<u8> {
             args.out.display()
         );
     }
-    std::fs::write(&file, &protocol).with_context(|| format!("cannot write {}", file.display()))?;
+    tmo::output::atomic::write_atomic(&file, protocol.as_bytes())
+        .with_context(|| format!("cannot write {}", file.display()))?;
     super::run::run_on_sim(file, args.out.clone(), true)
 }
 

@@ -312,7 +312,7 @@ pub fn reproduce(
         match failed_runs.iter().find(|(d, _)| *d == run.dir) {
             Some((_, why)) => {
                 std::fs::create_dir_all(&run.dir).map_err(io(&run.dir))?;
-                std::fs::write(&failed, why).map_err(io(&failed))?
+                crate::output::atomic::write_atomic(&failed, why.as_bytes()).map_err(io(&failed))?
             }
             None if failed.exists() => std::fs::remove_file(&failed).map_err(io(&failed))?,
             None => {}
@@ -594,7 +594,8 @@ fn run_step(
         std::fs::remove_dir_all(&dir).map_err(io(&dir))?;
     }
     std::fs::create_dir_all(&dir).map_err(io(&dir))?;
-    std::fs::write(dir.join("step.inputs"), &inputs).map_err(io(&dir))?;
+    crate::output::atomic::write_atomic(&dir.join("step.inputs"), inputs.as_bytes())
+        .map_err(io(&dir))?;
     bar.reset();
     bar.set_length(0);
     bar.set_message("");

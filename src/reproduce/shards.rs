@@ -202,7 +202,7 @@ pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<Merged, ReproduceError> {
                 let run = to.parent().expect("a job sits in its run's directory");
                 std::fs::create_dir_all(run).map_err(io(run))?;
                 let path = run.join(sensitivity::FAILED);
-                std::fs::write(&path, why).map_err(io(&path))?;
+                crate::output::atomic::write_atomic(&path, why.as_bytes()).map_err(io(&path))?;
             }
             if from.is_dir() {
                 link_tree(&from, &to)?;

@@ -466,7 +466,7 @@ fn run_batch_step(
 ) -> Result<bool, ReproduceError> {
     std::fs::create_dir_all(dir).map_err(io(dir))?;
     let path = dir.join("protocol.toml");
-    std::fs::write(&path, protocol).map_err(io(&path))?;
+    crate::output::atomic::write_atomic(&path, protocol.as_bytes()).map_err(io(&path))?;
     let mut plan = crate::protocol::load(&path, 3).map_err(|e| ReproduceError::step(step, e))?;
     let batch = |source| ReproduceError::Batch { step, source };
     let mut rig = match ctx.backend {
@@ -714,9 +714,11 @@ fn hand_models(ctx: &Context, dir: &Path) -> Result<(), ReproduceError> {
         )
         .map_err(io(&model_path))?;
         let path = dir.join(out);
-        std::fs::write(
+        crate::output::atomic::write_atomic(
             &path,
-            serde_json::to_string_pretty(&e).expect("evaluations serialise"),
+            serde_json::to_string_pretty(&e)
+                .expect("evaluations serialise")
+                .as_bytes(),
         )
         .map_err(io(&path))?;
         ctx.bar.inc(1);
@@ -724,9 +726,11 @@ fn hand_models(ctx: &Context, dir: &Path) -> Result<(), ReproduceError> {
     let timing = time_classification(&dir.join("global.json"), &test)
         .map_err(|e| ReproduceError::step(step, e))?;
     let path = dir.join("timing.json");
-    std::fs::write(
+    crate::output::atomic::write_atomic(
         &path,
-        serde_json::to_string_pretty(&timing).expect("timings serialise"),
+        serde_json::to_string_pretty(&timing)
+            .expect("timings serialise")
+            .as_bytes(),
     )
     .map_err(io(&path))?;
     Ok(())

@@ -183,7 +183,8 @@ fn check_identity(target: &SweepTarget, has_cells: bool) -> Result<(), SweepFile
             }
         }
     }
-    std::fs::write(&path, &target.identity).map_err(|source| SweepFileError::Io { path, source })
+    crate::output::atomic::write_atomic(&path, target.identity.as_bytes())
+        .map_err(|source| SweepFileError::Io { path, source })
 }
 
 /// Runs the cells of `spec` not yet in the target (or its partial file, with `resume`),

@@ -80,11 +80,13 @@ pub fn write_trace(
         "# simulator configuration of a `tmo sim trace` run (tmo {})\n",
         env!("CARGO_PKG_VERSION")
     );
-    fs::write(&files.config, header + &toml::to_string(config)?).map_err(|source| {
-        TraceError::Io {
-            path: files.config.clone(),
-            source,
-        }
+    crate::output::atomic::write_atomic(
+        &files.config,
+        (header + &toml::to_string(config)?).as_bytes(),
+    )
+    .map_err(|source| TraceError::Io {
+        path: files.config.clone(),
+        source,
     })?;
 
     let sensors = truth.first().map_or(0, |t| t.normal_n.len());
