@@ -22,7 +22,7 @@ pub(super) struct TrialRun<'m> {
     finished: bool,
 }
 
-/// Where a trial that ends without [`TrialRun::finish`] (a device error taken up with `?`
+/// Where a trial that ends without `TrialRun::finish` (a device error taken up with `?`
 /// anywhere in a runner) leaves what it recorded: the frames, markers and events up to the
 /// fault. The real backend keeps it as `*.faulted.mcap`. A drop guard rather than a
 /// wrapper around every runner's body, so that no error path of any runner can miss it.

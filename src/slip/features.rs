@@ -78,7 +78,7 @@ pub struct FeatureSpec {
 /// Frame rates closer than this (relative) are the same rate for a model.
 const RATE_TOLERANCE: f32 = 0.15;
 
-/// Trials whose frame rates differ by more than [`RATE_TOLERANCE`]: velocities are per
+/// Trials whose frame rates differ by more than 15 %: velocities are per
 /// frame, so the same slip moves an element further per frame at a lower rate. Each
 /// trial's own frames are what the method needs evenly spaced; different rates between
 /// trials are allowed and said.
