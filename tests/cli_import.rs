@@ -475,3 +475,47 @@ fn another_labs_file_imports_with_flags_only() {
         "{trained:?}"
     );
 }
+
+/// Issue 41, I-d: a write that fails part way (here: the third trial's temporary path is
+/// taken by a directory, as a full disk would fail it) leaves nothing imported, and the
+/// message says to run the same command again (import has no --resume).
+#[test]
+fn an_import_that_cannot_finish_writing_leaves_nothing_and_says_run_again() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::create_dir_all(d.join("xela/train/2022-02-21-17-22-56.mcap.partial")).unwrap();
+    let e = fails(&tmo(
+        d,
+        &[
+            "import",
+            "csv",
+            fixture().to_str().unwrap(),
+            "--out",
+            "xela",
+            "--split-column",
+            "split",
+        ],
+    ));
+    assert!(
+        e.contains("nothing was imported")
+            && e.contains("the 2 log(s) written before it were removed")
+            && e.contains("run the same command again"),
+        "{e}"
+    );
+    assert!(!e.contains("--resume"), "{e}");
+    let logs: Vec<_> = walk_mcap(&d.join("xela"));
+    assert!(logs.is_empty(), "{logs:?}");
+}
+
+fn walk_mcap(dir: &Path) -> Vec<PathBuf> {
+    let mut out = Vec::new();
+    for entry in std::fs::read_dir(dir).into_iter().flatten().flatten() {
+        let p = entry.path();
+        if p.is_dir() {
+            out.extend(walk_mcap(&p));
+        } else if p.extension().is_some_and(|x| x == "mcap") {
+            out.push(p);
+        }
+    }
+    out
+}
