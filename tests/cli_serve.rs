@@ -320,23 +320,7 @@ fn hand_release_and_rice_pour_run_on_the_real_backend_against_the_served_simulat
 fn rail_catch_runs_on_the_real_backend_against_the_served_rail_rig() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    common::ok(&common::tmo(
-        d,
-        &[
-            "sim", "collect", "--rig", "rail", "--trials", "8", "--seed", "5", "--out", "rail",
-        ],
-    ));
-    common::ok(&common::tmo(
-        d,
-        &[
-            "train",
-            "rail",
-            "--classifier",
-            "threshold",
-            "--out",
-            "rail.json",
-        ],
-    ));
+    rail_model(d);
     let _server = common::serve_sim(d, &["--rig", "rail"]);
     let hw = tmo::runner::hardware::load(&d.join("served.toml")).unwrap();
     assert_eq!(hw.cameras.fingertips.len(), 1, "one finger on the rail");
@@ -528,23 +512,7 @@ fn a_live_viewer_sees_the_served_rig() {
 fn a_device_lost_mid_trial_leaves_that_trial_as_a_faulted_log() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    common::ok(&common::tmo(
-        d,
-        &[
-            "sim", "collect", "--rig", "rail", "--trials", "8", "--seed", "5", "--out", "rail",
-        ],
-    ));
-    common::ok(&common::tmo(
-        d,
-        &[
-            "train",
-            "rail",
-            "--classifier",
-            "threshold",
-            "--out",
-            "rail.json",
-        ],
-    ));
+    rail_model(d);
     let server = common::serve_sim(d, &["--rig", "rail"]);
     std::fs::write(
         d.join("rail.toml"),
@@ -606,4 +574,25 @@ fn a_device_lost_mid_trial_leaves_that_trial_as_a_faulted_log() {
     );
     common::ok(&resumed);
     assert!(d.join("b/trial-00001.mcap").exists() && kept.exists());
+}
+
+/// Eight collected rail trials in `d/rail` and a threshold model of them, `d/rail.json`.
+fn rail_model(d: &Path) {
+    common::ok(&common::tmo(
+        d,
+        &[
+            "sim", "collect", "--rig", "rail", "--trials", "8", "--seed", "5", "--out", "rail",
+        ],
+    ));
+    common::ok(&common::tmo(
+        d,
+        &[
+            "train",
+            "rail",
+            "--classifier",
+            "threshold",
+            "--out",
+            "rail.json",
+        ],
+    ));
 }
