@@ -55,6 +55,16 @@ pub struct ReproduceArgs {
     /// `tmo reproduce merge` joins the parts and writes the findings.
     #[arg(long, value_name = "K/N")]
     shard: Option<Shard>,
+    /// Run only the rail sweeps (with each job's rail collect), part K of N of them with
+    /// --shard: the first stage of a reproduction spread over more processes than it has
+    /// replicates, since the sweep is most of a replicate's time. The second stage runs
+    /// with --sweep-from.
+    #[arg(long, conflicts_with_all = ["sweep_from", "findings_only"])]
+    sweep_only: bool,
+    /// Take the rail sweeps' rows from these finished --sweep-only parts (every part's
+    /// --out) instead of sweeping here; the findings are the same.
+    #[arg(long, value_name = "DIR", num_args = 1.., conflicts_with = "findings_only")]
+    sweep_from: Vec<PathBuf>,
     /// With --sensitivity: vary only these parameters (comma-separated names).
     #[arg(long, value_delimiter = ',', requires = "sensitivity")]
     sensitivity_parameters: Vec<String>,
@@ -125,6 +135,8 @@ pub fn run(args: ReproduceArgs) -> Result<u8> {
             .unwrap_or_else(|| preset.default_replicates()),
         resume: args.resume,
         shard: args.shard,
+        sweep_only: args.sweep_only,
+        sweep_from: args.sweep_from.clone(),
         backend,
         sensitivity: args
             .sensitivity
@@ -209,6 +221,21 @@ pub fn run(args: ReproduceArgs) -> Result<u8> {
                 started.elapsed().as_secs_f64()
             );
             print_report(&report, &options)?;
+        }
+        End::SweepPart { record } => {
+            let chains: usize = record.jobs.iter().map(|j| j.chains.len()).sum();
+            outln!(
+                "reproduce ({} preset), sweep part {}: {chains} chain(s) of {} job(s)' rail sweeps in {:.1} s",
+                options.preset.name(),
+                record.part,
+                record.jobs.len(),
+                started.elapsed().as_secs_f64(),
+            );
+            outln!(
+                "wrote {} and the part's sweep rows under {}; run the other steps with `tmo reproduce --sweep-from` and every part's directory",
+                options.out.join(reproduce::sweep_parts::RECORD).display(),
+                options.out.display()
+            );
         }
         End::Shard {
             ran,

@@ -11,7 +11,7 @@ use tmo::slip::dataset::{split_trials, LabelSpec, Scope};
 use tmo::slip::labels::OnsetSpec;
 use tmo::slip::model::{ClassifierKind, Hyperparameters, TrialRef};
 use tmo::slip::sweep::{parse_f64_grid, parse_usize_grid, HyperChoice, Shard, SweepRow, SweepSpec};
-use tmo::slip::sweep_file::{merge, read_rows, run_to_file, write_rows, SweepTarget};
+use tmo::slip::sweep_file::{merge, read_rows, run_to_file, write_rows, SweepPart, SweepTarget};
 use tmo::trial::{expand_trial_paths, TrialMeta};
 
 use super::slip::{load_dataset, SearchMethod};
@@ -282,7 +282,7 @@ pub fn sweep(args: SweepArgs) -> Result<()> {
         resume: args.resume,
         identity,
         stop: Some(&stop),
-        shard: args.shard,
+        part: args.shard.map_or(SweepPart::Whole, SweepPart::Shard),
     };
     let result = run_to_file(
         &train,

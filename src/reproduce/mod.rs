@@ -17,6 +17,7 @@ pub mod page;
 pub mod sensitivity;
 pub mod shards;
 pub mod steps;
+pub mod sweep_parts;
 
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -46,6 +47,8 @@ pub enum ReproduceError {
     Findings(#[from] findings::FindingsError),
     #[error(transparent)]
     Merge(#[from] shards::MergeError),
+    #[error(transparent)]
+    SweepParts(#[from] sweep_parts::SweepPartError),
 }
 
 impl ReproduceError {
@@ -93,6 +96,13 @@ pub struct Options {
     /// Run only this part of the replicate (x variant) plan, for `tmo reproduce merge` to
     /// join with the other parts.
     pub shard: Option<crate::output::shard::Shard>,
+    /// Run only the rail sweeps' part `shard` of the plan (with each job's rail collect):
+    /// the first stage of a reproduction whose sweeps are spread over more processes than
+    /// it has replicates ([`sweep_parts`]).
+    pub sweep_only: bool,
+    /// The finished `sweep_only` parts to take the rail sweeps' rows from (the second
+    /// stage); empty to sweep here.
+    pub sweep_from: Vec<PathBuf>,
     pub resume: bool,
     pub backend: Backend,
 }
@@ -144,6 +154,10 @@ pub enum End {
     Interrupted {
         /// The step, as `replicate-01/rail_sweep`.
         step: String,
+    },
+    /// A sweep part finished; `tmo reproduce --sweep-from` takes its rows.
+    SweepPart {
+        record: Box<sweep_parts::SweepPartRecord>,
     },
     /// A shard finished its part; `tmo reproduce merge` writes the findings.
     Shard {
@@ -212,6 +226,7 @@ pub fn reproduce(
     let out = &options.out;
     let replicates = options.replicates.max(1);
     let has_steps = out.join(shards::RECORD).exists()
+        || sweep_parts::holds_part(out)
         || std::fs::read_dir(out).is_ok_and(|mut entries| {
             entries.any(|e| {
                 e.is_ok_and(|e| {
@@ -224,10 +239,12 @@ pub fn reproduce(
     if has_steps && !options.resume {
         return Err(ReproduceError::AlreadyThere(out.clone()));
     }
-    if options.shard.is_some() && options.backend != Backend::Sim {
+    if (options.shard.is_some() || options.sweep_only || !options.sweep_from.is_empty())
+        && options.backend != Backend::Sim
+    {
         return Err(ReproduceError::step(
             "reproduce",
-            "--shard splits a reproduction over processes that each drive their own simulated rig: a real rig runs it whole",
+            "--shard, --sweep-only and --sweep-from split a reproduction over processes that each drive their own simulated rig (and run its rail collect again): a real rig runs it whole",
         ));
     }
     let variants = match &options.sensitivity {
@@ -249,8 +266,10 @@ pub fn reproduce(
     // A shard's record is written last: one left from an earlier run of it no longer
     // stands once the shard runs again.
     let record_path = out.join(shards::RECORD);
-    if record_path.exists() {
-        std::fs::remove_file(&record_path).map_err(io(&record_path))?;
+    for path in [record_path.clone(), out.join(sweep_parts::RECORD)] {
+        if path.exists() {
+            std::fs::remove_file(&path).map_err(io(&path))?;
+        }
     }
 
     let none = Default::default();
@@ -274,6 +293,29 @@ pub fn reproduce(
         .iter()
         .flat_map(|run| (1..=replicates).map(move |r| (run, r)))
         .collect();
+    let shard_plan = shards::ShardPlan::new(options, &variants);
+    if options.sweep_only {
+        let jobs: Vec<sweep_parts::PlanJob> = plan
+            .iter()
+            .map(|(run, r)| sweep_parts::PlanJob {
+                dir: shards::job_dir(run.label.strip_suffix('/'), *r),
+                sim: run.sim,
+                replicate: *r,
+            })
+            .collect();
+        let shard = options
+            .shard
+            .unwrap_or(crate::output::shard::Shard { index: 1, count: 1 });
+        return sweep_parts::run_part(options, &shard_plan, &jobs, shard, stop, progress);
+    }
+    let sweep_from = if options.sweep_from.is_empty() {
+        None
+    } else {
+        Some(sweep_parts::SweepParts::load(
+            &options.sweep_from,
+            &shard_plan,
+        )?)
+    };
     let mine: Vec<(&Run, u32)> = match options.shard {
         Some(shard) => shard.select(plan),
         None => plan,
@@ -284,9 +326,12 @@ pub fn reproduce(
     let steps_in_all = Step::ALL.len() * mine.len() + report_steps;
     progress.steps.set_length(steps_in_all as u64);
     let tally = std::sync::Mutex::new(Steps::default());
-    for result in run_all(&baseline, options, stop, progress, &tally, false)
-        .into_iter()
-        .flatten()
+    let sweep_from = sweep_from.as_ref();
+    for result in run_all(
+        &baseline, options, sweep_from, stop, progress, &tally, false,
+    )
+    .into_iter()
+    .flatten()
     {
         if let Some(step) = result? {
             return Ok(End::Interrupted { step });
@@ -295,7 +340,15 @@ pub fn reproduce(
     // The variants start once the baseline is finished: they take its steps. A variant
     // whose world the rig cannot run (a grasp past the hand's limits, say) is a result of
     // the study, not a reason to stop it: its error is kept in its directory.
-    let results = run_all(&variant_jobs, options, stop, progress, &tally, true);
+    let results = run_all(
+        &variant_jobs,
+        options,
+        sweep_from,
+        stop,
+        progress,
+        &tally,
+        true,
+    );
     let mut failed_runs: Vec<(&Path, String)> = Vec::new();
     for ((run, _), result) in variant_jobs.iter().zip(&results) {
         if let Some(Err(e)) = result {
@@ -327,7 +380,8 @@ pub fn reproduce(
     if let Some(shard) = options.shard {
         let record = shards::ShardRecord {
             shard: shard.to_string(),
-            plan: shards::ShardPlan::new(options, &variants),
+            plan: shard_plan,
+            sweep_parts: sweep_from.map(|p| p.count()),
             jobs: mine
                 .iter()
                 .map(|(run, r)| shards::ShardJob {
@@ -396,6 +450,7 @@ struct Steps {
 fn run_all(
     jobs: &[&(&Run, u32)],
     options: &Options,
+    sweep_from: Option<&sweep_parts::SweepParts>,
     stop: &AtomicBool,
     progress: &Progress,
     tally: &std::sync::Mutex<Steps>,
@@ -421,7 +476,8 @@ fn run_all(
                     loop {
                         let i = next.fetch_add(1, Ordering::Relaxed);
                         let Some(&&(run, r)) = jobs.get(i) else { break };
-                        let result = run_replicate(run, r, options, stop, progress, &bar, tally);
+                        let result =
+                            run_replicate(run, r, options, sweep_from, stop, progress, &bar, tally);
                         let halt = match &result {
                             Ok(interrupted) => interrupted.is_some(),
                             Err(_) => !keep_going,
@@ -451,10 +507,12 @@ fn run_all(
 type JobEnd = Result<Option<String>, ReproduceError>;
 
 /// Runs replicate `r` of `run`; the step it was interrupted in, if it was.
+#[allow(clippy::too_many_arguments)]
 fn run_replicate(
     run: &Run,
     r: u32,
     options: &Options,
+    sweep_from: Option<&sweep_parts::SweepParts>,
     stop: &AtomicBool,
     progress: &Progress,
     bar: &indicatif::ProgressBar,
@@ -463,6 +521,7 @@ fn run_replicate(
     let replicates = options.replicates.max(1);
     let dir = replicate_dir(&run.dir, r);
     let reuse = run.reuse.map(|base| replicate_dir(base, r));
+    let job = shards::job_dir(run.label.strip_suffix('/'), r);
     let ctx = steps::Context {
         out: &dir,
         replicate: r,
@@ -472,6 +531,8 @@ fn run_replicate(
         backend: &options.backend,
         stop,
         bar,
+        job: &job,
+        sweep_from,
     };
     for (k, step) in Step::ALL.iter().copied().enumerate() {
         let name = format!("{}replicate-{r:02}/{}", run.label, step.name());

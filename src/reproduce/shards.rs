@@ -42,6 +42,19 @@ impl ShardPlan {
         }
     }
 
+    /// What part of the plan differs from `other`'s, if any.
+    pub fn differs(&self, other: &ShardPlan) -> Option<&'static str> {
+        if self.tmo_version != other.tmo_version || self.git_revision != other.git_revision {
+            Some("the builds of tmo")
+        } else if self.preset != other.preset || self.replicates != other.replicates {
+            Some("the preset or the replicates")
+        } else if self != other {
+            Some("the sensitivity studies")
+        } else {
+            None
+        }
+    }
+
     /// Every job of the plan, as directories under the output directory, in plan order.
     pub fn jobs(&self) -> Vec<String> {
         let runs = std::iter::once(String::new())
@@ -78,6 +91,10 @@ pub struct ShardRecord {
     pub plan: ShardPlan,
     pub jobs: Vec<ShardJob>,
     pub wall_s: f64,
+    /// How many `--sweep-only` parts its rail sweeps were joined from (`--sweep-from`);
+    /// `None` where it swept them itself. The joined sweeps are the ones it would have run.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub sweep_parts: Option<usize>,
 }
 
 #[derive(Debug, thiserror::Error)]
@@ -86,6 +103,10 @@ pub enum MergeError {
     NoShards,
     #[error("{dir}: no finished shard here (no {RECORD}): run `tmo reproduce --shard K/N --out {dir}`, or finish it with --resume")]
     NotAShard { dir: PathBuf },
+    #[error("{dir} is a part of a sweep stage (`tmo reproduce --sweep-only`): give it to `tmo reproduce --sweep-from`, and merge the shards that ran with it")]
+    SweepPartGiven { dir: PathBuf },
+    #[error("{dir}: no finished sweep part here (no {file}): run `tmo reproduce --sweep-only --shard K/N --out {dir}`, or finish it with --resume", file = super::sweep_parts::RECORD)]
+    NotASweepPart { dir: PathBuf },
     #[error("{path}: not a shard record ({message})")]
     BadRecord { path: PathBuf, message: String },
     #[error("{a} and {b} are both shard {shard}")]
@@ -123,11 +144,40 @@ pub enum MergeError {
     Plan(String, String),
 }
 
-fn read(dir: &Path) -> Result<ShardRecord, MergeError> {
-    let path = dir.join(RECORD);
-    let text = std::fs::read_to_string(&path).map_err(|_| MergeError::NotAShard {
-        dir: dir.to_path_buf(),
-    })?;
+/// A record each finished part of a plan leaves in its directory.
+pub(crate) trait PartRecord: serde::de::DeserializeOwned {
+    /// Its file name.
+    const FILE: &'static str;
+    /// "K/N".
+    fn shard(&self) -> &str;
+    fn plan(&self) -> &ShardPlan;
+    /// The error for a directory that holds no such record.
+    fn missing(dir: &Path) -> MergeError;
+}
+
+impl PartRecord for ShardRecord {
+    const FILE: &'static str = RECORD;
+    fn shard(&self) -> &str {
+        &self.shard
+    }
+    fn plan(&self) -> &ShardPlan {
+        &self.plan
+    }
+    fn missing(dir: &Path) -> MergeError {
+        if dir.join(super::sweep_parts::RECORD).exists() {
+            return MergeError::SweepPartGiven {
+                dir: dir.to_path_buf(),
+            };
+        }
+        MergeError::NotAShard {
+            dir: dir.to_path_buf(),
+        }
+    }
+}
+
+fn read<R: PartRecord>(dir: &Path) -> Result<R, MergeError> {
+    let path = dir.join(R::FILE);
+    let text = std::fs::read_to_string(&path).map_err(|_| R::missing(dir))?;
     serde_json::from_str(&text).map_err(|e| MergeError::BadRecord {
         path,
         message: e.to_string(),
@@ -222,16 +272,38 @@ pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<Merged, ReproduceError> {
 /// The shards' records, in shard order, once they are checked to be every part of one
 /// plan exactly once.
 fn check_parts(dirs: &[PathBuf]) -> Result<Vec<(PathBuf, ShardRecord)>, MergeError> {
-    let mut parts: Vec<(PathBuf, Shard, ShardRecord)> = Vec::new();
+    let parts = check_records::<ShardRecord>(dirs)?;
+    let all = parts[0].2.plan.jobs();
+    for (dir, shard, record) in &parts {
+        let expected = shard.select(all.clone());
+        let found: Vec<String> = record.jobs.iter().map(|j| j.dir.clone()).collect();
+        if expected != found {
+            return Err(MergeError::WrongJobs {
+                dir: dir.clone(),
+                shard: record.shard.clone(),
+                expected,
+                found,
+            });
+        }
+    }
+    Ok(parts.into_iter().map(|(d, _, r)| (d, r)).collect())
+}
+
+/// The records in `dirs`, in part order, once they are checked to be the parts of one
+/// plan, each exactly once and none missing.
+pub(crate) fn check_records<R: PartRecord>(
+    dirs: &[PathBuf],
+) -> Result<Vec<(PathBuf, Shard, R)>, MergeError> {
+    let mut parts: Vec<(PathBuf, Shard, R)> = Vec::new();
     for dir in dirs {
-        let record = read(dir)?;
+        let record: R = read(dir)?;
         let shard: Shard =
             record
-                .shard
+                .shard()
                 .parse()
                 .map_err(
                     |e: crate::output::shard::ShardError| MergeError::BadRecord {
-                        path: dir.join(RECORD),
+                        path: dir.join(R::FILE),
                         message: e.to_string(),
                     },
                 )?;
@@ -239,28 +311,18 @@ fn check_parts(dirs: &[PathBuf]) -> Result<Vec<(PathBuf, ShardRecord)>, MergeErr
             return Err(MergeError::Doubled {
                 a: dir.clone(),
                 b: other.clone(),
-                shard: record.shard,
+                shard: record.shard().into(),
             });
         }
         if let Some((first, s, first_record)) = parts.first() {
             if s.count != shard.count {
                 return Err(MergeError::OtherCount {
                     dir: dir.clone(),
-                    shard: record.shard,
+                    shard: record.shard().into(),
                     count: s.count,
                 });
             }
-            let (a, b) = (&first_record.plan, &record.plan);
-            let what = if a.tmo_version != b.tmo_version || a.git_revision != b.git_revision {
-                Some("the builds of tmo")
-            } else if a.preset != b.preset || a.replicates != b.replicates {
-                Some("the preset or the replicates")
-            } else if a != b {
-                Some("the sensitivity studies")
-            } else {
-                None
-            };
-            if let Some(what) = what {
+            if let Some(what) = first_record.plan().differs(record.plan()) {
                 return Err(MergeError::Mixed {
                     dir: dir.clone(),
                     first: first.clone(),
@@ -279,20 +341,7 @@ fn check_parts(dirs: &[PathBuf]) -> Result<Vec<(PathBuf, ShardRecord)>, MergeErr
         return Err(MergeError::Missing(missing.join(", ")));
     }
     parts.sort_by_key(|(_, s, _)| s.index);
-    let all = parts[0].2.plan.jobs();
-    for (dir, shard, record) in &parts {
-        let expected = shard.select(all.clone());
-        let found: Vec<String> = record.jobs.iter().map(|j| j.dir.clone()).collect();
-        if expected != found {
-            return Err(MergeError::WrongJobs {
-                dir: dir.clone(),
-                shard: record.shard.clone(),
-                expected,
-                found,
-            });
-        }
-    }
-    Ok(parts.into_iter().map(|(d, _, r)| (d, r)).collect())
+    Ok(parts)
 }
 
 #[cfg(test)]
@@ -310,6 +359,7 @@ mod tests {
                 .map(|dir| ShardJob { dir, failed: None })
                 .collect(),
             wall_s: 1.0,
+            sweep_parts: None,
         }
     }
 

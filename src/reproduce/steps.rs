@@ -18,7 +18,7 @@ use crate::slip::evaluation::Evaluation;
 use crate::slip::labels::OnsetSpec;
 use crate::slip::model::{ClassifierKind, Hyperparameters, ModelFile, TrainSpec};
 use crate::slip::sweep::{HyperChoice, SweepRow, SweepSpec};
-use crate::slip::sweep_file::{run_to_file, SweepTarget};
+use crate::slip::sweep_file::{run_to_file, SweepPart, SweepTarget};
 use crate::slip::tuning::{self, TuneSpec};
 
 /// C of the paper's best SVM, used for the sweep's cells when they are not searched (the
@@ -136,13 +136,24 @@ pub struct Context<'a> {
     pub backend: &'a Backend,
     pub stop: &'a AtomicBool,
     pub bar: &'a indicatif::ProgressBar,
+    /// The job's directory under the reproduction's (`replicate-01`,
+    /// `sensitivity/<variant>/replicate-01`), as plans name it.
+    pub job: &'a str,
+    /// Where the rail sweep was run (`--sweep-from`): its rows are joined from these
+    /// parts instead of computed here.
+    pub sweep_from: Option<&'a super::sweep_parts::SweepParts>,
 }
 
 impl Context<'_> {
     /// The seed of learners (sweep, search, training): 0 in the first replicate.
     pub fn learner_seed(&self) -> u64 {
-        u64::from(self.replicate.saturating_sub(1))
+        learner_seed(self.replicate)
     }
+}
+
+/// The seed of replicate `replicate`'s learners.
+fn learner_seed(replicate: u32) -> u64 {
+    u64::from(replicate.saturating_sub(1))
 }
 
 /// Replicate `r`'s seed for a protocol whose first replicate uses `base`: replicates are
@@ -534,13 +545,15 @@ pub fn read_sweep(path: &Path) -> Result<Vec<SweepRow>, ReproduceError> {
     crate::slip::sweep_file::read_rows(path).map_err(|e| ReproduceError::step("rail_sweep", e))
 }
 
-fn rail_sweep(ctx: &Context, c: &Counts, dir: &Path) -> Result<bool, ReproduceError> {
-    let step = "rail_sweep";
-    let collect = ctx.out.join(Step::RailCollect.dir());
-    let max_n = c.sweep_n_slip.iter().copied().max().unwrap_or(15);
-    let (train, _, _) = load(step, &[collect.join("train")], max_n)?;
-    let (test, _, _) = load(step, &[collect.join("test")], max_n)?;
-    let spec = SweepSpec {
+/// The rail sweep's grid and learner settings in `ctx`'s replicate.
+pub(crate) fn sweep_spec(ctx: &Context) -> SweepSpec {
+    sweep_spec_for(ctx.preset, ctx.replicate)
+}
+
+/// The rail sweep's grid and learner settings for `preset` in replicate `replicate`.
+pub(crate) fn sweep_spec_for(preset: &Preset, replicate: u32) -> SweepSpec {
+    let c = preset.counts();
+    SweepSpec {
         classifiers: vec![
             ClassifierKind::SvmRbf,
             ClassifierKind::Logreg,
@@ -563,30 +576,65 @@ fn rail_sweep(ctx: &Context, c: &Counts, dir: &Path) -> Result<bool, ReproduceEr
                 max_iterations: None,
             }),
         },
-        seed: ctx.learner_seed(),
-    };
-    // Finished cells are kept in sweep.csv.partial: an interrupted sweep resumes there.
+        seed: learner_seed(replicate),
+    }
+}
+
+/// What the sweep's `sweep.csv.identity` records (the step's directory is fresh whenever
+/// its inputs changed, so the preset and the search settings are all it needs to say).
+pub(crate) fn sweep_identity(ctx: &Context, spec: &SweepSpec) -> String {
+    format!("reproduce {} {:?}\n", ctx.preset.name(), spec.hyper)
+}
+
+/// The rail collect's training and test trials, labelled for the sweep's largest n_slip.
+pub(crate) fn sweep_data(
+    ctx: &Context,
+    c: &Counts,
+) -> Result<(crate::slip::dataset::Dataset, crate::slip::dataset::Dataset), ReproduceError> {
+    let step = "rail_sweep";
+    let collect = ctx.out.join(Step::RailCollect.dir());
+    let max_n = c.sweep_n_slip.iter().copied().max().unwrap_or(15);
+    let (train, _, _) = load(step, &[collect.join("train")], max_n)?;
+    let (test, _, _) = load(step, &[collect.join("test")], max_n)?;
+    Ok((train, test))
+}
+
+fn rail_sweep(ctx: &Context, c: &Counts, dir: &Path) -> Result<bool, ReproduceError> {
+    let step = "rail_sweep";
+    let spec = sweep_spec(ctx);
     let out = dir.join("sweep.csv");
-    let target = SweepTarget {
-        out: &out,
-        resume: true,
-        // the step's directory is fresh whenever its inputs changed
-        identity: format!("reproduce {} {:?}\n", ctx.preset.name(), spec.hyper),
-        stop: Some(ctx.stop),
-        shard: None,
-    };
-    let result = run_to_file(
-        &train,
-        &test,
-        &spec,
-        &target,
-        |cells, _| ctx.bar.set_length(cells.len() as u64),
-        |_| ctx.bar.inc(1),
-    );
-    let rows = match result {
-        Ok(r) => r.rows,
-        Err(e) if e.stopped() => return Ok(false),
-        Err(e) => return Err(ReproduceError::step(step, e)),
+    let identity = sweep_identity(ctx, &spec);
+    let rows = if let Some(parts) = ctx.sweep_from {
+        // Swept elsewhere (`--sweep-only`): joined from the parts, as a single run writes it.
+        let (train, test) = sweep_data(ctx, c)?;
+        let data = super::sweep_parts::data_digest(&train, &test);
+        let rows = parts.rows_for(ctx, &spec, &data)?;
+        crate::slip::sweep_file::write_finished(&out, &identity, &rows)
+            .map_err(|e| ReproduceError::step(step, e))?;
+        rows
+    } else {
+        let (train, test) = sweep_data(ctx, c)?;
+        // Finished cells are kept in sweep.csv.partial: an interrupted sweep resumes there.
+        let target = SweepTarget {
+            out: &out,
+            resume: true,
+            identity,
+            stop: Some(ctx.stop),
+            part: SweepPart::Whole,
+        };
+        let result = run_to_file(
+            &train,
+            &test,
+            &spec,
+            &target,
+            |cells, _| ctx.bar.set_length(cells.len() as u64),
+            |_| ctx.bar.inc(1),
+        );
+        match result {
+            Ok(r) => r.rows,
+            Err(e) if e.stopped() => return Ok(false),
+            Err(e) => return Err(ReproduceError::step(step, e)),
+        }
     };
     crate::plots::offline::sweep_heatmaps(&rows, dir, "")
         .map_err(|e| ReproduceError::step(step, e))?;

@@ -226,6 +226,43 @@ impl Dataset {
         self.y.len()
     }
 
+    /// SHA-256 of what a learner reads: every row's features, class, trial, sensor, frame
+    /// and slip-frame count, and the trials' ids. Two datasets with one digest train and
+    /// score alike, whenever and wherever their logs were recorded.
+    pub fn digest(&self) -> String {
+        use sha2::{Digest, Sha256};
+        let mut h = Sha256::new();
+        h.update((self.dim as u64).to_le_bytes());
+        for v in &self.x {
+            h.update(v.to_bits().to_le_bytes());
+        }
+        h.update(
+            self.y
+                .iter()
+                .map(|c| u8::from(*c == super::Class::Slip))
+                .collect::<Vec<u8>>(),
+        );
+        for ((((t, s), q), time), f) in self
+            .trial
+            .iter()
+            .zip(&self.sensor)
+            .zip(&self.seq)
+            .zip(&self.time_s)
+            .zip(self.slip_frame.iter().chain(std::iter::repeat(&0)))
+        {
+            h.update(t.to_le_bytes());
+            h.update([*s]);
+            h.update(q.to_le_bytes());
+            h.update(time.to_bits().to_le_bytes());
+            h.update(f.to_le_bytes());
+        }
+        for id in &self.trial_ids {
+            h.update(id.as_bytes());
+            h.update([0]);
+        }
+        format!("{:x}", h.finalize())
+    }
+
     pub fn is_empty(&self) -> bool {
         self.y.is_empty()
     }

@@ -237,14 +237,18 @@ impl SweepSpec {
                 None => chains.push(vec![cell]),
             }
         }
-        let cost = |chain: &Vec<Cell>| -> f64 {
-            chain.iter().map(|c| self.cell_cost(c, 1000, 100_000)).sum()
-        };
         for chain in &mut chains {
             chain.sort_by_key(|c| c.n_slip);
         }
-        chains.sort_by(|a, b| cost(b).total_cmp(&cost(a)));
+        chains.sort_by(|a, b| self.chain_cost(b).total_cmp(&self.chain_cost(a)));
         chains
+    }
+
+    /// A chain's cost relative to the others' ([`Self::cell_cost`] on a fixed, typical
+    /// training set: it depends on the grid alone, so every process that deals chains out
+    /// deals them alike).
+    pub fn chain_cost(&self, chain: &[Cell]) -> f64 {
+        chain.iter().map(|c| self.cell_cost(c, 1000, 100_000)).sum()
     }
 
     /// Each of `cells`' cost ([`Self::cell_cost`]) on the training set `train`, by the key a

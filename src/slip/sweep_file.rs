@@ -135,6 +135,15 @@ pub fn write_rows(path: &Path, rows: &[SweepRow]) -> Result<(), SweepFileError> 
     })
 }
 
+/// Leaves `out` as [`run_to_file`] leaves a finished sweep of `identity` with `rows` (the
+/// rows of a sweep run elsewhere and joined with [`merge`]).
+pub fn write_finished(out: &Path, identity: &str, rows: &[SweepRow]) -> Result<(), SweepFileError> {
+    let path = identity_path(out);
+    crate::output::atomic::write_atomic(&path, identity.as_bytes())
+        .map_err(|source| SweepFileError::Io { path, source })?;
+    write_rows(out, rows)
+}
+
 /// A finished sweep: every row in grid order, and how many were there before.
 pub struct SweepResult {
     pub rows: Vec<SweepRow>,
@@ -154,8 +163,38 @@ pub struct SweepTarget<'a> {
     pub identity: String,
     /// Start no more cells once set.
     pub stop: Option<&'a AtomicBool>,
-    /// Run only this part of the grid ([`merge`] joins the parts).
-    pub shard: Option<Shard>,
+    /// Which of the grid's chains to run ([`merge`] joins the parts).
+    pub part: SweepPart,
+}
+
+/// The part of a sweep's grid one process runs. Parts are whole chains of cells
+/// ([`SweepSpec::chains`]), so that each cell starts as it does in a single run.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub enum SweepPart {
+    #[default]
+    Whole,
+    /// Every `count`-th chain, as `--shard K/N` deals them.
+    Shard(Shard),
+    /// These chains, by their position in [`SweepSpec::chains`] (a plan that deals chains
+    /// of several sweeps together, as `tmo reproduce --sweep-only` does).
+    Chains(Vec<usize>),
+}
+
+impl SweepPart {
+    /// This part's chains of `spec`'s grid.
+    pub fn select(&self, spec: &SweepSpec) -> Vec<Vec<Cell>> {
+        let chains = spec.chains();
+        match self {
+            SweepPart::Whole => chains,
+            SweepPart::Shard(shard) => shard.select(chains),
+            SweepPart::Chains(which) => chains
+                .into_iter()
+                .enumerate()
+                .filter(|(i, _)| which.contains(i))
+                .map(|(_, c)| c)
+                .collect(),
+        }
+    }
 }
 
 fn identity_path(out: &Path) -> PathBuf {
@@ -223,10 +262,7 @@ pub fn run_to_file(
         .map(|r| (r.key(), r.hyperparameters()))
         .collect();
     // A shard runs whole chains, so that its cells start as a single run starts them.
-    let chains = match target.shard {
-        Some(shard) => shard.select(spec.chains()),
-        None => spec.chains(),
-    };
+    let chains = target.part.select(spec);
     let cells: Vec<_> = chains
         .iter()
         .flatten()
