@@ -128,7 +128,36 @@ fn the_quick_preset_writes_every_step_and_the_findings_report() {
         );
         let hand = std::fs::read_to_string(variant.join("07_hand_online/protocol.toml")).unwrap();
         assert!(!hand.contains("[sim]"), "{hand}");
+        // once finished, a variant keeps its outcomes but not its trial logs (but the rail
+        // collect's, which the pin speeds are read from), each listed with its digest
+        let logs: Vec<_> = walk(&variant)
+            .into_iter()
+            .filter(|p| p.extension().is_some_and(|x| x == "mcap"))
+            .collect();
+        assert!(
+            logs.iter()
+                .all(|p| p.starts_with(variant.join("01_rail_collect"))),
+            "{logs:?}"
+        );
+        assert!(variant.join("07_hand_online/pruned.json").is_file());
+        assert!(variant.join("07_hand_online/outcomes.json").is_file());
     }
+    // the pruned variants are still finished: a resume of the study runs nothing
+    let again = ok(&tmo(
+        d,
+        &[
+            "reproduce",
+            "--preset",
+            "quick",
+            "--out",
+            "paper",
+            "--resume",
+            "--sensitivity",
+            "--sensitivity-parameters",
+            "rail.rail_mu",
+        ],
+    ));
+    assert!(again.contains("0 step(s) run, 33 already done"), "{again}");
     let table = std::fs::read_to_string(d.join("paper/sensitivity.md")).unwrap();
     assert!(table.contains("2 variants (1 parameters"), "{table}");
     for f in findings {
@@ -347,6 +376,77 @@ fn a_reproduction_killed_mid_way_resumes_without_rerunning_finished_steps() {
     ));
     assert!(out.contains("merged 2 shards (2 jobs"), "{out}");
     assert!(out.contains("held-out findings:"), "{out}");
+    same_results(d, "r", "seq");
+
+    // In two stages: the two replicates' sweeps dealt over three parts, then the other
+    // steps in two shards that join the parts' rows; the same sweeps and findings.
+    for k in 1..=3 {
+        let out = ok(&tmo(
+            d,
+            &[
+                "reproduce",
+                "--out",
+                &format!("sweep{k}"),
+                "--replicates",
+                "2",
+                "--sweep-only",
+                "--shard",
+                &format!("{k}/3"),
+            ],
+        ));
+        assert!(out.contains(&format!("sweep part {k}/3")), "{out}");
+    }
+    let stage_two = |k: u32, parts: &[&str]| {
+        let mut args = vec![
+            "reproduce".to_string(),
+            "--out".into(),
+            format!("steps{k}"),
+            "--replicates".into(),
+            "2".into(),
+            "--shard".into(),
+            format!("{k}/2"),
+            "--sweep-from".into(),
+        ];
+        args.extend(parts.iter().map(|p| p.to_string()));
+        let args: Vec<&str> = args.iter().map(String::as_str).collect();
+        tmo(d, &args)
+    };
+    // a part missing, or altered after it finished, is refused
+    let e = fails(&stage_two(1, &["sweep1", "sweep3"]));
+    assert!(e.contains("2/3 not given"), "{e}");
+    let part = ["replicate-01", "replicate-02"]
+        .map(|r| {
+            d.join("sweep2")
+                .join(r)
+                .join("02_rail_sweep.part/sweep.csv")
+        })
+        .into_iter()
+        .find(|p| p.is_file())
+        .expect("part 2 swept for some replicate");
+    let original = std::fs::read(&part).unwrap();
+    std::fs::write(&part, [original.as_slice(), b"\n"].concat()).unwrap();
+    let e = fails(&stage_two(1, &["sweep1", "sweep2", "sweep3"]));
+    assert!(e.contains("changed after the part finished"), "{e}");
+    std::fs::write(&part, &original).unwrap();
+    assert!(!d.join("steps1").exists(), "refused before anything ran");
+    for k in 1..=2 {
+        ok(&stage_two(k, &["sweep3", "sweep1", "sweep2"]));
+    }
+    let e = fails(&tmo(
+        d,
+        &["reproduce", "merge", "sweep1", "sweep2", "--out", "nope"],
+    ));
+    assert!(e.contains("--sweep-from"), "{e}");
+    ok(&tmo(
+        d,
+        &["reproduce", "merge", "steps1", "steps2", "--out", "two"],
+    ));
+    same_results(d, "r", "two");
+}
+
+/// The trials, sweeps, models and findings of reproductions `a` and `b` (under `d`) are
+/// the same, but for what records when and how fast it ran.
+fn same_results(d: &std::path::Path, a: &str, b: &str) {
     for r in ["replicate-01", "replicate-02"] {
         for file in [
             "04_rail_online/outcomes.json",
@@ -355,7 +455,7 @@ fn a_reproduction_killed_mid_way_resumes_without_rerunning_finished_steps() {
             "11_first_time_lift/can/outcomes.json",
         ] {
             let read = |out: &str| std::fs::read_to_string(d.join(out).join(r).join(file)).unwrap();
-            assert_eq!(read("r"), read("seq"), "{r}/{file}");
+            assert_eq!(read(a), read(b), "{r}/{file}");
         }
         // the fitted models (their files also name the training logs, which record when
         // they were made)
@@ -366,7 +466,7 @@ fn a_reproduction_killed_mid_way_resumes_without_rerunning_finished_steps() {
             let v: serde_json::Value = serde_json::from_str(&text).unwrap();
             serde_json::json!([v["models"], v["hyperparameters"], v["labels"]])
         };
-        assert_eq!(model("r"), model("seq"), "{r} model");
+        assert_eq!(model(a), model(b), "{r} model");
         // the sweep's rows but their timing column
         let rows = |out: &str| -> Vec<String> {
             std::fs::read_to_string(d.join(out).join(r).join("02_rail_sweep/sweep.csv"))
@@ -375,7 +475,7 @@ fn a_reproduction_killed_mid_way_resumes_without_rerunning_finished_steps() {
                 .map(|l| l.rsplit_once(',').unwrap().0.to_string())
                 .collect()
         };
-        assert_eq!(rows("r"), rows("seq"), "{r} sweep");
+        assert_eq!(rows(a), rows(b), "{r} sweep");
     }
     // the findings but the time to classify a frame, which is measured anew each run
     let findings = |out: &str| -> serde_json::Value {
@@ -395,7 +495,7 @@ fn a_reproduction_killed_mid_way_resumes_without_rerunning_finished_steps() {
         }
         v
     };
-    assert_eq!(findings("r"), findings("seq"));
+    assert_eq!(findings(a), findings(b));
 }
 
 /// "N step(s) run, M already done" from reproduce's output.

@@ -65,6 +65,11 @@ pub struct ReproduceArgs {
     /// --out) instead of sweeping here; the findings are the same.
     #[arg(long, value_name = "DIR", num_args = 1.., conflicts_with = "findings_only")]
     sweep_from: Vec<PathBuf>,
+    /// With --sensitivity: keep the variants' trial logs (by default a variant's replicate
+    /// removes them once it is finished, listing each with its SHA-256 in its step's
+    /// pruned.json: some 850 MB a replicate at the paper's counts).
+    #[arg(long, requires = "sensitivity")]
+    keep_variant_logs: bool,
     /// With --sensitivity: vary only these parameters (comma-separated names).
     #[arg(long, value_delimiter = ',', requires = "sensitivity")]
     sensitivity_parameters: Vec<String>,
@@ -137,6 +142,7 @@ pub fn run(args: ReproduceArgs) -> Result<u8> {
         shard: args.shard,
         sweep_only: args.sweep_only,
         sweep_from: args.sweep_from.clone(),
+        keep_variant_logs: args.keep_variant_logs,
         backend,
         sensitivity: args
             .sensitivity

@@ -103,6 +103,9 @@ pub struct Options {
     /// The finished `sweep_only` parts to take the rail sweeps' rows from (the second
     /// stage); empty to sweep here.
     pub sweep_from: Vec<PathBuf>,
+    /// Keep the sensitivity variants' trial logs; by default a variant's replicate removes
+    /// them once it is finished ([`prune_logs`]).
+    pub keep_variant_logs: bool,
     pub resume: bool,
     pub backend: Backend,
 }
@@ -173,7 +176,8 @@ pub(crate) fn sha256_text(text: &str) -> String {
 }
 
 /// SHA-256 over a directory's files (relative path and content, in path order), leaving
-/// out the step's own bookkeeping.
+/// out the step's own bookkeeping. Files a [`PRUNED`] manifest lists and that are gone
+/// count with the digest they had, so a pruned step keeps the digest it finished with.
 pub fn digest_dir(dir: &Path) -> Result<String, ReproduceError> {
     fn walk(dir: &Path, root: &Path, out: &mut Vec<PathBuf>) -> Result<(), ReproduceError> {
         for entry in std::fs::read_dir(dir).map_err(io(dir))? {
@@ -190,18 +194,113 @@ pub fn digest_dir(dir: &Path) -> Result<String, ReproduceError> {
     walk(dir, dir, &mut files)?;
     files.retain(|f| {
         let name = f.to_string_lossy();
-        name != "step.json" && name != "step.inputs" && !name.ends_with(".aborted.mcap")
+        name != "step.json"
+            && name != "step.inputs"
+            && name != PRUNED
+            && !name.ends_with(".aborted.mcap")
     });
-    files.sort();
-    let mut h = Sha256::new();
+    let mut digests: std::collections::BTreeMap<PathBuf, Vec<u8>> = read_pruned(dir)?
+        .into_iter()
+        .map(|(f, hex)| (PathBuf::from(f), hex_bytes(&hex)))
+        .collect();
     for f in files {
         let path = dir.join(&f);
         let bytes = std::fs::read(&path).map_err(io(&path))?;
+        digests.insert(f, Sha256::digest(&bytes).to_vec());
+    }
+    let mut h = Sha256::new();
+    for (f, digest) in digests {
         h.update(f.to_string_lossy().as_bytes());
         h.update([0]);
-        h.update(Sha256::digest(&bytes));
+        h.update(digest);
     }
     Ok(format!("{:x}", h.finalize()))
+}
+
+/// A step's manifest of the trial logs removed from it: relative path -> SHA-256 (hex).
+pub const PRUNED: &str = "pruned.json";
+
+fn read_pruned(dir: &Path) -> Result<std::collections::BTreeMap<String, String>, ReproduceError> {
+    let path = dir.join(PRUNED);
+    match std::fs::read_to_string(&path) {
+        Ok(text) => serde_json::from_str(&text).map_err(|e| {
+            ReproduceError::step(
+                "resume",
+                format!("{}: not a pruned-log manifest: {e}", path.display()),
+            )
+        }),
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(Default::default()),
+        Err(e) => Err(io(&path)(e)),
+    }
+}
+
+/// The bytes of a hex string (a manifest's digests, which this program wrote).
+fn hex_bytes(hex: &str) -> Vec<u8> {
+    (0..hex.len() / 2)
+        .map(|i| u8::from_str_radix(hex.get(2 * i..2 * i + 2).unwrap_or("zz"), 16).unwrap_or(0))
+        .collect()
+}
+
+/// Removes the trial logs of a finished replicate's steps, each listed with its digest in
+/// the step's [`PRUNED`] manifest, so the step keeps its recorded digest. The findings read
+/// the steps' outcome tables, models and evaluations, not their logs; the rail collect's
+/// logs stay (the pin speeds are read from them). A sensitivity study at the paper's counts
+/// keeps some 850 MB of logs a variant replicate otherwise: 350 GB for a full study.
+pub fn prune_logs(replicate: &Path) -> Result<u64, ReproduceError> {
+    let mut freed = 0;
+    for step in Step::ALL.iter().filter(|s| **s != Step::RailCollect) {
+        let dir = replicate.join(step.dir());
+        if read_record(&dir).is_none() {
+            continue;
+        }
+        let mut logs = Vec::new();
+        collect_logs(&dir, &dir, &mut logs)?;
+        if logs.is_empty() {
+            continue;
+        }
+        let mut manifest = read_pruned(&dir)?;
+        for f in &logs {
+            let path = dir.join(f);
+            let bytes = std::fs::read(&path).map_err(io(&path))?;
+            freed += bytes.len() as u64;
+            manifest.insert(
+                f.to_string_lossy().into_owned(),
+                format!("{:x}", Sha256::digest(&bytes)),
+            );
+        }
+        // the manifest first: a crash between the two leaves files the manifest also
+        // lists, which count once
+        write_atomic(
+            &dir.join(PRUNED),
+            serde_json::to_string_pretty(&manifest)
+                .expect("a manifest serialises")
+                .as_bytes(),
+        )?;
+        for f in logs {
+            let path = dir.join(f);
+            std::fs::remove_file(&path).map_err(io(&path))?;
+        }
+    }
+    Ok(freed)
+}
+
+fn collect_logs(dir: &Path, root: &Path, out: &mut Vec<PathBuf>) -> Result<(), ReproduceError> {
+    for entry in std::fs::read_dir(dir).map_err(io(dir))? {
+        let path = entry.map_err(io(dir))?.path();
+        if path.is_dir() {
+            collect_logs(&path, root, out)?;
+        } else if path.extension().is_some_and(|x| x == "mcap") {
+            out.push(path.strip_prefix(root).unwrap_or(&path).to_path_buf());
+        }
+    }
+    Ok(())
+}
+
+/// Whether any step of the replicate in `dir` had its logs pruned.
+fn has_pruned(dir: &Path) -> bool {
+    Step::ALL
+        .iter()
+        .any(|s| dir.join(s.dir()).join(PRUNED).exists())
 }
 
 /// The record of a finished step in `dir`, if there is one.
@@ -260,6 +359,16 @@ pub fn reproduce(
                 .map_err(|e| ReproduceError::step("sensitivity", e))?
         }
     };
+    // The sweep parts are checked before anything runs: all of them, unaltered, of this plan.
+    let shard_plan = shards::ShardPlan::new(options, &variants);
+    let sweep_from = if options.sweep_from.is_empty() {
+        None
+    } else {
+        Some(sweep_parts::SweepParts::load(
+            &options.sweep_from,
+            &shard_plan,
+        )?)
+    };
     std::fs::create_dir_all(out).map_err(io(out))?;
     let _lock = crate::output::lock::OutputLock::acquire(out)
         .map_err(|e| ReproduceError::step("reproduce", e))?;
@@ -293,7 +402,6 @@ pub fn reproduce(
         .iter()
         .flat_map(|run| (1..=replicates).map(move |r| (run, r)))
         .collect();
-    let shard_plan = shards::ShardPlan::new(options, &variants);
     if options.sweep_only {
         let jobs: Vec<sweep_parts::PlanJob> = plan
             .iter()
@@ -308,14 +416,6 @@ pub fn reproduce(
             .unwrap_or(crate::output::shard::Shard { index: 1, count: 1 });
         return sweep_parts::run_part(options, &shard_plan, &jobs, shard, stop, progress);
     }
-    let sweep_from = if options.sweep_from.is_empty() {
-        None
-    } else {
-        Some(sweep_parts::SweepParts::load(
-            &options.sweep_from,
-            &shard_plan,
-        )?)
-    };
     let mine: Vec<(&Run, u32)> = match options.shard {
         Some(shard) => shard.select(plan),
         None => plan,
@@ -534,6 +634,16 @@ fn run_replicate(
         job: &job,
         sweep_from,
     };
+    // A pruned replicate with a step to run again starts again from its pruned steps: a
+    // later step may read their logs.
+    if has_pruned(&dir) && !finished_as_is(&ctx)? {
+        for step in Step::ALL {
+            let step_dir = dir.join(step.dir());
+            if step_dir.join(PRUNED).exists() {
+                std::fs::remove_dir_all(&step_dir).map_err(io(&step_dir))?;
+            }
+        }
+    }
     for (k, step) in Step::ALL.iter().copied().enumerate() {
         let name = format!("{}replicate-{r:02}/{}", run.label, step.name());
         progress.steps.set_message(format!(
@@ -564,7 +674,21 @@ fn run_replicate(
         drop(t);
         progress.steps.inc(1);
     }
+    if run.reuse.is_some() && !options.keep_variant_logs {
+        prune_logs(&dir)?;
+    }
     Ok(None)
+}
+
+/// Whether every step of `ctx`'s replicate is finished with the inputs it has now.
+fn finished_as_is(ctx: &steps::Context) -> Result<bool, ReproduceError> {
+    for step in Step::ALL {
+        let inputs = sha256_text(&step.inputs(ctx)?);
+        if check_finished(&ctx.out.join(step.dir()), &inputs, true)?.is_err() {
+            return Ok(false);
+        }
+    }
+    Ok(true)
 }
 
 /// `to` as a copy of the finished step `from`, its files hard-linked where the file system
@@ -681,4 +805,59 @@ fn run_step(
             .as_bytes(),
     )?;
     Ok(remade.map_or(StepEnd::Ran, StepEnd::Remade))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_pruned_step_keeps_its_digest_and_a_changed_manifest_does_not() {
+        let root = tempfile::tempdir().unwrap();
+        let replicate = root.path();
+        let step = replicate.join(Step::HandOnline.dir());
+        std::fs::create_dir_all(step.join("sub")).unwrap();
+        std::fs::write(step.join("outcomes.json"), b"[]").unwrap();
+        std::fs::write(step.join("t-000.mcap"), b"log zero").unwrap();
+        std::fs::write(step.join("sub/t-001.mcap"), b"log one").unwrap();
+        let before = digest_dir(&step).unwrap();
+        std::fs::write(
+            step.join("step.json"),
+            serde_json::to_string(&StepRecord {
+                step: "hand_online".into(),
+                inputs_sha256: "x".into(),
+                outputs_sha256: before.clone(),
+                wall_s: 0.0,
+                tmo_version: "0".into(),
+                git_revision: "0".into(),
+            })
+            .unwrap(),
+        )
+        .unwrap();
+        // the rail collect keeps its logs, and a step with no record is left alone
+        let collect = replicate.join(Step::RailCollect.dir());
+        std::fs::create_dir_all(&collect).unwrap();
+        std::fs::write(collect.join("step.json"), "{}").unwrap();
+        std::fs::write(collect.join("r.mcap"), b"rail").unwrap();
+        let unfinished = replicate.join(Step::Objects.dir());
+        std::fs::create_dir_all(&unfinished).unwrap();
+        std::fs::write(unfinished.join("o.mcap"), b"object").unwrap();
+
+        let freed = prune_logs(replicate).unwrap();
+        assert_eq!(freed, 15);
+        assert!(!step.join("t-000.mcap").exists() && !step.join("sub/t-001.mcap").exists());
+        assert!(collect.join("r.mcap").exists() && unfinished.join("o.mcap").exists());
+        assert_eq!(digest_dir(&step).unwrap(), before);
+        assert!(has_pruned(replicate));
+        // pruning again changes nothing; a log the manifest lists that is still there (a
+        // crash between the manifest and the removal) counts once
+        assert_eq!(prune_logs(replicate).unwrap(), 0);
+        std::fs::write(step.join("t-000.mcap"), b"log zero").unwrap();
+        assert_eq!(digest_dir(&step).unwrap(), before);
+        std::fs::remove_file(step.join("t-000.mcap")).unwrap();
+        // a manifest edited after the fact no longer gives the recorded digest
+        let manifest = std::fs::read_to_string(step.join(PRUNED)).unwrap();
+        std::fs::write(step.join(PRUNED), manifest.replacen("t-000", "t-009", 1)).unwrap();
+        assert_ne!(digest_dir(&step).unwrap(), before);
+    }
 }

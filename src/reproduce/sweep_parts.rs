@@ -267,7 +267,7 @@ fn run_job_part(
         Err(e) if e.stopped() => return Ok(None),
         Err(e) => return Err(ReproduceError::step("rail_sweep", e)),
     }
-    let bytes = std::fs::read(&out).map_err(io(&out))?;
+    let bytes = std::fs::read(&out).map_err(super::io(&out))?;
     Ok(Some(PartJob {
         dir: job.dir.clone(),
         chains: chains.to_vec(),
@@ -339,6 +339,9 @@ impl SweepParts {
                     found,
                 });
             }
+            for job in &record.jobs {
+                check_rows_file(dir, job)?;
+            }
         }
         Ok(Self {
             parts: parts.into_iter().map(|(d, _, r)| (d, r)).collect(),
@@ -372,16 +375,24 @@ impl SweepParts {
                     },
                 ));
             }
-            let path = part_csv(&dir.join(&job.dir));
-            let bytes = std::fs::read(&path).map_err(io(&path))?;
-            if crate::trial::sha256_hex(&bytes) != job.sweep_sha256 {
-                return Err(ReproduceError::step(step, SweepPartError::Altered { path }));
-            }
+            let path = check_rows_file(dir, job).map_err(|e| ReproduceError::step(step, e))?;
             rows.push((path.clone(), steps::read_sweep(&path)?));
         }
         crate::slip::sweep_file::merge(spec, rows)
             .map_err(|e| ReproduceError::step(step, SweepPartError::Rows(e.to_string())))
     }
+}
+
+/// The path of `job`'s rows in the part in `dir`, once they are checked to be the rows the
+/// part recorded.
+fn check_rows_file(dir: &Path, job: &PartJob) -> Result<PathBuf, SweepPartError> {
+    let path = part_csv(&dir.join(&job.dir));
+    let bytes = std::fs::read(&path)
+        .map_err(|e| SweepPartError::Rows(format!("{}: {e}", path.display())))?;
+    if crate::trial::sha256_hex(&bytes) != job.sweep_sha256 {
+        return Err(SweepPartError::Altered { path });
+    }
+    Ok(path)
 }
 
 /// The digest of a sweep's training and test sets together.
