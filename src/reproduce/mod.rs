@@ -561,27 +561,44 @@ fn run_all(
     } else {
         1
     };
+    on_workers(jobs, workers, &progress.work, stop, |&&(run, r), bar| {
+        let result = run_replicate(run, r, options, sweep_from, stop, progress, bar, tally);
+        let halt = match &result {
+            Ok(interrupted) => interrupted.is_some(),
+            Err(_) => !keep_going,
+        };
+        (result, halt)
+    })
+}
+
+/// Runs `work` on each of `items`, `workers` at a time on threads, and gives each one's
+/// result in their order (`None` for one never started: a worker starts no more once
+/// `work` says to halt, or once `stop` is set). The first worker's work shows on `bar`,
+/// the others' on hidden bars.
+pub(crate) fn on_workers<T: Sync, R: Send>(
+    items: &[T],
+    workers: usize,
+    bar: &indicatif::ProgressBar,
+    stop: &AtomicBool,
+    work: impl Fn(&T, &indicatif::ProgressBar) -> (R, bool) + Sync,
+) -> Vec<Option<R>> {
     let next = std::sync::atomic::AtomicUsize::new(0);
-    std::thread::scope(|scope| {
-        let handles: Vec<_> = (0..workers)
+    let work = &work;
+    let ended: Vec<(usize, R)> = std::thread::scope(|scope| {
+        let handles: Vec<_> = (0..workers.max(1))
             .map(|w| {
                 let next = &next;
                 scope.spawn(move || {
                     let bar = if w == 0 {
-                        progress.work.clone()
+                        bar.clone()
                     } else {
                         indicatif::ProgressBar::hidden()
                     };
                     let mut ended = Vec::new();
                     loop {
                         let i = next.fetch_add(1, Ordering::Relaxed);
-                        let Some(&&(run, r)) = jobs.get(i) else { break };
-                        let result =
-                            run_replicate(run, r, options, sweep_from, stop, progress, &bar, tally);
-                        let halt = match &result {
-                            Ok(interrupted) => interrupted.is_some(),
-                            Err(_) => !keep_going,
-                        };
+                        let Some(item) = items.get(i) else { break };
+                        let (result, halt) = work(item, &bar);
                         ended.push((i, result));
                         if halt || stop.load(Ordering::Relaxed) {
                             break;
@@ -591,16 +608,16 @@ fn run_all(
                 })
             })
             .collect();
-        let mut ended: Vec<_> = handles
+        handles
             .into_iter()
             .flat_map(|h| h.join().expect("a reproduce worker panicked"))
-            .collect();
-        let mut all: Vec<Option<JobEnd>> = (0..jobs.len()).map(|_| None).collect();
-        for (i, r) in ended.drain(..) {
-            all[i] = Some(r);
-        }
-        all
-    })
+            .collect()
+    });
+    let mut all: Vec<Option<R>> = (0..items.len()).map(|_| None).collect();
+    for (i, r) in ended {
+        all[i] = Some(r);
+    }
+    all
 }
 
 /// How one replicate of one run ended: `Ok(Some(step))` where it was interrupted.

@@ -17,7 +17,7 @@
 //! once, and the grid must be covered exactly once.
 
 use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::AtomicBool;
 
 use super::shards::{check_records, MergeError, PartRecord, ShardPlan};
 use super::steps::{self, Context};
@@ -132,57 +132,35 @@ pub(crate) fn run_part(
         }
     }
     progress.steps.set_length(by_job.len() as u64);
-    let next = std::sync::atomic::AtomicUsize::new(0);
     let workers = options.jobs.clamp(1, by_job.len().max(1));
-    let ended: Vec<(usize, Result<Option<PartJob>, ReproduceError>)> =
-        std::thread::scope(|scope| {
-            let handles: Vec<_> = (0..workers)
-                .map(|w| {
-                    let (next, by_job, c) = (&next, &by_job, &c);
-                    scope.spawn(move || {
-                        let bar = if w == 0 {
-                            progress.work.clone()
-                        } else {
-                            indicatif::ProgressBar::hidden()
-                        };
-                        let mut ended = Vec::new();
-                        loop {
-                            let i = next.fetch_add(1, Ordering::Relaxed);
-                            let Some((j, chains)) = by_job.get(i) else {
-                                break;
-                            };
-                            let job = &jobs[*j];
-                            progress.steps.set_message(format!(
-                                "sweep part {shard}: {} ({} chains)",
-                                job.dir,
-                                chains.len()
-                            ));
-                            let result = run_job_part(options, c, job, chains, stop, &bar);
-                            let halt = !matches!(result, Ok(Some(_)));
-                            ended.push((i, result));
-                            progress.steps.inc(1);
-                            if halt || stop.load(Ordering::Relaxed) {
-                                break;
-                            }
-                        }
-                        ended
-                    })
-                })
-                .collect();
-            handles
-                .into_iter()
-                .flat_map(|h| h.join().expect("a sweep part worker panicked"))
-                .collect()
-        });
-    let mut done: Vec<Option<PartJob>> = (0..by_job.len()).map(|_| None).collect();
-    for (i, result) in ended {
-        match result? {
-            Some(job) => done[i] = Some(job),
-            None => {
+    let ended = super::on_workers(
+        &by_job,
+        workers,
+        &progress.work,
+        stop,
+        |(j, chains), bar| {
+            let job = &jobs[*j];
+            progress.steps.set_message(format!(
+                "sweep part {shard}: {} ({} chains)",
+                job.dir,
+                chains.len()
+            ));
+            let result = run_job_part(options, &c, job, chains, stop, bar);
+            progress.steps.inc(1);
+            let halt = !matches!(result, Ok(Some(_)));
+            (result, halt)
+        },
+    );
+    let mut done: Vec<Option<PartJob>> = Vec::with_capacity(by_job.len());
+    for (i, result) in ended.into_iter().enumerate() {
+        match result.transpose()? {
+            Some(Some(job)) => done.push(Some(job)),
+            Some(None) => {
                 return Ok(super::End::Interrupted {
                     step: format!("{}/{}", jobs[by_job[i].0].dir, Step::RailSweep.name()),
                 })
             }
+            None => done.push(None),
         }
     }
     let Some(done) = done.into_iter().collect::<Option<Vec<_>>>() else {
