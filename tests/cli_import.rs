@@ -12,22 +12,26 @@ fn fixture() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/xela/xela-4-trials.csv")
 }
 
+/// `tmo import csv FIXTURE --out xela --split-column split` with `extra` flags, in `d`.
+fn import_fixture(d: &Path, extra: &[&str]) -> std::process::Output {
+    let fixture = fixture();
+    let mut args = vec![
+        "import",
+        "csv",
+        fixture.to_str().unwrap(),
+        "--out",
+        "xela",
+        "--split-column",
+        "split",
+    ];
+    args.extend(extra);
+    tmo(d, &args)
+}
+
 fn import(d: &Path) {
-    let out = ok(&tmo(
+    let out = ok(&import_fixture(
         d,
-        &[
-            "import",
-            "csv",
-            fixture().to_str().unwrap(),
-            "--out",
-            "xela",
-            "--units",
-            "counts",
-            "--sensor-name",
-            "xela-uskin-4x4",
-            "--split-column",
-            "split",
-        ],
+        &["--units", "counts", "--sensor-name", "xela-uskin-4x4"],
     ));
     assert!(
         out.contains("4 trial(s): 2 sensor(s) (xela1,xela2) of 16 elements, counts"),
@@ -484,18 +488,7 @@ fn an_import_that_cannot_finish_writing_leaves_nothing_and_says_run_again() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     std::fs::create_dir_all(d.join("xela/train/2022-02-21-17-22-56.mcap.partial")).unwrap();
-    let e = fails(&tmo(
-        d,
-        &[
-            "import",
-            "csv",
-            fixture().to_str().unwrap(),
-            "--out",
-            "xela",
-            "--split-column",
-            "split",
-        ],
-    ));
+    let e = fails(&import_fixture(d, &[]));
     assert!(
         e.contains("nothing was imported")
             && e.contains("the 2 log(s) written before it were removed")
