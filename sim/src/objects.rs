@@ -22,6 +22,12 @@ pub struct ObjectSpec {
     pub mu_kinetic: f64,
     /// The object's own contact stiffness (small for deformable objects).
     pub stiffness_n_per_mm: f64,
+    /// How far the centre of mass sits from the grasp's centre along the palm's depth axis
+    /// (across both the pinch axis and the slip axis). Gravity acting there is a moment about
+    /// the pinch axis that the fingers' friction must also hold; 0 for objects symmetric
+    /// about the grasp.
+    #[serde(default)]
+    pub com_offset_mm: f64,
 }
 
 #[derive(Debug, Deserialize)]
@@ -61,6 +67,11 @@ impl ObjectLibrary {
             }
             if o.stiffness_n_per_mm <= 0.0 {
                 return Err(bad("stiffness_n_per_mm must be positive"));
+            }
+            if o.com_offset_mm.is_nan() || o.com_offset_mm.abs() >= o.length_mm {
+                return Err(bad(
+                    "expected com_offset_mm to be a number smaller than length_mm",
+                ));
             }
         }
         Ok(Self {

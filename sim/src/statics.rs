@@ -184,12 +184,23 @@ pub fn held_loads(contacts: &[ContactPoint], load_n: [f64; 3]) -> Result<HeldLoa
         let k = stiffness(contacts, &stuck);
         let Some(q) = solve5(k, g) else {
             // More load along the grasp than all its contacts' friction: it slides,
-            // whatever else it might do. Otherwise it gives way as the stuck contacts
-            // left let it most easily.
+            // whatever else it might do.
             let capacity: f64 = contacts.iter().map(|c| c.mu_static * c.normal_n).sum();
             if load_n[1].hypot(load_n[2]) > capacity {
                 return Err(GrossSlip::Slide);
             }
+            // The contacts that slipped locally move a little and the loads redistribute:
+            // the grasp holds if some balanced loads keep every contact within its static
+            // friction (the elastic cascade alone would call a slip that friction,
+            // redirected, still holds).
+            if let Some(limit) = limit_loads(contacts, load_n).filter(|l| l.ratio <= 1.0) {
+                let local_slip = sliding.map(|s| s.is_some());
+                return Ok(HeldLoads {
+                    tangential_n: limit.tangential_n,
+                    local_slip,
+                });
+            }
+            // Otherwise it gives way as the stuck contacts left let it most easily.
             return Err(free_motion(k, lever_mm));
         };
         let mut loads = HeldLoads::default();
@@ -222,6 +233,162 @@ pub fn held_loads(contacts: &[ContactPoint], load_n: [f64; 3]) -> Result<HeldLoa
         sliding[i] = Some([ty, tw].map(|v| v / m * c.mu_kinetic * c.normal_n));
         stuck[i] = false;
     }
+}
+
+/// Balanced tangential loads found by limit analysis: see [`limit_loads`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LimitLoads {
+    pub tangential_n: [[f64; 2]; 3],
+    /// The largest `|T_i| / (mu_s N_i)` over the contacts: at most 1 where the grasp holds.
+    pub ratio: f64,
+}
+
+/// Of all tangential loads that balance force and moment on the object (with the normal
+/// forces and `load_n` at the centre of mass), the one whose most loaded contact is
+/// furthest from its static friction limit: the lower bound of limit analysis, which
+/// holds the object if any distribution within the friction cones does. Three contacts
+/// have six tangential components for five balance equations, so the balanced loads are
+/// a line `t_p + s n`; the largest ratio along it is convex in `s` and found by golden
+/// section. `None` when fewer than three contacts press or the line does not exist.
+pub fn limit_loads(contacts: &[ContactPoint], load_n: [f64; 3]) -> Option<LimitLoads> {
+    if contacts.len() != 3 || contacts.iter().any(|c| c.normal_n <= 0.0) {
+        return None;
+    }
+    let mut g = generalised([0.0; 3], load_n);
+    for c in contacts {
+        let gi = generalised(c.position_mm, [c.normal_x * c.normal_n, 0.0, 0.0]);
+        for a in 0..5 {
+            g[a] += gi[a];
+        }
+    }
+    // Columns of the balance `A t = -g`: contact i's y and w loads act through the rows
+    // of its Jacobian (A = [J_1^T J_2^T J_3^T]), so `A A^T` is the unit stiffness.
+    let columns: Vec<[f64; 5]> = contacts
+        .iter()
+        .flat_map(|c| jacobian(c.position_mm))
+        .collect();
+    let mut unit = [[0.0; 5]; 5];
+    for col in &columns {
+        for a in 0..5 {
+            for b in 0..5 {
+                unit[a][b] += col[a] * col[b];
+            }
+        }
+    }
+    let dot = |a: &[f64; 5], b: &[f64; 5]| (0..5).map(|i| a[i] * b[i]).sum::<f64>();
+    // Least-norm balanced loads: t_p = A^T y with (A A^T) y = -g.
+    let y = solve5(unit, g.map(|v| -v))?;
+    let t_p: Vec<f64> = columns.iter().map(|c| dot(c, &y)).collect();
+    // The line's direction: a unit vector's part outside the columns' span, the largest.
+    let null = (0..6)
+        .filter_map(|e| {
+            let a_e = columns[e];
+            let z = solve5(unit, a_e)?;
+            let v: Vec<f64> = (0..6)
+                .map(|i| f64::from(u8::from(i == e)) - dot(&columns[i], &z))
+                .collect();
+            let norm = v.iter().map(|a| a * a).sum::<f64>().sqrt();
+            Some((norm, v))
+        })
+        .max_by(|a, b| a.0.total_cmp(&b.0))?;
+    if null.0 < 1e-9 {
+        return None;
+    }
+    let n: Vec<f64> = null.1.iter().map(|v| v / null.0).collect();
+    let caps = [0, 1, 2].map(|i| contacts[i].mu_static * contacts[i].normal_n);
+    let loads_at =
+        |s: f64| [0, 1, 2].map(|i| [t_p[2 * i] + s * n[2 * i], t_p[2 * i + 1] + s * n[2 * i + 1]]);
+    let ratio_at = |s: f64| {
+        loads_at(s)
+            .iter()
+            .zip(&caps)
+            .map(|(t, cap)| t[0].hypot(t[1]) / cap)
+            .fold(0.0, f64::max)
+    };
+    // Beyond `bound` some contact's ratio exceeds the ratio at s = 0.
+    let r0 = ratio_at(0.0);
+    let bound = (0..3)
+        .filter_map(|i| {
+            let along = n[2 * i].hypot(n[2 * i + 1]);
+            (along > 1e-12).then(|| (t_p[2 * i].hypot(t_p[2 * i + 1]) + r0 * caps[i]) / along)
+        })
+        .fold(f64::INFINITY, f64::min);
+    let (mut lo, mut hi) = if bound.is_finite() {
+        (-bound, bound)
+    } else {
+        (0.0, 0.0)
+    };
+    let phi = (5f64.sqrt() - 1.0) / 2.0;
+    for _ in 0..100 {
+        let (a, b) = (hi - phi * (hi - lo), lo + phi * (hi - lo));
+        if ratio_at(a) <= ratio_at(b) {
+            hi = b;
+        } else {
+            lo = a;
+        }
+    }
+    let s = 0.5 * (lo + hi);
+    Some(LimitLoads {
+        tangential_n: loads_at(s),
+        ratio: ratio_at(s),
+    })
+}
+
+/// How much a sliding pinch holds up when its centre of mass is off the pinch axis: the
+/// fingers' friction must also hold the couple `c = couple_per_n * S` about the pinch axis
+/// that the support `S` makes, acting at the contacts' depth; each finger then supports
+/// `sqrt(f^2 - c^2)`, and what the couple takes from the fingers the thumb gives up too, so
+/// that the moment about the approach axis stays as balanced as in the centred slide
+/// (where the thumb's support equals the fingers'). `friction_n` is each patch's sliding
+/// friction along the slip axis (thumb first, all of one sign); returns the support along
+/// it and each contact's share. Exactly the centred slide's sum when `couple_per_n` is 0;
+/// at static friction, on a surface without texture, it equals the load at
+/// which [`limit_loads`] runs out of friction.
+pub fn sliding_support(friction_n: [f64; 3], couple_per_n: f64) -> (f64, [f64; 3]) {
+    let total: f64 = friction_n.iter().sum();
+    if couple_per_n <= 0.0 || total == 0.0 {
+        return (total, friction_n);
+    }
+    let sign = total.signum();
+    let magnitude = friction_n.map(|f| (f * sign).max(0.0));
+    let finger = |f: f64, c: f64| (f * f - c * c).max(0.0).sqrt();
+    // What the couple of support `s` takes from the fingers.
+    let taken = |s: f64| {
+        (1..3)
+            .map(|i| magnitude[i] - finger(magnitude[i], couple_per_n * s))
+            .sum::<f64>()
+    };
+    let full: f64 = magnitude.iter().sum();
+    // `s + 2 taken(s)` grows with `s`: bisect for `s = full - 2 taken(s)`.
+    let (mut lo, mut hi) = (0.0, full);
+    for _ in 0..60 {
+        let mid = 0.5 * (lo + hi);
+        if mid + 2.0 * taken(mid) > full {
+            hi = mid;
+        } else {
+            lo = mid;
+        }
+    }
+    let support = lo;
+    let c = couple_per_n * support;
+    let fingers = [finger(magnitude[1], c), finger(magnitude[2], c)];
+    let thumb = (magnitude[0] - taken(support)).max(0.0);
+    (
+        sign * support,
+        [thumb, fingers[0], fingers[1]].map(|f| sign * f),
+    )
+}
+
+/// The couple about the pinch axis, per newton of load along the slip direction `gravity`
+/// (hand frame), that a centre of mass `grasp_point_mm` from the grasp's centre asks of
+/// each of two fingers `2 finger_half_spacing_mm` apart: the load acts at the contacts'
+/// depth, `grasp_point_mm[1]` from the centre of mass.
+pub fn finger_couple_per_n(
+    grasp_point_mm: [f64; 3],
+    gravity: [f64; 3],
+    finger_half_spacing_mm: f64,
+) -> f64 {
+    (grasp_point_mm[1] * gravity[2]).abs() / (2.0 * finger_half_spacing_mm)
 }
 
 /// Gravity in the hand frame for a hand rolled by `grasp_deg` about its approach axis:
@@ -375,6 +542,79 @@ mod tests {
             }
             other => panic!("expected a turn, got {other:?}"),
         }
+    }
+
+    #[test]
+    fn limit_loads_balance_and_share_a_centred_load_by_normal_force() {
+        let c = pinch([0.0; 3], [6.0, 3.0, 3.0]);
+        let limit = limit_loads(&c, weight(0.0, 2.0)).unwrap();
+        let held = HeldLoads {
+            tangential_n: limit.tangential_n,
+            local_slip: [false; 3],
+        };
+        for (a, v) in residual(&c, weight(0.0, 2.0), &held)
+            .iter()
+            .enumerate()
+            .skip(1)
+        {
+            assert!(v.abs() < 1e-9, "residual {a} = {v}");
+        }
+        // Thumb 1 N of 4.8, fingers 0.5 N of 2.4 each.
+        assert!((limit.ratio - 1.0 / 4.8).abs() < 1e-9, "{limit:?}");
+    }
+
+    #[test]
+    fn an_off_centre_grasp_holds_as_long_as_balanced_loads_within_friction_exist() {
+        // Centre of mass 20 mm from the grasp along the approach axis: the fingers' couple
+        // takes a share of their friction. The grasp holds exactly up to the load at which
+        // limit analysis runs out of friction, although the elastic cascade gives up
+        // earlier, and it lets go there sooner than a centred grasp would (9.6 N).
+        let c = pinch([0.0, -20.0, 0.0], [6.0, 3.0, 3.0]);
+        let ratio = |newtons: f64| limit_loads(&c, weight(0.0, newtons)).unwrap().ratio;
+        let (mut lo, mut hi) = (0.0, 20.0);
+        for _ in 0..60 {
+            let mid = 0.5 * (lo + hi);
+            if ratio(mid) <= 1.0 {
+                lo = mid;
+            } else {
+                hi = mid;
+            }
+        }
+        assert!(lo > 3.0 && lo < 9.6 - 0.5, "limit load {lo}");
+        let held = held_loads(&c, weight(0.0, 0.99 * lo)).unwrap();
+        for (a, v) in residual(&c, weight(0.0, 0.99 * lo), &held)
+            .iter()
+            .enumerate()
+            .skip(1)
+        {
+            assert!(v.abs() < 1e-9, "residual {a} = {v}");
+        }
+        for (i, contact) in c.iter().enumerate() {
+            let cap = contact.mu_static * contact.normal_n;
+            assert!(held.magnitude_n(i) <= cap * (1.0 + 1e-9), "{i}: {held:?}");
+        }
+        assert!(held_loads(&c, weight(0.0, 1.01 * lo)).is_err());
+    }
+
+    #[test]
+    fn the_sliding_support_gives_up_the_couple_and_meets_the_static_limit() {
+        // Centred: the plain sum.
+        assert_eq!(sliding_support([2.0, 1.0, 1.2], 0.0).0, 4.2);
+        // Off-centre: less, the thumb giving up what the fingers give to the couple.
+        let (s, each) = sliding_support([2.0, 1.0, 1.0], 0.3);
+        assert!(s < 4.0 - 0.1, "{s}");
+        assert!((each.iter().sum::<f64>() - s).abs() < 1e-9, "{each:?}");
+        assert!((2.0 - each[0] - (2.0 - each[1] - each[2])).abs() < 1e-9);
+        // At static friction and no texture, the slide holds what the statics hold.
+        let (gy, spacing, n) = (-20.0, 32.0, [6.0, 3.0, 3.0]);
+        let c = pinch_contacts(35.0, spacing, [0.0, gy, 0.0], n, MU.0, MU.0);
+        let k = finger_couple_per_n([0.0, gy, 0.0], gravity_direction(0.0), spacing);
+        let (support, _) = sliding_support(n.map(|n| MU.0 * n), k);
+        let ratio = |newtons: f64| limit_loads(&c, weight(0.0, newtons)).unwrap().ratio;
+        assert!(ratio(0.999 * support) <= 1.0 && ratio(1.001 * support) > 1.0);
+        // A sign carried through: an object pushed up slides the other way.
+        let (down, _) = sliding_support([-2.0, -1.0, -1.0], 0.3);
+        assert!((down + s).abs() < 1e-12);
     }
 
     #[test]

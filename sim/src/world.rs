@@ -544,12 +544,18 @@ impl World {
         solved
     }
 
+    /// Where the grasp's centre sits relative to the object's centre of mass (hand frame,
+    /// mm): the object's centre of mass lies `com_offset_mm` deeper than the contacts.
+    fn grasp_point_mm(&self) -> [f64; 3] {
+        [0.0, -self.object.com_offset_mm, 0.0]
+    }
+
     /// [`Self::stuck_share`]'s solve.
     fn solve_statics(&self, need_n: f64, gravity: [f64; 3]) -> Option<StuckShare> {
         let points = statics::pinch_contacts(
             self.object.width_mm / 2.0,
             self.cfg.physics.finger_half_spacing_mm,
-            [0.0; 3],
+            self.grasp_point_mm(),
             self.normal_n,
             self.object.mu_static,
             self.object.mu_kinetic,
@@ -646,6 +652,21 @@ impl World {
                 self.shear_target_mm[i] = patch.shear_mm;
                 self.carried_mm[i] = sensor.skin.contact_radius_mm(self.normal_n[i]);
                 self.stuck_load[i] = None;
+            }
+            // A centre of mass off the pinch axis: the fingers' friction also holds its
+            // couple, and the slide gives up what that takes.
+            if let Geometry::Hand { gravity } = self.geometry {
+                let k = statics::finger_couple_per_n(
+                    self.grasp_point_mm(),
+                    gravity,
+                    self.cfg.physics.finger_half_spacing_mm,
+                );
+                if k > 0.0 {
+                    let (support, each) =
+                        statics::sliding_support([tangential[0], tangential[1], tangential[2]], k);
+                    up_n = support;
+                    tangential[..3].copy_from_slice(&each);
+                }
             }
             // The rail's guides: plain sliding friction against the object's motion.
             let direction = if v_rel < -1e-9 {

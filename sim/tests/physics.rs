@@ -2,7 +2,10 @@
 //! and lifting heavier objects.
 
 use tmo_hal::{Arm, Clock, Hand};
-use tmo_sim::{FaultRates, HandSetup, ObjectStart, RailSetup, RigSetup, SimConfig, SimRig};
+use tmo_sim::{
+    FaultRates, HandSetup, ObjectLibrary, ObjectSpec, ObjectStart, RailSetup, RigSetup, SimConfig,
+    SimRig,
+};
 
 fn hand_config(object: &str, closure: f64, start: ObjectStart) -> SimConfig {
     SimConfig {
@@ -55,12 +58,33 @@ fn firm_grip_holds_still_for_ten_seconds() {
 /// Releases at 0.5 % of the fingers' maximum speed (0.01 of range per s) from a firm grip.
 /// Returns (truth just before onset, truth at onset).
 fn slow_release(object: &str, grasp_deg: f64) -> (tmo_sim::TruthState, tmo_sim::TruthState) {
-    let q0 = contact_closure(object) + 0.04;
+    let (before, at, _) = slow_release_from(&ObjectLibrary::built_in(), object, grasp_deg, 0.0);
+    (before, at)
+}
+
+/// [`slow_release`] from `library`, going on `after_s` past the onset; also returns the
+/// truth then.
+fn slow_release_from(
+    library: &ObjectLibrary,
+    object: &str,
+    grasp_deg: f64,
+    after_s: f64,
+) -> (
+    tmo_sim::TruthState,
+    tmo_sim::TruthState,
+    tmo_sim::TruthState,
+) {
+    let contact = SimRig::with_library(hand_config(object, 0.0, ObjectStart::OnTable), library)
+        .unwrap()
+        .probe()
+        .contact_closure()
+        .unwrap();
+    let q0 = contact + 0.04;
     let mut cfg = hand_config(object, q0, ObjectStart::InHand);
     if let RigSetup::Hand(h) = &mut cfg.rig {
         h.grasp_deg = grasp_deg;
     }
-    let rig = SimRig::new(cfg).unwrap();
+    let rig = SimRig::with_library(cfg, library).unwrap();
     let (mut clock, mut hand, probe) = (rig.clock(), rig.hand(), rig.probe());
     let mut before = probe.state();
     while clock.now_s() < 10.0 {
@@ -70,7 +94,9 @@ fn slow_release(object: &str, grasp_deg: f64) -> (tmo_sim::TruthState, tmo_sim::
         clock.sleep(0.001);
         let now = probe.state();
         if now.sliding {
-            return (before, now);
+            // Hold the fingers where they were at onset and watch.
+            clock.sleep(after_s);
+            return (before, now, probe.state());
         }
         before = now;
     }
@@ -101,6 +127,48 @@ fn slow_release_slips_when_friction_capacity_falls_below_load() {
             ratio_at >= 0.99
                 || at.local_slip.iter().any(|s| *s)
                 || before.local_slip.iter().any(|s| *s)
+        );
+    }
+}
+
+#[test]
+fn a_centre_of_mass_off_the_grasp_lets_go_at_a_lighter_load_and_then_moves() {
+    // The banana's centre of mass sits 20 mm off the grasp's centre: its weight is also a
+    // moment about the pinch axis, which the fingers hold with a couple that takes a share
+    // of their friction. Released slowly, it goes while its friction capacity is still well
+    // above its weight; the same fruit centred goes only when capacity reaches the weight.
+    // Once it goes it slides (no slip "at no speed": the slide's support gives up the same
+    // couple the statics do).
+    let banana = ObjectLibrary::built_in().get("banana").unwrap().clone();
+    assert_eq!(banana.com_offset_mm, 20.0);
+    let centred = ObjectSpec {
+        name: "banana_centred".into(),
+        com_offset_mm: 0.0,
+        ..banana.clone()
+    };
+    let text = toml::to_string(&serde_json::json!({ "object": [banana, centred] })).unwrap();
+    let library = ObjectLibrary::parse(&text, "test library").unwrap();
+    let release = |name: &str, grasp_deg: f64| {
+        let (_, at, later) = slow_release_from(&library, name, grasp_deg, 0.1);
+        let moved = (at.object_mm - at.hand_mm) - (later.object_mm - later.hand_mm);
+        (at.capacity_n / at.weight_n, moved)
+    };
+    for grasp_deg in [0.0, 180.0] {
+        let ((off, off_moved), (on, on_moved)) = (
+            release("banana", grasp_deg),
+            release("banana_centred", grasp_deg),
+        );
+        assert!(
+            on < 1.2,
+            "{grasp_deg}: centred let go at capacity/load = {on}"
+        );
+        assert!(
+            off > on + 0.1,
+            "{grasp_deg}: off-centre {off}, centred {on}"
+        );
+        assert!(
+            off_moved > 1.0 && on_moved > 1.0,
+            "{grasp_deg}: slid {off_moved} mm off-centre, {on_moved} mm centred in 0.1 s"
         );
     }
 }
