@@ -157,9 +157,28 @@ fn the_quick_preset_writes_every_step_and_the_findings_report() {
             "rail.rail_mu",
         ],
     ));
-    assert!(again.contains("0 step(s) run, 33 already done"), "{again}");
+    assert!(again.contains("0 step(s) run, 44 already done"), "{again}");
     let table = std::fs::read_to_string(d.join("paper/sensitivity.md")).unwrap();
     assert!(table.contains("2 variants (1 parameters"), "{table}");
+    // beside them the noise reference: the baseline's parameters with other seeds, every
+    // step run again
+    assert!(table.contains("The noise reference (`reseeded`"), "{table}");
+    let reseeded = d.join("paper/sensitivity/reseeded/replicate-01");
+    let base = d.join("paper/replicate-01");
+    for step in ["01_rail_collect", "05_hand_collect", "10_calibrate_lift"] {
+        let protocol = |dir: &std::path::Path| {
+            let dir = dir.join(step);
+            let file = ["protocol.toml", "train/protocol.toml", "can/protocol.toml"]
+                .iter()
+                .map(|f| dir.join(f))
+                .find(|p| p.is_file())
+                .unwrap_or_else(|| panic!("no protocol in {}", dir.display()));
+            std::fs::read_to_string(file).unwrap()
+        };
+        let (here, there) = (protocol(&reseeded), protocol(&base));
+        assert_ne!(here, there, "{step}: the same seeds");
+        assert!(!here.contains("[sim]"), "{step}: {here}");
+    }
     for f in findings {
         assert!(f["sensitive_to"].is_array(), "{f}");
     }

@@ -43,7 +43,9 @@ pub struct ReproduceArgs {
     findings_only: bool,
     /// Also vary every physical simulator parameter to the low and the high end of its
     /// plausible range (`tmo sim parameters`), rerun the steps it touches with the same
-    /// seeds, and say which verdicts change (`sensitivity.md`, and a column of the page).
+    /// seeds, and say which verdicts change (`sensitivity.md`, and a column of the page);
+    /// beside them a noise reference, the baseline with other seeds, says which verdicts
+    /// change with the seeds alone.
     #[arg(long)]
     sensitivity: bool,
     /// Replicates (and sensitivity variants) run side by side (default: one per core). The

@@ -330,6 +330,9 @@ pub struct Judged {
     /// The sensitivity variants (`parameter@low`) that change its verdict; `None` where no
     /// sensitivity study was run, empty where none does.
     pub sensitive_to: Option<Vec<String>>,
+    /// Whether the study's noise reference (other seeds, same parameters) changes its
+    /// verdict; `None` where none was run.
+    pub changes_with_seeds: Option<bool>,
 }
 
 /// Judges every finding against the pooled measures `m`, counting in how many of the
@@ -357,6 +360,7 @@ pub fn judge_all(findings: &[Finding], m: &Measures, replicates: &[Measures]) ->
                 paper_verdict: f.paper_verdict(),
                 calibrated_by: Vec::new(),
                 sensitive_to: None,
+                changes_with_seeds: None,
                 finding: f.clone(),
             }
         })

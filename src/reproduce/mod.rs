@@ -355,7 +355,7 @@ pub fn reproduce(
                     "a sensitivity study varies the simulator's parameters: it runs on --backend sim only",
                 ));
             }
-            sensitivity::variants(&tmo_sim::parameters::built_in(), only)
+            sensitivity::study(&tmo_sim::parameters::built_in(), only)
                 .map_err(|e| ReproduceError::step("sensitivity", e))?
         }
     };
@@ -388,6 +388,7 @@ pub fn reproduce(
         label: String::new(),
         sim: &none,
         reuse: None,
+        seed_offset: 0,
     })
     .chain(variants.iter().zip(&sims).map(|(v, sim)| Run {
         dir: v.dir(out),
@@ -395,6 +396,7 @@ pub fn reproduce(
         sim,
         // the variants take the baseline's steps their parameter does not touch
         reuse: Some(out),
+        seed_offset: v.seed_offset(replicates),
     }))
     .collect();
     // The plan: the baseline's replicates, then each variant's; a shard takes its part.
@@ -408,7 +410,7 @@ pub fn reproduce(
             .map(|(run, r)| sweep_parts::PlanJob {
                 dir: shards::job_dir(run.label.strip_suffix('/'), *r),
                 sim: run.sim,
-                replicate: *r,
+                replicate: *r + run.seed_offset,
             })
             .collect();
         let shard = options
@@ -534,6 +536,9 @@ struct Run<'a> {
     sim: &'a std::collections::BTreeMap<String, f64>,
     /// The baseline's directory, whose replicates' steps may be reused.
     reuse: Option<&'a Path>,
+    /// Its replicate r is seeded as replicate `r + seed_offset` (the noise reference's
+    /// other seeds; 0 otherwise).
+    seed_offset: u32,
 }
 
 #[derive(Default)]
@@ -641,7 +646,7 @@ fn run_replicate(
     let job = shards::job_dir(run.label.strip_suffix('/'), r);
     let ctx = steps::Context {
         out: &dir,
-        replicate: r,
+        replicate: r + run.seed_offset,
         sim: run.sim,
         reuse: reuse.as_deref(),
         preset: &options.preset,

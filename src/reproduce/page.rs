@@ -292,10 +292,21 @@ const COLUMNS: [&str; 9] = [
 ];
 
 fn sensitivity(j: &Judged) -> String {
-    match &j.sensitive_to {
+    use super::sensitivity::{standing, Standing};
+    let varied = || j.sensitive_to.as_deref().unwrap_or_default().join(", ");
+    match standing(j) {
         None => "-".into(),
-        Some(v) if v.is_empty() => "robust".into(),
-        Some(v) => format!("fragile ({})", v.join(", ")),
+        Some(Standing::Robust) => "robust".into(),
+        Some(Standing::Fragile) => format!("fragile ({})", varied()),
+        Some(Standing::Undecided) if varied().is_empty() => {
+            "not decided: other seeds alone change it".into()
+        }
+        Some(Standing::Undecided) => {
+            format!(
+                "not decided: other seeds alone change it (and {})",
+                varied()
+            )
+        }
     }
 }
 

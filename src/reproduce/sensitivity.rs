@@ -3,6 +3,12 @@
 //! reproduction run again with the same seeds (steps the parameter does not touch are taken
 //! from the baseline), and each finding's verdict compared with the baseline's. A finding
 //! whose verdict changes anywhere inside its parameters' plausible ranges is fragile.
+//!
+//! Beside them runs one noise reference: the baseline's parameters with other seeds (as
+//! many replicates again, seeded as replicates K+1..2K). A finding whose verdict changes
+//! there changes with the seeds alone: at this many replicates its verdict is not decided,
+//! and a parameter that changes it says no more than a new seed would. The table keeps
+//! such findings apart from the fragile and the robust ones.
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -19,16 +25,46 @@ pub const FAILED: &str = "failed.txt";
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
 pub struct Variant {
     pub parameter: String,
-    /// "low" or "high".
+    /// "low" or "high" ("other seeds" for the noise reference).
     pub end: &'static str,
     pub value: f64,
     pub default: f64,
+    /// The noise reference: no parameter changed, the seeds of other replicates.
+    #[serde(skip_serializing_if = "std::ops::Not::not")]
+    pub reseeded: bool,
 }
 
+/// The noise reference's directory name under `<out>/sensitivity/`.
+pub const RESEEDED: &str = "reseeded";
+
 impl Variant {
+    /// The noise reference: the baseline's parameters, other seeds.
+    pub fn reseeded() -> Self {
+        Self {
+            parameter: RESEEDED.into(),
+            end: "other seeds",
+            value: 0.0,
+            default: 0.0,
+            reseeded: true,
+        }
+    }
+
     /// Its directory under `<out>/sensitivity/`.
     pub fn dir_name(&self) -> String {
+        if self.reseeded {
+            return RESEEDED.into();
+        }
         format!("{}@{}", self.parameter, self.end)
+    }
+
+    /// How many replicates its seeds are shifted by, in a study of `replicates`: the noise
+    /// reference's replicate r is seeded as replicate `replicates + r`.
+    pub fn seed_offset(&self, replicates: u32) -> u32 {
+        if self.reseeded {
+            replicates
+        } else {
+            0
+        }
     }
 
     pub fn dir(&self, out: &Path) -> PathBuf {
@@ -37,6 +73,9 @@ impl Variant {
 
     /// The simulator parameters the variant sets.
     pub fn sim(&self) -> BTreeMap<String, f64> {
+        if self.reseeded {
+            return BTreeMap::new();
+        }
         [(self.parameter.clone(), self.value)].into()
     }
 }
@@ -86,11 +125,19 @@ pub fn variants(records: &[ParameterRecord], only: &[String]) -> Result<Vec<Vari
                     end,
                     value,
                     default,
+                    reseeded: false,
                 });
             }
         }
     }
     Ok(out)
+}
+
+/// A study: the noise reference first, then [`variants`].
+pub fn study(records: &[ParameterRecord], only: &[String]) -> Result<Vec<Variant>, String> {
+    let mut all = vec![Variant::reseeded()];
+    all.extend(variants(records, only)?);
+    Ok(all)
 }
 
 /// A variant's verdicts beside the baseline's.
@@ -129,37 +176,78 @@ pub fn compare(variant: Variant, baseline: &[Judged], here: &[Judged]) -> Outcom
     }
 }
 
-/// Marks each baseline finding with the variants that change its verdict (empty: robust).
+/// Marks each baseline finding with the parameter variants that change its verdict
+/// (empty: robust), and with whether other seeds alone change it (the noise reference,
+/// where one was run).
 pub fn mark_fragile(baseline: &mut [Judged], outcomes: &[Outcome]) {
+    let reference = outcomes
+        .iter()
+        .find(|o| o.variant.reseeded && o.failed.is_none());
     for j in baseline.iter_mut() {
         j.sensitive_to = Some(
             outcomes
                 .iter()
-                .filter(|o| o.changed.contains_key(&j.finding.id))
+                .filter(|o| !o.variant.reseeded && o.changed.contains_key(&j.finding.id))
                 .map(|o| o.variant.dir_name())
                 .collect(),
         );
+        j.changes_with_seeds = reference.map(|o| o.changed.contains_key(&j.finding.id));
     }
 }
 
-/// The parameter x finding table as markdown: one row per variant that changed anything,
-/// one column per finding that changed anywhere.
+/// How a study classes a finding.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Standing {
+    /// No parameter end changes its verdict (nor do other seeds).
+    Robust,
+    /// Some parameter end changes it; other seeds alone do not.
+    Fragile,
+    /// Other seeds alone change it: not decided at this many replicates.
+    Undecided,
+}
+
+/// The class of a marked finding (`None`: no study).
+pub fn standing(j: &Judged) -> Option<Standing> {
+    let sensitive = j.sensitive_to.as_ref()?;
+    Some(if j.changes_with_seeds == Some(true) {
+        Standing::Undecided
+    } else if sensitive.is_empty() {
+        Standing::Robust
+    } else {
+        Standing::Fragile
+    })
+}
+
+/// The parameter x finding table as markdown: one row per variant that changed anything
+/// (the noise reference first), one column per finding that changed anywhere; then the
+/// findings by standing.
 pub fn markdown(baseline: &[Judged], outcomes: &[Outcome]) -> String {
     let ids: Vec<&str> = baseline
         .iter()
         .map(|j| j.finding.id.as_str())
         .filter(|id| outcomes.iter().any(|o| o.changed.contains_key(*id)))
         .collect();
+    let varied: Vec<&Outcome> = outcomes.iter().filter(|o| !o.variant.reseeded).collect();
+    let reference = outcomes.iter().find(|o| o.variant.reseeded);
     let mut s = format!(
         "# Sensitivity: which verdicts change within the parameters' plausible ranges\n\n{} variants ({} parameters at each end of their range) were run with the baseline's seeds; {} changed at least one verdict. A cell gives the verdict there (baseline -> variant).\n\n",
-        outcomes.len(),
-        outcomes
+        varied.len(),
+        varied
             .iter()
             .map(|o| o.variant.parameter.as_str())
             .collect::<std::collections::BTreeSet<_>>()
             .len(),
-        outcomes.iter().filter(|o| !o.changed.is_empty()).count()
+        varied.iter().filter(|o| !o.changed.is_empty()).count()
     );
+    match reference {
+        Some(o) if o.failed.is_none() => {
+            s += &format!(
+                "The noise reference (`{RESEEDED}`: the baseline's parameters, as many replicates again with other seeds) changed {} verdict(s): that many change with the seeds alone, so a parameter that changes no more than that says little. Findings it changes are not decided at this many replicates and are listed apart.\n\n",
+                o.changed.len()
+            );
+        }
+        _ => s += "No noise reference was run: a change below may be the seeds' as much as the parameter's.\n\n",
+    }
     let failed: Vec<String> = outcomes
         .iter()
         .filter_map(|o| {
@@ -180,7 +268,11 @@ pub fn markdown(baseline: &[Judged], outcomes: &[Outcome]) -> String {
     }
     s += &format!("| parameter | value (default) | {} |\n", ids.join(" | "));
     s += &format!("|{}\n", " --- |".repeat(ids.len() + 2));
-    for o in outcomes.iter().filter(|o| !o.changed.is_empty()) {
+    let rows = reference
+        .into_iter()
+        .chain(varied.iter().copied())
+        .filter(|o| !o.changed.is_empty());
+    for o in rows {
         let cells: Vec<String> = ids
             .iter()
             .map(|id| {
@@ -189,26 +281,34 @@ pub fn markdown(baseline: &[Judged], outcomes: &[Outcome]) -> String {
                 })
             })
             .collect();
-        s += &format!(
-            "| {} | {} ({}) | {} |\n",
-            o.variant.parameter,
-            o.variant.value,
-            o.variant.default,
-            cells.join(" | ")
-        );
+        let (name, value) = if o.variant.reseeded {
+            (format!("({RESEEDED})"), "other seeds".to_string())
+        } else {
+            (
+                o.variant.parameter.clone(),
+                format!("{} ({})", o.variant.value, o.variant.default),
+            )
+        };
+        s += &format!("| {name} | {value} | {} |\n", cells.join(" | "));
     }
-    let robust: Vec<&str> = baseline
-        .iter()
-        .map(|j| j.finding.id.as_str())
-        .filter(|id| !ids.contains(id))
-        .collect();
-    s += &format!(
-        "\nFragile ({}): {}.\n\nRobust ({}): {}.\n",
-        ids.len(),
-        ids.join(", "),
-        robust.len(),
-        robust.join(", ")
-    );
+    // The findings as `mark_fragile` classes them against these outcomes.
+    let mut marked = baseline.to_vec();
+    mark_fragile(&mut marked, outcomes);
+    for (label, class) in [
+        ("Fragile", Standing::Fragile),
+        (
+            "Not decided at this many replicates (other seeds alone change the verdict)",
+            Standing::Undecided,
+        ),
+        ("Robust", Standing::Robust),
+    ] {
+        let ids: Vec<&str> = marked
+            .iter()
+            .filter(|j| standing(j) == Some(class))
+            .map(|j| j.finding.id.as_str())
+            .collect();
+        s += &format!("\n{label} ({}): {}.\n", ids.len(), ids.join(", "));
+    }
     s
 }
 
@@ -257,6 +357,7 @@ mod tests {
             end,
             value: 0.1,
             default: 0.05,
+            reseeded: false,
         };
         let outcomes = vec![
             compare(variant("low"), &baseline, &at(375)),
@@ -280,6 +381,7 @@ mod tests {
                 end: "low",
                 value: 0.2,
                 default: 0.5,
+                reseeded: false,
             },
             "step hand_collect: out of limits".into(),
         ));
@@ -294,5 +396,69 @@ mod tests {
         assert!(md.contains("| sf-rail-caught |"), "{md}");
         assert!(md.contains("yes -> no"), "{md}");
         assert!(md.contains("Fragile (1): sf-rail-caught."), "{md}");
+        assert!(md.contains("No noise reference was run"), "{md}");
+    }
+
+    #[test]
+    fn a_finding_other_seeds_alone_change_is_undecided_not_fragile() {
+        use crate::reproduce::evidence::Measure;
+        let findings = paper();
+        let at = |k| {
+            let mut m = Measures::new();
+            m.insert("rail.online.caught.1fr".into(), Measure::proportion(k, 500));
+            judge_all(&findings, &m, std::slice::from_ref(&m))
+        };
+        let mut baseline = at(370);
+        let high = Variant {
+            parameter: "rail.rail_mu".into(),
+            end: "high",
+            value: 0.1,
+            default: 0.05,
+            reseeded: false,
+        };
+        let reference = Variant::reseeded();
+        assert_eq!(reference.dir_name(), RESEEDED);
+        assert!(reference.sim().is_empty());
+        assert_eq!((reference.seed_offset(5), high.seed_offset(5)), (5, 0));
+        // The parameter changes the verdict; so do other seeds alone.
+        let outcomes = vec![
+            compare(reference.clone(), &baseline, &at(100)),
+            compare(high.clone(), &baseline, &at(100)),
+        ];
+        mark_fragile(&mut baseline, &outcomes);
+        let caught = |b: &[Judged]| {
+            b.iter()
+                .find(|j| j.finding.id == "sf-rail-caught")
+                .unwrap()
+                .clone()
+        };
+        let j = caught(&baseline);
+        assert_eq!(j.sensitive_to, Some(vec!["rail.rail_mu@high".into()]));
+        assert_eq!(j.changes_with_seeds, Some(true));
+        assert_eq!(standing(&j), Some(Standing::Undecided));
+        let md = markdown(&baseline, &outcomes);
+        assert!(
+            md.contains("| (reseeded) | other seeds | yes -> no |"),
+            "{md}"
+        );
+        assert!(md.contains("changed 1 verdict(s)"), "{md}");
+        assert!(md.contains("Fragile (0): ."), "{md}");
+        assert!(
+            md.contains("replicates (other seeds alone change the verdict) (1): sf-rail-caught."),
+            "{md}"
+        );
+        // Other seeds keep it: then the parameter's change makes it fragile.
+        let mut baseline = at(370);
+        let outcomes = vec![
+            compare(reference, &baseline, &at(372)),
+            compare(high, &baseline, &at(100)),
+        ];
+        mark_fragile(&mut baseline, &outcomes);
+        assert_eq!(standing(&caught(&baseline)), Some(Standing::Fragile));
+        let robust = baseline
+            .iter()
+            .find(|j| j.finding.id == "sf-offline-order")
+            .unwrap();
+        assert_eq!(standing(robust), Some(Standing::Robust));
     }
 }
