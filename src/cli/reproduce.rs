@@ -72,7 +72,8 @@ pub struct ReproduceArgs {
     /// pruned.json: some 850 MB a replicate at the paper's counts).
     #[arg(long, requires = "sensitivity")]
     keep_variant_logs: bool,
-    /// With --sensitivity: vary only these parameters (comma-separated names).
+    /// With --sensitivity: vary only these parameters (comma-separated names; `reseeded`
+    /// alone runs only the noise reference).
     #[arg(long, value_delimiter = ',', requires = "sensitivity")]
     sensitivity_parameters: Vec<String>,
     /// Where every step's outputs and the findings report go.

@@ -133,10 +133,14 @@ pub fn variants(records: &[ParameterRecord], only: &[String]) -> Result<Vec<Vari
     Ok(out)
 }
 
-/// A study: the noise reference first, then [`variants`].
+/// A study: the noise reference first, then [`variants`] of the parameters in `only` (all
+/// when it is empty; none when it names only the reference, `reseeded`).
 pub fn study(records: &[ParameterRecord], only: &[String]) -> Result<Vec<Variant>, String> {
+    let parameters: Vec<String> = only.iter().filter(|n| *n != RESEEDED).cloned().collect();
     let mut all = vec![Variant::reseeded()];
-    all.extend(variants(records, only)?);
+    if only.is_empty() || !parameters.is_empty() {
+        all.extend(variants(records, &parameters)?);
+    }
     Ok(all)
 }
 
@@ -331,6 +335,11 @@ mod tests {
         for v in &all {
             assert_ne!(v.value, v.default, "{v:?}");
         }
+        // a study leads with the noise reference, which may also run alone
+        let with_reference = study(&records, &[]).unwrap();
+        assert!(with_reference[0].reseeded && with_reference[1..] == all[..]);
+        let alone = study(&records, &[RESEEDED.to_string()]).unwrap();
+        assert_eq!(alone, vec![Variant::reseeded()]);
         let one = variants(&records, &["rail.rail_mu".to_string()]).unwrap();
         assert_eq!(one.len(), 2);
         assert_eq!(one[0].dir_name(), "rail.rail_mu@low");
