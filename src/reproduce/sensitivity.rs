@@ -351,15 +351,21 @@ mod tests {
             .contains("`nonsense`"));
     }
 
+    /// Every finding judged on a reproduction that measured only the rail's catches with
+    /// one frame: `caught` of 500.
+    fn judged_with_rail_catches(caught: u64) -> Vec<Judged> {
+        use crate::reproduce::evidence::Measure;
+        let mut m = Measures::new();
+        m.insert(
+            "rail.online.caught.1fr".into(),
+            Measure::proportion(caught, 500),
+        );
+        judge_all(&paper(), &m, std::slice::from_ref(&m))
+    }
+
     #[test]
     fn a_finding_whose_verdict_changes_in_a_variant_is_fragile() {
-        use crate::reproduce::evidence::Measure;
-        let findings = paper();
-        let at = |k| {
-            let mut m = Measures::new();
-            m.insert("rail.online.caught.1fr".into(), Measure::proportion(k, 500));
-            judge_all(&findings, &m, std::slice::from_ref(&m))
-        };
+        let at = judged_with_rail_catches;
         let mut baseline = at(370);
         let variant = |end| Variant {
             parameter: "rail.rail_mu".into(),
@@ -410,13 +416,7 @@ mod tests {
 
     #[test]
     fn a_finding_other_seeds_alone_change_is_undecided_not_fragile() {
-        use crate::reproduce::evidence::Measure;
-        let findings = paper();
-        let at = |k| {
-            let mut m = Measures::new();
-            m.insert("rail.online.caught.1fr".into(), Measure::proportion(k, 500));
-            judge_all(&findings, &m, std::slice::from_ref(&m))
-        };
+        let at = judged_with_rail_catches;
         let mut baseline = at(370);
         let high = Variant {
             parameter: "rail.rail_mu".into(),
