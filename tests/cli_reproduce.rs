@@ -158,6 +158,10 @@ fn the_quick_preset_writes_every_step_and_the_findings_report() {
         ],
     ));
     assert!(again.contains("0 step(s) run, 44 already done"), "{again}");
+    assert!(
+        again.contains("Other seeds alone (the noise reference"),
+        "{again}"
+    );
     let table = std::fs::read_to_string(d.join("paper/sensitivity.md")).unwrap();
     assert!(table.contains("2 variants (1 parameters"), "{table}");
     // beside them the noise reference: the baseline's parameters with other seeds, every
@@ -183,6 +187,26 @@ fn the_quick_preset_writes_every_step_and_the_findings_report() {
         assert!(f["sensitive_to"].is_array(), "{f}");
     }
     assert!(md.contains("## Sensitivity"), "{md}");
+    // the reference alone judges only how firmly each verdict is decided
+    let alone = ok(&tmo(
+        d,
+        &[
+            "reproduce",
+            "--out",
+            "paper",
+            "--findings-only",
+            "--sensitivity",
+            "--sensitivity-parameters",
+            "reseeded",
+        ],
+    ));
+    assert!(alone.contains("Other seeds alone"), "{alone}");
+    let table = std::fs::read_to_string(d.join("paper/sensitivity.md")).unwrap();
+    assert!(
+        table.contains("Only the noise reference was run"),
+        "{table}"
+    );
+    assert!(!table.contains("Robust ("), "{table}");
 
     // the report again from the finished steps, running nothing (and with no study)
     let again = ok(&tmo(d, &["reproduce", "--out", "paper", "--findings-only"]));
@@ -461,6 +485,35 @@ fn a_reproduction_killed_mid_way_resumes_without_rerunning_finished_steps() {
         &["reproduce", "merge", "steps1", "steps2", "--out", "two"],
     ));
     same_results(d, "r", "two");
+
+    // A study sharded: the baseline in one shard, the noise reference in the other; the
+    // merge judges the reference against the baseline as a single run does.
+    for k in ["1", "2"] {
+        ok(&tmo(
+            d,
+            &[
+                "reproduce",
+                "--out",
+                &format!("study{k}"),
+                "--shard",
+                &format!("{k}/2"),
+                "--sensitivity",
+                "--sensitivity-parameters",
+                "reseeded",
+            ],
+        ));
+    }
+    let out = ok(&tmo(
+        d,
+        &["reproduce", "merge", "study1", "study2", "--out", "study"],
+    ));
+    assert!(out.contains("merged 2 shards (2 jobs"), "{out}");
+    assert!(out.contains("Other seeds alone"), "{out}");
+    let table = std::fs::read_to_string(d.join("study/sensitivity.md")).unwrap();
+    assert!(
+        table.contains("Only the noise reference was run"),
+        "{table}"
+    );
 }
 
 /// The trials, sweeps, models and findings of reproductions `a` and `b` (under `d`) are

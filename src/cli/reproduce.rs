@@ -166,10 +166,26 @@ pub fn run(args: ReproduceArgs) -> Result<u8> {
             );
         }
         let variants = match &options.sensitivity {
-            Some(only) => Some(
-                reproduce::sensitivity::variants(&tmo_sim::parameters::built_in(), only)
-                    .map_err(anyhow::Error::msg)?,
-            ),
+            Some(only) => {
+                let study = reproduce::sensitivity::study(&tmo_sim::parameters::built_in(), only)
+                    .map_err(anyhow::Error::msg)?;
+                // a variant never run has no verdicts to compare (a study from before the
+                // noise reference existed has none)
+                let (run, missing): (Vec<_>, Vec<_>) = study
+                    .into_iter()
+                    .partition(|v| v.dir(&options.out).is_dir());
+                if !missing.is_empty() {
+                    outln!(
+                        "not run, left out of the study: {}",
+                        missing
+                            .iter()
+                            .map(|v| v.dir_name())
+                            .collect::<Vec<_>>()
+                            .join(", ")
+                    );
+                }
+                Some(run)
+            }
             None => None,
         };
         let report = reproduce::page::write_findings(
@@ -288,7 +304,10 @@ fn merge(args: MergeArgs) -> Result<u8> {
         merged.longest_shard_s
     );
     outln!("{}", merged.report.summary_line());
-    if let Some(line) = merged.report.agreement_line() {
+    for line in [merged.report.noise_line(), merged.report.agreement_line()]
+        .into_iter()
+        .flatten()
+    {
         outln!("{line}");
     }
     outln!(
@@ -303,6 +322,9 @@ fn merge(args: MergeArgs) -> Result<u8> {
 
 fn print_report(report: &reproduce::page::Written, options: &Options) -> Result<()> {
     outln!("{}", report.summary_line());
+    if let Some(line) = report.noise_line() {
+        outln!("{line}");
+    }
     if let Some((n, agree)) = report.truth_agreement {
         outln!(
             "marker-scored verdicts agree with the simulator's ground truth in {agree} of {n} catch trials ({:.1} %)",

@@ -34,6 +34,9 @@ pub struct Written {
     pub calibrated: Tally,
     /// Simulated catch trials with a ground-truth verdict, and how many agree.
     pub truth_agreement: Option<(usize, usize)>,
+    /// Verdicts the sensitivity study's noise reference (other seeds alone) changes, and
+    /// the verdicts it judged; `None` where no reference was run.
+    pub seed_noise: Option<(usize, usize)>,
 }
 
 fn tally_text(t: &Tally) -> String {
@@ -55,6 +58,16 @@ impl Written {
         )
     }
 
+    /// How many verdicts other seeds alone change, if a noise reference was run: the
+    /// headline's own noise, to read beside it.
+    pub fn noise_line(&self) -> Option<String> {
+        self.seed_noise.map(|(changed, of)| {
+            format!(
+                "Other seeds alone (the noise reference: as many replicates again, every seed new) change {changed} of {of} verdicts; those rows are not decided at this many replicates."
+            )
+        })
+    }
+
     /// How often the marker verdicts agree with ground truth, if any trial has one.
     pub fn agreement_line(&self) -> Option<String> {
         self.truth_agreement.map(|(n, agree)| {
@@ -64,6 +77,12 @@ impl Written {
             )
         })
     }
+}
+
+/// Verdicts the noise reference changed, of those it judged (`None`: no reference).
+fn seed_noise(judged: &[Judged]) -> Option<(usize, usize)> {
+    let judged: Vec<bool> = judged.iter().filter_map(|j| j.changes_with_seeds).collect();
+    (!judged.is_empty()).then(|| (judged.iter().filter(|c| **c).count(), judged.len()))
 }
 
 fn read_json<T: serde::de::DeserializeOwned>(path: &Path) -> Option<T> {
@@ -297,6 +316,7 @@ fn sensitivity(j: &Judged) -> String {
     match standing(j) {
         None => "-".into(),
         Some(Standing::Robust) => "robust".into(),
+        Some(Standing::SeedStable) => "stable under other seeds (no parameter varied)".into(),
         Some(Standing::Fragile) => format!("fragile ({})", varied()),
         Some(Standing::Undecided) if varied().is_empty() => {
             "not decided: other seeds alone change it".into()
@@ -312,7 +332,9 @@ fn sensitivity(j: &Judged) -> String {
 
 /// Whether the page has a sensitivity column (a study was run).
 fn studied(judged: &[Judged]) -> bool {
-    judged.iter().any(|j| j.sensitive_to.is_some())
+    judged
+        .iter()
+        .any(|j| j.sensitive_to.is_some() || j.changes_with_seeds.is_some())
 }
 
 /// The columns and cells the page shows: all but the sensitivity column when no study ran.
@@ -381,7 +403,7 @@ fn markdown(preset: Preset, judged: &[Judged], w: &Written, tables: &str) -> Str
         preset.name(),
         w.summary_line()
     );
-    if let Some(line) = w.agreement_line() {
+    for line in [w.noise_line(), w.agreement_line()].into_iter().flatten() {
         out += &format!("{line}\n\n");
     }
     for c in caveats(preset, judged, w) {
@@ -437,7 +459,7 @@ fn html_page(
         html::escape(&w.summary_line()),
         preset.name()
     );
-    if let Some(line) = w.agreement_line() {
+    for line in [w.noise_line(), w.agreement_line()].into_iter().flatten() {
         body += &format!("<p>{}</p>\n", html::escape(&line));
     }
     body += "<ul>\n";
@@ -638,6 +660,7 @@ pub fn write_findings(
         held_out,
         calibrated,
         truth_agreement,
+        seed_noise: seed_noise(&judged),
     };
     let md_tables = crate::report::render(&tables, crate::report::Format::Md)
         .map_err(|e| ReproduceError::step("findings", e))?;
@@ -655,6 +678,7 @@ pub fn write_findings(
         "held_out": written.held_out,
         "calibrated": written.calibrated,
         "truth_agreement": truth_agreement.map(|(n, agree)| serde_json::json!({"trials": n, "agree": agree})),
+        "seed_noise": written.seed_noise.map(|(changed, of)| serde_json::json!({"changed": changed, "verdicts": of})),
         "findings": judged,
         "measures": measures,
     });

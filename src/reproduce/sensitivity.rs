@@ -181,20 +181,21 @@ pub fn compare(variant: Variant, baseline: &[Judged], here: &[Judged]) -> Outcom
 }
 
 /// Marks each baseline finding with the parameter variants that change its verdict
-/// (empty: robust), and with whether other seeds alone change it (the noise reference,
-/// where one was run).
+/// (empty: robust; `None` where the study varied no parameter, only the seeds), and with
+/// whether other seeds alone change it (the noise reference, where one was run).
 pub fn mark_fragile(baseline: &mut [Judged], outcomes: &[Outcome]) {
     let reference = outcomes
         .iter()
         .find(|o| o.variant.reseeded && o.failed.is_none());
+    let any_varied = outcomes.iter().any(|o| !o.variant.reseeded);
     for j in baseline.iter_mut() {
-        j.sensitive_to = Some(
+        j.sensitive_to = any_varied.then(|| {
             outcomes
                 .iter()
                 .filter(|o| !o.variant.reseeded && o.changed.contains_key(&j.finding.id))
                 .map(|o| o.variant.dir_name())
-                .collect(),
-        );
+                .collect()
+        });
         j.changes_with_seeds = reference.map(|o| o.changed.contains_key(&j.finding.id));
     }
 }
@@ -208,17 +209,21 @@ pub enum Standing {
     Fragile,
     /// Other seeds alone change it: not decided at this many replicates.
     Undecided,
+    /// Other seeds keep it, and the study varied no parameter (the noise reference alone):
+    /// nothing is known of the parameters, so neither robust nor fragile.
+    SeedStable,
 }
 
 /// The class of a marked finding (`None`: no study).
 pub fn standing(j: &Judged) -> Option<Standing> {
-    let sensitive = j.sensitive_to.as_ref()?;
-    Some(if j.changes_with_seeds == Some(true) {
-        Standing::Undecided
-    } else if sensitive.is_empty() {
-        Standing::Robust
-    } else {
-        Standing::Fragile
+    if j.changes_with_seeds == Some(true) {
+        return Some(Standing::Undecided);
+    }
+    Some(match (&j.sensitive_to, j.changes_with_seeds) {
+        (None, None) => return None,
+        (None, Some(_)) => Standing::SeedStable,
+        (Some(sensitive), _) if sensitive.is_empty() => Standing::Robust,
+        (Some(_), _) => Standing::Fragile,
     })
 }
 
@@ -233,17 +238,27 @@ pub fn markdown(baseline: &[Judged], outcomes: &[Outcome]) -> String {
         .collect();
     let varied: Vec<&Outcome> = outcomes.iter().filter(|o| !o.variant.reseeded).collect();
     let reference = outcomes.iter().find(|o| o.variant.reseeded);
-    let mut s = format!(
-        "# Sensitivity: which verdicts change within the parameters' plausible ranges\n\n{} variants ({} parameters at each end of their range) were run with the baseline's seeds; {} changed at least one verdict. A cell gives the verdict there (baseline -> variant).\n\n",
-        varied.len(),
-        varied
-            .iter()
-            .map(|o| o.variant.parameter.as_str())
-            .collect::<std::collections::BTreeSet<_>>()
-            .len(),
-        varied.iter().filter(|o| !o.changed.is_empty()).count()
-    );
+    let mut s = if varied.is_empty() {
+        "# Sensitivity: which verdicts change with the seeds alone\n\nOnly the noise reference was run (`--sensitivity-parameters reseeded`): no parameter was varied, so this says how firmly each verdict is decided at this many replicates, not what it hinges on. A cell gives the verdict there (baseline -> reference).\n\n".to_string()
+    } else {
+        format!(
+            "# Sensitivity: which verdicts change within the parameters' plausible ranges\n\n{} variants ({} parameters at each end of their range) were run with the baseline's seeds; {} changed at least one verdict. A cell gives the verdict there (baseline -> variant).\n\n",
+            varied.len(),
+            varied
+                .iter()
+                .map(|o| o.variant.parameter.as_str())
+                .collect::<std::collections::BTreeSet<_>>()
+                .len(),
+            varied.iter().filter(|o| !o.changed.is_empty()).count()
+        )
+    };
     match reference {
+        Some(o) if o.failed.is_none() && varied.is_empty() => {
+            s += &format!(
+                "The noise reference (`{RESEEDED}`: the baseline's parameters, as many replicates again with other seeds) changed {} verdict(s).\n\n",
+                o.changed.len()
+            );
+        }
         Some(o) if o.failed.is_none() => {
             s += &format!(
                 "The noise reference (`{RESEEDED}`: the baseline's parameters, as many replicates again with other seeds) changed {} verdict(s): that many change with the seeds alone, so a parameter that changes no more than that says little. Findings it changes are not decided at this many replicates and are listed apart.\n\n",
@@ -298,14 +313,28 @@ pub fn markdown(baseline: &[Judged], outcomes: &[Outcome]) -> String {
     // The findings as `mark_fragile` classes them against these outcomes.
     let mut marked = baseline.to_vec();
     mark_fragile(&mut marked, outcomes);
-    for (label, class) in [
-        ("Fragile", Standing::Fragile),
-        (
-            "Not decided at this many replicates (other seeds alone change the verdict)",
-            Standing::Undecided,
-        ),
-        ("Robust", Standing::Robust),
-    ] {
+    let classes: &[(&str, Standing)] = if varied.is_empty() {
+        &[
+            (
+                "Not decided at this many replicates (other seeds alone change the verdict)",
+                Standing::Undecided,
+            ),
+            (
+                "Stable under other seeds (no parameter varied)",
+                Standing::SeedStable,
+            ),
+        ]
+    } else {
+        &[
+            ("Fragile", Standing::Fragile),
+            (
+                "Not decided at this many replicates (other seeds alone change the verdict)",
+                Standing::Undecided,
+            ),
+            ("Robust", Standing::Robust),
+        ]
+    };
+    for &(label, class) in classes {
         let ids: Vec<&str> = marked
             .iter()
             .filter(|j| standing(j) == Some(class))
@@ -469,5 +498,28 @@ mod tests {
             .find(|j| j.finding.id == "sf-offline-order")
             .unwrap();
         assert_eq!(standing(robust), Some(Standing::Robust));
+    }
+
+    #[test]
+    fn a_study_of_the_seeds_alone_calls_nothing_robust_or_fragile() {
+        let at = judged_with_rail_catches;
+        let mut baseline = at(370);
+        let outcomes = vec![compare(Variant::reseeded(), &baseline, &at(100))];
+        mark_fragile(&mut baseline, &outcomes);
+        let by_id = |id: &str| baseline.iter().find(|j| j.finding.id == id).unwrap();
+        assert_eq!(by_id("sf-rail-caught").sensitive_to, None);
+        assert_eq!(standing(by_id("sf-rail-caught")), Some(Standing::Undecided));
+        assert_eq!(
+            standing(by_id("sf-offline-order")),
+            Some(Standing::SeedStable)
+        );
+        let md = markdown(&baseline, &outcomes);
+        assert!(md.contains("Only the noise reference was run"), "{md}");
+        assert!(
+            md.contains("Stable under other seeds (no parameter varied) ("),
+            "{md}"
+        );
+        assert!(!md.contains("Robust"), "{md}");
+        assert!(!md.contains("Fragile"), "{md}");
     }
 }

@@ -211,7 +211,7 @@ pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<Merged, ReproduceError> {
     };
     let variants = match &plan.sensitivity {
         None => Vec::new(),
-        Some(only) => sensitivity::variants(&tmo_sim::parameters::built_in(), only)
+        Some(only) => sensitivity::study(&tmo_sim::parameters::built_in(), only)
             .map_err(|e| MergeError::Plan("sensitivity".into(), e))?,
     };
     if variants.iter().map(|v| v.dir_name()).collect::<Vec<_>>() != plan.variants {
@@ -368,7 +368,11 @@ mod tests {
             preset: "quick".into(),
             replicates: 2,
             sensitivity: Some(vec!["rail.rail_mu".into()]),
-            variants: vec!["rail.rail_mu@low".into(), "rail.rail_mu@high".into()],
+            variants: vec![
+                "reseeded".into(),
+                "rail.rail_mu@low".into(),
+                "rail.rail_mu@high".into(),
+            ],
             tmo_version: "0".into(),
             git_revision: "abc".into(),
         }
@@ -388,6 +392,8 @@ mod tests {
             [
                 "replicate-01",
                 "replicate-02",
+                "sensitivity/reseeded/replicate-01",
+                "sensitivity/reseeded/replicate-02",
                 "sensitivity/rail.rail_mu@low/replicate-01",
                 "sensitivity/rail.rail_mu@low/replicate-02",
                 "sensitivity/rail.rail_mu@high/replicate-01",
