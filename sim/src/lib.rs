@@ -14,6 +14,7 @@ pub mod serve;
 pub mod skin;
 pub mod statics;
 pub mod tactip;
+pub mod turn;
 mod world;
 
 use std::cell::RefCell;

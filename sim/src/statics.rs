@@ -334,63 +334,6 @@ pub fn limit_loads(contacts: &[ContactPoint], load_n: [f64; 3]) -> Option<LimitL
     })
 }
 
-/// How much a sliding pinch holds up when its centre of mass is off the pinch axis: the
-/// fingers' friction must also hold the couple `c = couple_per_n * S` about the pinch axis
-/// that the support `S` makes, acting at the contacts' depth; each finger then supports
-/// `sqrt(f^2 - c^2)`, and what the couple takes from the fingers the thumb gives up too, so
-/// that the moment about the approach axis stays as balanced as in the centred slide
-/// (where the thumb's support equals the fingers'). `friction_n` is each patch's sliding
-/// friction along the slip axis (thumb first, all of one sign); returns the support along
-/// it and each contact's share. Exactly the centred slide's sum when `couple_per_n` is 0;
-/// at static friction, on a surface without texture, it equals the load at
-/// which [`limit_loads`] runs out of friction.
-pub fn sliding_support(friction_n: [f64; 3], couple_per_n: f64) -> (f64, [f64; 3]) {
-    let total: f64 = friction_n.iter().sum();
-    if couple_per_n <= 0.0 || total == 0.0 {
-        return (total, friction_n);
-    }
-    let sign = total.signum();
-    let magnitude = friction_n.map(|f| (f * sign).max(0.0));
-    let finger = |f: f64, c: f64| (f * f - c * c).max(0.0).sqrt();
-    // What the couple of support `s` takes from the fingers.
-    let taken = |s: f64| {
-        (1..3)
-            .map(|i| magnitude[i] - finger(magnitude[i], couple_per_n * s))
-            .sum::<f64>()
-    };
-    let full: f64 = magnitude.iter().sum();
-    // `s + 2 taken(s)` grows with `s`: bisect for `s = full - 2 taken(s)`.
-    let (mut lo, mut hi) = (0.0, full);
-    for _ in 0..60 {
-        let mid = 0.5 * (lo + hi);
-        if mid + 2.0 * taken(mid) > full {
-            hi = mid;
-        } else {
-            lo = mid;
-        }
-    }
-    let support = lo;
-    let c = couple_per_n * support;
-    let fingers = [finger(magnitude[1], c), finger(magnitude[2], c)];
-    let thumb = (magnitude[0] - taken(support)).max(0.0);
-    (
-        sign * support,
-        [thumb, fingers[0], fingers[1]].map(|f| sign * f),
-    )
-}
-
-/// The couple about the pinch axis, per newton of load along the slip direction `gravity`
-/// (hand frame), that a centre of mass `grasp_point_mm` from the grasp's centre asks of
-/// each of two fingers `2 finger_half_spacing_mm` apart: the load acts at the contacts'
-/// depth, `grasp_point_mm[1]` from the centre of mass.
-pub fn finger_couple_per_n(
-    grasp_point_mm: [f64; 3],
-    gravity: [f64; 3],
-    finger_half_spacing_mm: f64,
-) -> f64 {
-    (grasp_point_mm[1] * gravity[2]).abs() / (2.0 * finger_half_spacing_mm)
-}
-
 /// Gravity in the hand frame for a hand rolled by `grasp_deg` about its approach axis:
 /// -w at 0 degrees, +w at 180, along the pinch axis between.
 pub fn gravity_direction(grasp_deg: f64) -> [f64; 3] {
@@ -594,27 +537,6 @@ mod tests {
             assert!(held.magnitude_n(i) <= cap * (1.0 + 1e-9), "{i}: {held:?}");
         }
         assert!(held_loads(&c, weight(0.0, 1.01 * lo)).is_err());
-    }
-
-    #[test]
-    fn the_sliding_support_gives_up_the_couple_and_meets_the_static_limit() {
-        // Centred: the plain sum.
-        assert_eq!(sliding_support([2.0, 1.0, 1.2], 0.0).0, 4.2);
-        // Off-centre: less, the thumb giving up what the fingers give to the couple.
-        let (s, each) = sliding_support([2.0, 1.0, 1.0], 0.3);
-        assert!(s < 4.0 - 0.1, "{s}");
-        assert!((each.iter().sum::<f64>() - s).abs() < 1e-9, "{each:?}");
-        assert!((2.0 - each[0] - (2.0 - each[1] - each[2])).abs() < 1e-9);
-        // At static friction and no texture, the slide holds what the statics hold.
-        let (gy, spacing, n) = (-20.0, 32.0, [6.0, 3.0, 3.0]);
-        let c = pinch_contacts(35.0, spacing, [0.0, gy, 0.0], n, MU.0, MU.0);
-        let k = finger_couple_per_n([0.0, gy, 0.0], gravity_direction(0.0), spacing);
-        let (support, _) = sliding_support(n.map(|n| MU.0 * n), k);
-        let ratio = |newtons: f64| limit_loads(&c, weight(0.0, newtons)).unwrap().ratio;
-        assert!(ratio(0.999 * support) <= 1.0 && ratio(1.001 * support) > 1.0);
-        // A sign carried through: an object pushed up slides the other way.
-        let (down, _) = sliding_support([-2.0, -1.0, -1.0], 0.3);
-        assert!((down + s).abs() < 1e-12);
     }
 
     #[test]

@@ -21,6 +21,7 @@ use super::tactip::{
     add_local_shear, dome_layout, local_shear_factors, pin_positions, CreepingDisplacement,
     SensorOptics, SkinState, SkinTimes,
 };
+use super::turn;
 use super::SimError;
 use tmo_hal::types::{HandPositions, MarkerSample, PinFrame};
 
@@ -51,6 +52,9 @@ pub struct TruthState {
     pub in_grasp: bool,
     pub dropped: bool,
     pub finger_positions: HandPositions,
+    /// How far the object has turned about the pinch axis since it was grasped, degrees
+    /// (signed as the turn about the hand frame's pinch axis).
+    pub turn_deg: f64,
 }
 
 /// Events the simulation knows for certain, for diagnostics and tests only.
@@ -124,8 +128,9 @@ enum Geometry {
     },
 }
 
-/// A grasp statics solve: the load, the normal forces, and the share (`None`: gross slip).
-type SolvedStatics = (f64, [f64; 3], Option<StuckShare>);
+/// A grasp statics solve: the load, the normal forces, the object's turn, and the share
+/// (`None`: gross slip).
+type SolvedStatics = (f64, [f64; 3], f64, Option<StuckShare>);
 
 pub(crate) struct World {
     cfg: SimConfig,
@@ -146,6 +151,11 @@ pub(crate) struct World {
     vz_mm_s: f64,
     stuck: bool,
     in_grasp: bool,
+    /// The object's turn about the pinch axis (rad) and its rate (rad/s), and the grasp
+    /// point's acceleration along the vertical at the last step (mm/s^2): see [`turn`].
+    turn_rad: f64,
+    turn_rate_rad_s: f64,
+    accel_mm_s2: f64,
     /// Object height minus hand height when the grasp started; contact is lost once the
     /// object has slid half its length from there.
     grasp_offset_mm: f64,
@@ -365,6 +375,9 @@ impl World {
             markers,
             events: TruthEvents::default(),
             held_relative_mm: None,
+            turn_rad: 0.0,
+            turn_rate_rad_s: 0.0,
+            accel_mm_s2: 0.0,
             cfg,
         };
         world.update_normal_forces();
@@ -533,21 +546,30 @@ impl World {
         if need_n <= 0.0 {
             return Some(StuckShare::default());
         }
-        if let Some((load, normals, solved)) = self.statics_solved.get() {
-            if load == need_n && normals == self.normal_n {
+        if let Some((load, normals, turn, solved)) = self.statics_solved.get() {
+            if load == need_n && normals == self.normal_n && turn == self.turn_rad {
                 return solved;
             }
         }
         let solved = self.solve_statics(need_n, gravity);
         self.statics_solved
-            .set(Some((need_n, self.normal_n, solved)));
+            .set(Some((need_n, self.normal_n, self.turn_rad, solved)));
         solved
     }
 
     /// Where the grasp's centre sits relative to the object's centre of mass (hand frame,
-    /// mm): the object's centre of mass lies `com_offset_mm` deeper than the contacts.
+    /// mm): the object's centre of mass lies `com_offset_mm` deeper than the contacts when
+    /// grasped, and turns about the pinch axis with the object.
     fn grasp_point_mm(&self) -> [f64; 3] {
-        [0.0, -self.object.com_offset_mm, 0.0]
+        let [_, y, w] = self.com_from_grasp_mm();
+        [0.0, -y, -w]
+    }
+
+    /// The centre of mass relative to the grasp's centre (hand frame, mm).
+    fn com_from_grasp_mm(&self) -> [f64; 3] {
+        let r = self.object.com_offset_mm;
+        let (sin, cos) = self.turn_rad.sin_cos();
+        [0.0, r * cos, r * sin]
     }
 
     /// [`Self::stuck_share`]'s solve.
@@ -608,6 +630,7 @@ impl World {
                     local_slip = share.local_slip;
                     self.z_mm += hand_dz;
                     self.vz_mm_s = hand_v;
+                    self.accel_mm_s2 = hand_a;
                     if let Some(s) = self.support_mm {
                         self.z_mm = self.z_mm.max(s);
                     }
@@ -653,19 +676,16 @@ impl World {
                 self.carried_mm[i] = sensor.skin.contact_radius_mm(self.normal_n[i]);
                 self.stuck_load[i] = None;
             }
-            // A centre of mass off the pinch axis: the fingers' friction also holds its
-            // couple, and the slide gives up what that takes.
+            // A centre of mass off the pinch axis: the object turns about it as it slides,
+            // and the fingers' friction, opposing each contact's slip, also makes a couple.
+            let mut turn_accel = 0.0;
             if let Geometry::Hand { gravity } = self.geometry {
-                let k = statics::finger_couple_per_n(
-                    self.grasp_point_mm(),
-                    gravity,
-                    self.cfg.physics.finger_half_spacing_mm,
-                );
-                if k > 0.0 {
-                    let (support, each) =
-                        statics::sliding_support([tangential[0], tangential[1], tangential[2]], k);
-                    up_n = support;
-                    tangential[..3].copy_from_slice(&each);
+                if self.object.com_offset_mm != 0.0 {
+                    let before = self.turn_rate_rad_s;
+                    let step = self.turn_step(&tangential, gravity, m, g, v_rel, on_support, dt);
+                    up_n = step.support_n;
+                    tangential[..3].copy_from_slice(&step.each_n);
+                    turn_accel = self.vertical_turn_accel_mm_s2(gravity, before, dt);
                 }
             }
             // The rail's guides: plain sliding friction against the object's motion.
@@ -680,7 +700,10 @@ impl World {
                 tangential[i] = direction * c.mu_kinetic * c.normal_n;
                 up_n += tangential[i];
             }
-            let a = (up_n / m - g) * 1000.0;
+            // The centre of mass moves as the forces say; the grasp point less what the
+            // turn moves the centre of mass relative to it.
+            let a = (up_n / m - g) * 1000.0 - turn_accel;
+            self.accel_mm_s2 = a;
             self.z_mm += self.vz_mm_s * dt + 0.5 * a * dt * dt;
             self.vz_mm_s += a * dt;
             if let Some(s) = self.support_mm {
@@ -698,6 +721,7 @@ impl World {
             {
                 self.stuck = true;
                 self.vz_mm_s = hand_v;
+                self.turn_rate_rad_s = 0.0;
                 self.events.catches_s.push(now);
             }
         }
@@ -719,6 +743,74 @@ impl World {
         self.update_skins(dt);
         self.capture_frames(now);
         self.capture_markers(now);
+    }
+
+    /// One step of the object's turn about the pinch axis while it slides ([`turn`]): the
+    /// load at the centre of mass (its weight and what the grasp point's acceleration
+    /// asks) is a moment about the pinch axis; the contacts' frictions `tangential` (along
+    /// the slip axis) hold it as far as they can. Updates the turn and its rate; gives the
+    /// contacts' support.
+    #[allow(clippy::too_many_arguments)]
+    fn turn_step(
+        &mut self,
+        tangential: &[f64; MAX_CONTACTS],
+        gravity: [f64; 3],
+        mass_kg: f64,
+        g: f64,
+        v_rel: f64,
+        on_support: bool,
+        dt: f64,
+    ) -> turn::TurnStep {
+        let load_n = mass_kg * (g + self.accel_mm_s2 / 1000.0);
+        let [_, y, w] = self.com_from_grasp_mm();
+        let moment_n_mm = load_n * (y * gravity[2] - w * gravity[1]);
+        let lever = [
+            0.0,
+            self.cfg.physics.finger_half_spacing_mm,
+            self.cfg.physics.finger_half_spacing_mm,
+        ];
+        let contacts: [turn::TurnContact; 3] = std::array::from_fn(|i| turn::TurnContact {
+            friction_n: tangential[i],
+            lever_mm: lever[i],
+            patch_radius_mm: self
+                .sensors
+                .get(i)
+                .map_or(0.0, |s| s.skin.contact_radius_mm(self.normal_n[i])),
+        });
+        let inertia = turn::pivot_inertia_kg_mm2(
+            mass_kg,
+            self.object.length_mm,
+            self.object.width_mm,
+            self.object.com_offset_mm,
+        );
+        let step = turn::step(
+            &contacts,
+            self.turn_rate_rad_s,
+            moment_n_mm,
+            inertia,
+            v_rel,
+            dt,
+        );
+        // an object resting on the table does not swing through it
+        let rate = if on_support { 0.0 } else { step.rate_rad_s };
+        self.turn_rad += 0.5 * (self.turn_rate_rad_s + rate) * dt;
+        self.turn_rate_rad_s = rate;
+        step
+    }
+
+    /// The vertical (world, up) acceleration of the centre of mass relative to the grasp
+    /// point that the turn gives, from the rate `before` this step to now, mm/s^2.
+    fn vertical_turn_accel_mm_s2(&self, gravity: [f64; 3], before: f64, dt: f64) -> f64 {
+        let omega = self.turn_rate_rad_s;
+        let alpha = (omega - before) / dt;
+        let [_, y, w] = self.com_from_grasp_mm();
+        // d'' = alpha (x cross d) - omega^2 d, with x cross (0, y, w) = (0, -w, y)
+        let accel = [
+            0.0,
+            -alpha * w - omega * omega * y,
+            alpha * y - omega * omega * w,
+        ];
+        -(accel[1] * gravity[1] + accel[2] * gravity[2])
     }
 
     /// The under-actuated fingers curl as they press past first touch, so each fingertip
@@ -984,6 +1076,7 @@ impl World {
             in_grasp: self.in_grasp,
             dropped: self.events.drop_s.is_some(),
             finger_positions: self.present_positions(),
+            turn_deg: self.turn_rad.to_degrees(),
         }
     }
 }

@@ -174,6 +174,40 @@ fn a_centre_of_mass_off_the_grasp_lets_go_at_a_lighter_load_and_then_moves() {
 }
 
 #[test]
+fn a_moment_beyond_the_fingers_friction_turns_the_object_about_the_pinch_axis() {
+    // The banana's weight, 20 mm off the pinch axis, is a moment about it. Once the grasp
+    // gives way the fruit turns as well as slides, its centre of mass swinging down (the
+    // turn's sign flips with the hand's roll), and the turn lowers the moment. The same
+    // fruit centred has no moment and does not turn.
+    let banana = ObjectLibrary::built_in().get("banana").unwrap().clone();
+    let centred = ObjectSpec {
+        name: "banana_centred".into(),
+        com_offset_mm: 0.0,
+        ..banana.clone()
+    };
+    let text = toml::to_string(&serde_json::json!({ "object": [banana, centred] })).unwrap();
+    let library = ObjectLibrary::parse(&text, "test library").unwrap();
+    for grasp_deg in [0.0, 180.0] {
+        let (_, _, later) = slow_release_from(&library, "banana", grasp_deg, 0.3);
+        let (_, _, still) = slow_release_from(&library, "banana_centred", grasp_deg, 0.3);
+        assert_eq!(still.turn_deg, 0.0, "{grasp_deg}: the centred fruit turned");
+        // at 0 deg gravity is -w: the centre of mass at +y swings to -w by a negative
+        // turn about x; at 180 deg the other way
+        let down = if grasp_deg == 0.0 { -1.0 } else { 1.0 };
+        assert!(
+            later.turn_deg * down > 1.0,
+            "{grasp_deg}: turned {} deg",
+            later.turn_deg
+        );
+        assert!(
+            later.turn_deg.abs() < 90.0,
+            "{grasp_deg}: {}",
+            later.turn_deg
+        );
+    }
+}
+
+#[test]
 fn a_held_centred_object_loads_thumb_and_fingers_alike_at_0_and_180_degrees() {
     let cfg_transfer_s = || SimConfig::default().physics.load_transfer_s;
     // Grasp statics with moments: the weight is carried in full, the thumb takes half
