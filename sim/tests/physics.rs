@@ -131,14 +131,9 @@ fn slow_release_slips_when_friction_capacity_falls_below_load() {
     }
 }
 
-#[test]
-fn a_centre_of_mass_off_the_grasp_lets_go_at_a_lighter_load_and_then_moves() {
-    // The banana's centre of mass sits 20 mm off the grasp's centre: its weight is also a
-    // moment about the pinch axis, which the fingers hold with a couple that takes a share
-    // of their friction. Released slowly, it goes while its friction capacity is still well
-    // above its weight; the same fruit centred goes only when capacity reaches the weight.
-    // Once it goes it slides (no slip "at no speed": the slide's support gives up the same
-    // couple the statics do).
+/// The library's banana (its centre of mass 20 mm off the grasp) and the same fruit
+/// centred, as `banana_centred`.
+fn banana_and_banana_centred() -> ObjectLibrary {
     let banana = ObjectLibrary::built_in().get("banana").unwrap().clone();
     assert_eq!(banana.com_offset_mm, 20.0);
     let centred = ObjectSpec {
@@ -147,7 +142,18 @@ fn a_centre_of_mass_off_the_grasp_lets_go_at_a_lighter_load_and_then_moves() {
         ..banana.clone()
     };
     let text = toml::to_string(&serde_json::json!({ "object": [banana, centred] })).unwrap();
-    let library = ObjectLibrary::parse(&text, "test library").unwrap();
+    ObjectLibrary::parse(&text, "test library").unwrap()
+}
+
+#[test]
+fn a_centre_of_mass_off_the_grasp_lets_go_at_a_lighter_load_and_then_moves() {
+    // The banana's centre of mass sits 20 mm off the grasp's centre: its weight is also a
+    // moment about the pinch axis, which the fingers hold with a couple that takes a share
+    // of their friction. Released slowly, it goes while its friction capacity is still well
+    // above its weight; the same fruit centred goes only when capacity reaches the weight.
+    // Once it goes it slides (no slip "at no speed": the slide's support gives up the same
+    // couple the statics do).
+    let library = banana_and_banana_centred();
     let release = |name: &str, grasp_deg: f64| {
         let (_, at, later) = slow_release_from(&library, name, grasp_deg, 0.1);
         let moved = (at.object_mm - at.hand_mm) - (later.object_mm - later.hand_mm);
@@ -179,14 +185,7 @@ fn a_moment_beyond_the_fingers_friction_turns_the_object_about_the_pinch_axis() 
     // gives way the fruit turns as well as slides, its centre of mass swinging down (the
     // turn's sign flips with the hand's roll), and the turn lowers the moment. The same
     // fruit centred has no moment and does not turn.
-    let banana = ObjectLibrary::built_in().get("banana").unwrap().clone();
-    let centred = ObjectSpec {
-        name: "banana_centred".into(),
-        com_offset_mm: 0.0,
-        ..banana.clone()
-    };
-    let text = toml::to_string(&serde_json::json!({ "object": [banana, centred] })).unwrap();
-    let library = ObjectLibrary::parse(&text, "test library").unwrap();
+    let library = banana_and_banana_centred();
     for grasp_deg in [0.0, 180.0] {
         let (_, _, later) = slow_release_from(&library, "banana", grasp_deg, 0.3);
         let (_, _, still) = slow_release_from(&library, "banana_centred", grasp_deg, 0.3);
