@@ -55,8 +55,6 @@ pub struct TurnStep {
     /// What the contacts hold up along the slip axis, N, and each contact's part.
     pub support_n: f64,
     pub each_n: [f64; 3],
-    /// The friction's couple about the pinch axis at the new rate, N mm.
-    pub couple_n_mm: f64,
 }
 
 /// Each contact's slip speed `|v_i|` at turn rate `omega` and slide speed `v`.
@@ -98,7 +96,6 @@ pub fn step(
             rate_rad_s: 0.0,
             support_n: total,
             each_n: friction,
-            couple_n_mm: 0.0,
         };
     }
     let v = slide_mm_s.abs().max(CREEP_MM_S);
@@ -121,8 +118,15 @@ pub fn step(
         rate_rad_s: omega,
         support_n: each.iter().sum(),
         each_n: each,
-        couple_n_mm: omega * couple_per_rate(contacts, omega, v),
     }
+}
+
+/// The friction's couple about the pinch axis, N mm, at turn rate `rate_rad_s` and slide
+/// speed `slide_mm_s` (with the same creep floor as [`step`]). Not needed by a step itself,
+/// which works with the couple per unit rate; for checking its equilibrium.
+pub fn couple_n_mm(contacts: &[TurnContact; 3], rate_rad_s: f64, slide_mm_s: f64) -> f64 {
+    let v = slide_mm_s.abs().max(CREEP_MM_S);
+    rate_rad_s * couple_per_rate(contacts, rate_rad_s, v)
 }
 
 /// An object's moment of inertia about the pinch axis through its grasp, kg mm^2: a box
@@ -177,7 +181,8 @@ mod tests {
         let c = contacts([2.0, 1.0, 1.0], 0.0);
         for slide in [0.0, 5.0, 50.0] {
             let s = settle(&c, 30.0, slide);
-            assert!((s.couple_n_mm - 30.0).abs() < 1e-6, "{slide}: {s:?}");
+            let couple = couple_n_mm(&c, s.rate_rad_s, slide);
+            assert!((couple - 30.0).abs() < 1e-6, "{slide}: {s:?}");
             // each finger gives the couple `30 / 2s` across and the rest along
             let across = 30.0 / (2.0 * S);
             let along = (1.0 - across * across).sqrt();
@@ -195,7 +200,7 @@ mod tests {
         }
         // the sign follows the moment
         let s = settle(&c, -30.0, 5.0);
-        assert!(s.rate_rad_s < 0.0 && (s.couple_n_mm + 30.0).abs() < 1e-6);
+        assert!(s.rate_rad_s < 0.0 && (couple_n_mm(&c, s.rate_rad_s, 5.0) + 30.0).abs() < 1e-6);
     }
 
     #[test]
