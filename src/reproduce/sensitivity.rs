@@ -253,17 +253,16 @@ pub fn markdown(baseline: &[Judged], outcomes: &[Outcome]) -> String {
         )
     };
     match reference {
-        Some(o) if o.failed.is_none() && varied.is_empty() => {
-            s += &format!(
-                "The noise reference (`{RESEEDED}`: the baseline's parameters, as many replicates again with other seeds) changed {} verdict(s).\n\n",
-                o.changed.len()
-            );
-        }
         Some(o) if o.failed.is_none() => {
             s += &format!(
-                "The noise reference (`{RESEEDED}`: the baseline's parameters, as many replicates again with other seeds) changed {} verdict(s): that many change with the seeds alone, so a parameter that changes no more than that says little. Findings it changes are not decided at this many replicates and are listed apart.\n\n",
+                "The noise reference (`{RESEEDED}`: the baseline's parameters, as many replicates again with other seeds) changed {} verdict(s)",
                 o.changed.len()
             );
+            s += if varied.is_empty() {
+                ".\n\n"
+            } else {
+                ": that many change with the seeds alone, so a parameter that changes no more than that says little. Findings it changes are not decided at this many replicates and are listed apart.\n\n"
+            };
         }
         _ => s += "No noise reference was run: a change below may be the seeds' as much as the parameter's.\n\n",
     }
@@ -313,12 +312,13 @@ pub fn markdown(baseline: &[Judged], outcomes: &[Outcome]) -> String {
     // The findings as `mark_fragile` classes them against these outcomes.
     let mut marked = baseline.to_vec();
     mark_fragile(&mut marked, outcomes);
+    const UNDECIDED: (&str, Standing) = (
+        "Not decided at this many replicates (other seeds alone change the verdict)",
+        Standing::Undecided,
+    );
     let classes: &[(&str, Standing)] = if varied.is_empty() {
         &[
-            (
-                "Not decided at this many replicates (other seeds alone change the verdict)",
-                Standing::Undecided,
-            ),
+            UNDECIDED,
             (
                 "Stable under other seeds (no parameter varied)",
                 Standing::SeedStable,
@@ -327,10 +327,7 @@ pub fn markdown(baseline: &[Judged], outcomes: &[Outcome]) -> String {
     } else {
         &[
             ("Fragile", Standing::Fragile),
-            (
-                "Not decided at this many replicates (other seeds alone change the verdict)",
-                Standing::Undecided,
-            ),
+            UNDECIDED,
             ("Robust", Standing::Robust),
         ]
     };
