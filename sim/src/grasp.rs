@@ -141,7 +141,11 @@ pub struct Contact {
 /// How a load is carried while the object does not move relative to the fingers.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct StuckShare {
+    /// Each contact's tangential load, signed as the support it gives, N.
     pub tangential_n: [f64; MAX_CONTACTS],
+    /// The part of it across the slip axis, N (on the object, along the hand's approach
+    /// axis; see [`crate::statics`]). 0 on the rail and in a centred grasp.
+    pub across_n: [f64; MAX_CONTACTS],
     /// Contacts that slip locally (incipient slip) although the grasp as a whole holds.
     pub local_slip: [bool; MAX_CONTACTS],
 }

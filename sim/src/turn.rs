@@ -55,6 +55,10 @@ pub struct TurnStep {
     /// What the contacts hold up along the slip axis, N, and each contact's part.
     pub support_n: f64,
     pub each_n: [f64; 3],
+    /// Each contact's friction across the slip axis, N (on the object, along the approach
+    /// axis `+y` of [`crate::statics`]; the first finger at `w = +s`, the second at `-s`):
+    /// the two fingers' make the couple, the thumb's is 0.
+    pub across_n: [f64; 3],
 }
 
 /// Each contact's slip speed `|v_i|` at turn rate `omega` and slide speed `v`.
@@ -96,6 +100,7 @@ pub fn step(
             rate_rad_s: 0.0,
             support_n: total,
             each_n: friction,
+            across_n: [0.0; 3],
         };
     }
     let v = slide_mm_s.abs().max(CREEP_MM_S);
@@ -106,11 +111,16 @@ pub fn step(
     let sign = if total < 0.0 { -1.0 } else { 1.0 };
     let speeds = slip_speeds(contacts, omega, v);
     let mut each = [0.0; 3];
+    let mut across = [0.0; 3];
     let mut given_up = 0.0;
     for i in 1..3 {
         let f = (friction[i] * sign).max(0.0);
         each[i] = f * v / speeds[i];
         given_up += f - each[i];
+        // The finger at `w = +s` moves along `-y` as the object turns about `+x`, the one
+        // at `-s` along `+y`; friction opposes each.
+        let side = if i == 1 { 1.0 } else { -1.0 };
+        across[i] = side * f * contacts[i].lever_mm * omega / speeds[i];
     }
     each[0] = ((friction[0] * sign).max(0.0) - given_up).max(0.0);
     let each = each.map(|f| sign * f);
@@ -118,6 +128,7 @@ pub fn step(
         rate_rad_s: omega,
         support_n: each.iter().sum(),
         each_n: each,
+        across_n: across,
     }
 }
 
@@ -201,6 +212,34 @@ mod tests {
         // the sign follows the moment
         let s = settle(&c, -30.0, 5.0);
         assert!(s.rate_rad_s < 0.0 && (couple_n_mm(&c, s.rate_rad_s, 5.0) + 30.0).abs() < 1e-6);
+    }
+
+    #[test]
+    fn the_fingers_friction_across_the_slip_axis_is_the_couple() {
+        // Point contacts: the couple is the fingers' alone, `s (a_1 - a_2)`, and each
+        // finger's friction keeps its size, split along and across.
+        let c = contacts([2.0, 1.0, 1.0], 0.0);
+        for (moment, slide) in [(30.0, 5.0), (-30.0, 5.0), (30.0, 0.0), (100.0, 2.0)] {
+            let mut s = step(&c, 0.0, moment, 200.0, slide, 0.001);
+            for _ in 0..50 {
+                s = step(&c, s.rate_rad_s, moment, 200.0, slide, 0.001);
+            }
+            let [_, a1, a2] = s.across_n;
+            assert_eq!(s.across_n[0], 0.0);
+            assert!((a1 + a2).abs() < 1e-12, "{s:?}");
+            assert_eq!(a1.signum(), moment.signum(), "{s:?}");
+            let couple = couple_n_mm(&c, s.rate_rad_s, slide);
+            assert!((S * (a1 - a2) - couple).abs() < 1e-9, "{s:?} {couple}");
+            for i in 1..3 {
+                assert!(
+                    (s.each_n[i].hypot(s.across_n[i]) - 1.0).abs() < 1e-12,
+                    "{s:?}"
+                );
+            }
+        }
+        // no turn, nothing across
+        let s = step(&c, 0.0, 0.0, 200.0, 5.0, 0.001);
+        assert_eq!(s.across_n, [0.0; 3]);
     }
 
     #[test]

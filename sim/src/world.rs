@@ -43,6 +43,9 @@ pub struct TruthState {
     pub local_slip: Vec<bool>,
     pub indentation_mm: Vec<f64>,
     pub shear_px: Vec<f64>,
+    /// Each skin's shown shear along the roll's image direction (the fingertip's curl and
+    /// the shear across the slip axis), px.
+    pub roll_px: Vec<f64>,
     /// The object slides relative to the fingers (gross slip).
     pub sliding: bool,
     /// Static friction capacity of the grasp, N (rail friction included on the rail).
@@ -171,15 +174,19 @@ pub(crate) struct World {
     patches: [SlidingPatch; 3],
     textures: Vec<SurfaceTexture>,
     friction: SlidingFriction,
-    /// Where each patch's shear and roll are driven, mm (the pins follow with a lag).
+    /// Where each patch's shear and roll are driven, mm (the pins follow with a lag): the
+    /// shear along the slip axis, the fingertip's roll from its curl, and the shear across
+    /// the slip axis (a turning object's, shown along the roll's image direction).
     shear_target_mm: [f64; 3],
     roll_target_mm: [f64; 3],
+    across_target_mm: [f64; 3],
     /// Radius of each patch's region carried with the object, mm.
     carried_mm: [f64; 3],
     /// Normal force each fingertip's roll was last worked out for, N.
     rolled_at_n: [f64; 3],
-    /// Tangential and normal load each stuck patch's shear was last worked out for.
-    stuck_load: [Option<(f64, f64)>; 3],
+    /// Tangential, normal and across-slip load each stuck patch's shear was last worked
+    /// out for.
+    stuck_load: [Option<(f64, f64, f64)>; 3],
     /// The last grasp statics solved: load, normal forces and the share (`None`: gross
     /// slip). A held grasp keeps both most of the time, and the solve was most of a step.
     statics_solved: Cell<Option<SolvedStatics>>,
@@ -195,6 +202,29 @@ fn series(k: &[f64]) -> f64 {
 }
 
 /// The skin of a nominal (average) unit.
+/// The roll's image direction is the approach axis; its positive sense is the one the
+/// fingertip's curl drags the skin in, which pulls the object towards the palm (`-y`). A
+/// friction `across_n` on the object along `+y` shows as this much roll per newton.
+fn roll_sense(across_n: f64) -> f64 {
+    -across_n
+}
+
+/// Splits a stuck patch's shear `shear_mm` (signed as `load_n`, the patch's whole
+/// tangential load) along that load: the part along the slip axis and, in the roll's
+/// image direction, the part across it (`across_n` of the load, on the object along `+y`).
+fn split_along_load(shear_mm: f64, load_n: f64, across_n: f64) -> (f64, f64) {
+    if across_n == 0.0 || load_n == 0.0 {
+        return (shear_mm, 0.0);
+    }
+    let whole = load_n.abs();
+    let along = (whole * whole - across_n * across_n).max(0.0).sqrt();
+    let per_n = shear_mm.abs() / whole;
+    (
+        shear_mm.signum() * per_n * along,
+        per_n * roll_sense(across_n),
+    )
+}
+
 pub fn nominal_skin(p: &PhysicsParams) -> SkinContact {
     SkinContact::new(p.skin_modulus_kpa, p.skin_poisson, p.dome_radius_mm)
 }
@@ -367,6 +397,7 @@ impl World {
             friction,
             shear_target_mm: [0.0; 3],
             roll_target_mm: [0.0; 3],
+            across_target_mm: [0.0; 3],
             carried_mm: [0.0; 3],
             stuck_load: [None; 3],
             statics_solved: Cell::new(None),
@@ -588,6 +619,7 @@ impl World {
             let [ty, tw] = held.tangential_n[i];
             let up = -(ty * gravity[1] + tw * gravity[2]);
             share.tangential_n[i] = held.magnitude_n(i).copysign(up);
+            share.across_n[i] = ty;
         }
         share.local_slip[..3].copy_from_slice(&held.local_slip);
         Some(share)
@@ -638,13 +670,17 @@ impl World {
                     // Stuck: each patch carries its share with Cattaneo-Mindlin compliance.
                     for (i, sensor) in self.sensors.iter().enumerate() {
                         // The power laws cost most of a step; a held grasp keeps its loads.
-                        let load = (tangential[i], self.normal_n[i]);
+                        let load = (tangential[i], self.normal_n[i], share.across_n[i]);
                         if self.stuck_load[i] == Some(load) {
                             continue;
                         }
                         self.stuck_load[i] = Some(load);
                         let u = sensor.skin.mindlin_shear_mm(load.0, load.1, mu_s);
-                        self.shear_target_mm[i] = u;
+                        // The shear lies along the load: its part along the slip axis and
+                        // its part across (a moment held by the fingers' couple).
+                        let (along, across) = split_along_load(u, load.0, load.2);
+                        self.shear_target_mm[i] = along;
+                        self.across_target_mm[i] = across;
                         self.carried_mm[i] = sensor.skin.stick_radius_mm(load.0, load.1, mu_s);
                         self.patches[i].shear_mm = u;
                     }
@@ -673,6 +709,7 @@ impl World {
                 tangential[i] = f;
                 up_n += f;
                 self.shear_target_mm[i] = patch.shear_mm;
+                self.across_target_mm[i] = 0.0;
                 self.carried_mm[i] = sensor.skin.contact_radius_mm(self.normal_n[i]);
                 self.stuck_load[i] = None;
             }
@@ -684,6 +721,16 @@ impl World {
                     let before = self.turn_rate_rad_s;
                     let step = self.turn_step(&tangential, gravity, m, g, v_rel, on_support, dt);
                     up_n = step.support_n;
+                    // Each patch's shear follows its friction's split: along the slip
+                    // axis what holds the object up, across it the couple's share.
+                    for (i, friction) in tangential.iter().enumerate().take(skins.min(3)) {
+                        let whole = friction.abs();
+                        if whole > 0.0 {
+                            let u = self.patches[i].shear_mm.abs() / whole;
+                            self.shear_target_mm[i] = u * step.each_n[i];
+                            self.across_target_mm[i] = u * roll_sense(step.across_n[i]);
+                        }
+                    }
                     tangential[..3].copy_from_slice(&step.each_n);
                     turn_accel = self.vertical_turn_accel_mm_s2(gravity, before, dt);
                 }
@@ -884,7 +931,10 @@ impl World {
         for (i, s) in self.sensors.iter_mut().enumerate() {
             let n = self.normal_n[i];
             let (shear, roll) = if n > 0.0 {
-                (self.shear_target_mm[i], self.roll_target_mm[i])
+                (
+                    self.shear_target_mm[i],
+                    self.roll_target_mm[i] + self.across_target_mm[i],
+                )
             } else {
                 (0.0, 0.0)
             };
@@ -1069,6 +1119,11 @@ impl World {
                 .sensors
                 .iter()
                 .map(|s| s.shear_mm.shown(&times) * s.px_per_mm)
+                .collect(),
+            roll_px: self
+                .sensors
+                .iter()
+                .map(|s| s.roll_mm.shown(&times) * s.px_per_mm)
                 .collect(),
             sliding: !self.stuck,
             capacity_n: self.capacity_n,

@@ -207,6 +207,38 @@ fn a_moment_beyond_the_fingers_friction_turns_the_object_about_the_pinch_axis() 
 }
 
 #[test]
+fn a_moment_shows_in_the_fingers_images_across_the_slip_axis() {
+    // The fingers' couple lies across the slip axis, opposite at the two fingers: held
+    // (the statics' couple) and while the object turns. The images show it along the
+    // roll's direction, flipping with the hand's roll; a centred object's two fingers
+    // roll alike.
+    let library = banana_and_banana_centred();
+    let across = |s: &tmo_sim::TruthState| s.roll_px[1] - s.roll_px[2];
+    for grasp_deg in [0.0, 180.0] {
+        let (held, _, turning) = slow_release_from(&library, "banana", grasp_deg, 0.3);
+        let (held_c, _, later_c) = slow_release_from(&library, "banana_centred", grasp_deg, 0.3);
+        // at 0 deg the weight's moment is about -x: the finger at +w pushes the object
+        // along -y (towards the palm), the one at -w along +y
+        let sense = if grasp_deg == 0.0 { 1.0 } else { -1.0 };
+        for (when, s) in [("held", &held), ("turning", &turning)] {
+            assert!(
+                across(s) * sense > 3.0,
+                "{grasp_deg} deg, {when}: fingers roll {:?} px",
+                s.roll_px
+            );
+        }
+        assert!(turning.turn_deg.abs() > 1.0, "{grasp_deg}: {turning:?}");
+        for s in [&held_c, &later_c] {
+            assert!(
+                across(s).abs() < 0.05,
+                "{grasp_deg} deg, centred: {:?}",
+                s.roll_px
+            );
+        }
+    }
+}
+
+#[test]
 fn a_held_centred_object_loads_thumb_and_fingers_alike_at_0_and_180_degrees() {
     let cfg_transfer_s = || SimConfig::default().physics.load_transfer_s;
     // Grasp statics with moments: the weight is carried in full, the thumb takes half
