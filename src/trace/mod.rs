@@ -103,6 +103,7 @@ pub fn write_trace(
         "sliding",
         "in_grasp",
         "dropped",
+        "turn_deg",
     ]
     .iter()
     .map(|s| s.to_string())
@@ -114,6 +115,7 @@ pub fn write_trace(
             "local_slip",
             "indentation_mm",
             "shear_px",
+            "roll_px",
             "finger_position",
         ] {
             head.push(format!("s{i}_{what}"));
@@ -133,6 +135,7 @@ pub fn write_trace(
             u8::from(t.sliding).to_string(),
             u8::from(t.in_grasp).to_string(),
             u8::from(t.dropped).to_string(),
+            format!("{:.4}", t.turn_deg),
         ];
         for i in 0..sensors {
             row.push(format!("{:.5}", t.normal_n[i]));
@@ -140,6 +143,7 @@ pub fn write_trace(
             row.push(u8::from(t.local_slip[i]).to_string());
             row.push(format!("{:.5}", t.indentation_mm[i]));
             row.push(format!("{:.5}", t.shear_px[i]));
+            row.push(format!("{:.5}", t.roll_px[i]));
             row.push(format!("{:.5}", t.finger_positions[i]));
         }
         write_row(&mut w, &files.truth, &row)?;
