@@ -201,7 +201,6 @@ fn series(k: &[f64]) -> f64 {
     1.0 / k.iter().map(|k| 1.0 / k).sum::<f64>()
 }
 
-/// The skin of a nominal (average) unit.
 /// The roll's image direction is the approach axis; its positive sense is the one the
 /// fingertip's curl drags the skin in, which pulls the object towards the palm (`-y`). A
 /// friction `across_n` on the object along `+y` shows as this much roll per newton.
@@ -225,6 +224,7 @@ fn split_along_load(shear_mm: f64, load_n: f64, across_n: f64) -> (f64, f64) {
     )
 }
 
+/// The skin of a nominal (average) unit.
 pub fn nominal_skin(p: &PhysicsParams) -> SkinContact {
     SkinContact::new(p.skin_modulus_kpa, p.skin_poisson, p.dome_radius_mm)
 }
