@@ -794,3 +794,74 @@ fn a_file_of_the_wrong_kind_is_named_with_its_field_and_what_it_is() {
         assert!(err.contains(says), "{text}: {err}");
     }
 }
+
+/// T4-2, T4-5, T4-10: an `--out` (or `--plots`) that is empty, `-` where a directory is
+/// meant, a symbolic link, a FIFO or a file where a directory is meant is refused with
+/// exit 2 before any work, and what it named is left as it was. (A FIFO and links in the
+/// test's own directory stand for device nodes: no test touches the machine's devices.)
+#[cfg(unix)]
+#[test]
+fn every_output_that_is_not_a_plain_file_or_directory_is_refused_and_left_alone() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let precious = d.join("precious.csv");
+    std::fs::write(&precious, "keep").unwrap();
+    std::os::unix::fs::symlink(&precious, d.join("link")).unwrap();
+    let fifo = d.join("fifo");
+    let name = std::ffi::CString::new(fifo.as_os_str().as_encoded_bytes()).unwrap();
+    // SAFETY: a valid C string; mkfifo only creates the node
+    assert_eq!(unsafe { libc::mkfifo(name.as_ptr(), 0o600) }, 0);
+    // commands whose --out is one file
+    let file_outputs: &[&[&str]] = &[
+        &["evaluate", "m.json", "t", "--out"],
+        &["train", "t", "--out"],
+        &["sweep", "t", "--test", "t", "--out"],
+        &["sweep", "merge", "a.csv", "--out"],
+        &["dataset", "export", "t", "--out"],
+        &["sim", "serve", "--hardware", "hw.toml", "--out"],
+    ];
+    // commands whose --out is a directory
+    let dir_outputs: &[&[&str]] = &[
+        &["run", "p.toml", "--out"],
+        &["sim", "collect", "--out"],
+        &["sim", "trace", "--out"],
+        &["import", "csv", "x.csv", "--out"],
+        &["replay", "t", "--model", "m.json", "--out"],
+        &["report", "r", "--out"],
+        &["report", "r", "--plots"],
+        &["reproduce", "--out"],
+        &["reproduce", "merge", "s1", "--out"],
+    ];
+    let refused = |args: &[&str], out: &str, says: &str| {
+        let mut all = args.to_vec();
+        all.push(out);
+        let e = fails(&tmo(d, &all));
+        assert!(e.contains(says), "{all:?}: {e}");
+    };
+    for args in file_outputs {
+        refused(args, "", "unset variable");
+        refused(args, "link", "symbolic link");
+        refused(args, "fifo", "FIFO");
+    }
+    for args in dir_outputs {
+        refused(args, "", "unset variable");
+        refused(args, "-", "standard output");
+        refused(args, "fifo", "not a directory");
+        refused(args, "precious.csv", "not a directory");
+    }
+    assert_eq!(std::fs::read(&precious).unwrap(), b"keep");
+    let link = std::fs::symlink_metadata(d.join("link")).unwrap();
+    assert!(link.file_type().is_symlink());
+    use std::os::unix::fs::FileTypeExt;
+    assert!(std::fs::symlink_metadata(&fifo)
+        .unwrap()
+        .file_type()
+        .is_fifo());
+    // nothing else was made
+    let mut names: Vec<String> = std::fs::read_dir(d)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    names.sort();
+    assert_eq!(names, ["fifo", "link", "precious.csv"]);
+}

@@ -421,6 +421,62 @@ fn a_reproduction_killed_mid_way_resumes_without_rerunning_finished_steps() {
     assert!(out.contains("held-out findings:"), "{out}");
     same_results(d, "r", "seq");
 
+    // T4-1: merges into one --out at once (a requeued cluster job): one succeeds, the
+    // others are refused, and no input shard loses a byte; an --out inside an input is
+    // refused before anything is written.
+    let shard_bytes = || -> Vec<(std::path::PathBuf, Vec<u8>)> {
+        ["part1", "part2"]
+            .iter()
+            .flat_map(|p| walk(&d.join(p)))
+            .map(|f| {
+                let bytes = std::fs::read(&f).unwrap();
+                (f, bytes)
+            })
+            .collect()
+    };
+    let before = shard_bytes();
+    let merges: Vec<_> = (0..4)
+        .map(|_| {
+            Command::new(env!("CARGO_BIN_EXE_tmo"))
+                .current_dir(d)
+                .args(["reproduce", "merge", "part1", "part2", "--out", "twice"])
+                .stdout(Stdio::null())
+                .stderr(Stdio::piped())
+                .spawn()
+                .unwrap()
+        })
+        .collect();
+    let ends: Vec<_> = merges
+        .into_iter()
+        .map(|m| m.wait_with_output().unwrap())
+        .collect();
+    let succeeded = ends.iter().filter(|o| o.status.success()).count();
+    assert_eq!(succeeded, 1, "{ends:?}");
+    for e in ends.iter().filter(|o| !o.status.success()) {
+        assert_eq!(e.status.code(), Some(2), "{e:?}");
+    }
+    assert!(before == shard_bytes(), "an input shard changed");
+    same_results(d, "r", "twice");
+    let e = fails(&tmo(
+        d,
+        &["reproduce", "merge", "part1", "part2", "--out", "twice"],
+    ));
+    assert!(e.contains("already holds a reproduction"), "{e}");
+    let e = fails(&tmo(
+        d,
+        &[
+            "reproduce",
+            "merge",
+            "part1",
+            "part2",
+            "--out",
+            "part1/replicate-01/sub",
+        ],
+    ));
+    assert!(e.contains("lies inside the input"), "{e}");
+    assert!(!d.join("part1/replicate-01/sub").exists());
+    assert!(before == shard_bytes(), "an input shard changed");
+
     // In two stages: the two replicates' sweeps dealt over three parts, then the other
     // steps in two shards that join the parts' rows; the same sweeps and findings.
     for k in 1..=3 {

@@ -19,7 +19,7 @@ pub struct CsvArgs {
     #[arg(required = true)]
     files: Vec<PathBuf>,
     /// Directory for the logs, one `<trial>.mcap` per trial (a split's trials in DIR/<split>/).
-    #[arg(long, value_parser = super::output::a_path)]
+    #[arg(long, value_parser = super::output::a_dir)]
     out: PathBuf,
     /// What the sensor is (e.g. xela-uskin-4x4), recorded with every trial.
     #[arg(long, default_value = "unnamed")]

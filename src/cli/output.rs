@@ -128,13 +128,46 @@ pub fn is_stdout(path: &std::path::Path) -> bool {
     path.as_os_str() == "-"
 }
 
-/// An `--out` that must be a path: the command writes a directory or several files, so
-/// `-` (standard output) cannot stand for it and would only make a file named `-`.
-pub fn a_path(s: &str) -> Result<std::path::PathBuf, String> {
-    if s == "-" {
-        return Err("`-` (standard output) cannot hold what this command writes (a directory or several files); give a path. `tmo dataset export` and `tmo evaluate` take `--out -`".into());
+const EMPTY: &str =
+    "an empty path (an unset variable?) would write into the current directory; give a path";
+
+const NOT_STDOUT: &str = "`-` (standard output) cannot hold what this command writes (a directory or several files); give a path. `tmo dataset export` and `tmo evaluate` take `--out -`";
+
+// The value parsers below are the one check of every `--out`: an output is never empty,
+// and it is refused before any work if writing it would replace something that is not an
+// output (tmo::output::target). The writers check again when they write.
+
+/// An `--out` that is a directory of outputs.
+pub fn a_dir(s: &str) -> Result<std::path::PathBuf, String> {
+    match s {
+        "" => Err(EMPTY.into()),
+        "-" => Err(NOT_STDOUT.into()),
+        _ => {
+            tmo::output::target::check_dir(s.as_ref()).map_err(|e| e.to_string())?;
+            Ok(s.into())
+        }
     }
-    Ok(s.into())
+}
+
+/// An `--out` that is one file (with, perhaps, files named after it beside it).
+pub fn a_file(s: &str) -> Result<std::path::PathBuf, String> {
+    match s {
+        "" => Err(EMPTY.into()),
+        "-" => Err(NOT_STDOUT.into()),
+        _ => {
+            tmo::output::target::check_file(s.as_ref()).map_err(|e| e.to_string())?;
+            Ok(s.into())
+        }
+    }
+}
+
+/// An `--out` that is a file or `-` (standard output).
+pub fn a_file_or_stdout(s: &str) -> Result<std::path::PathBuf, String> {
+    match s {
+        "" => Err(EMPTY.into()),
+        "-" => Ok(s.into()),
+        _ => a_file(s),
+    }
 }
 
 #[cfg(test)]
@@ -157,6 +190,25 @@ mod tests {
         // a value clap will refuse leaves the choice as it was; after `--` nothing is an option
         assert_eq!(color(&["tmo", "--color", "sometimes"]), ColorWhen::Auto);
         assert_eq!(color(&["tmo", "--", "--color=never"]), ColorWhen::Auto);
+    }
+
+    #[test]
+    fn an_empty_output_path_is_refused_and_dash_only_where_standard_output_can_take_it() {
+        for parse in [a_dir, a_file, a_file_or_stdout] {
+            assert!(parse("").unwrap_err().contains("unset variable"));
+        }
+        assert!(a_dir("-").is_err() && a_file("-").is_err());
+        assert_eq!(a_dir("r").unwrap(), std::path::PathBuf::from("r"));
+        assert_eq!(
+            a_file_or_stdout("-").unwrap(),
+            std::path::PathBuf::from("-")
+        );
+        // only looked at: a device is neither a file nor a directory of outputs
+        assert!(a_file("/dev/null")
+            .unwrap_err()
+            .contains("character device"));
+        assert!(a_file_or_stdout("/dev/full").is_err());
+        assert!(a_dir("/dev/null").unwrap_err().contains("not a directory"));
     }
 
     #[test]

@@ -33,7 +33,7 @@ pub struct ReplayArgs {
     )]
     strategy: Vec<String>,
     /// Also write replay.csv (one line per trial, model and strategy) and replay.md here.
-    #[arg(long, value_parser = super::output::a_path)]
+    #[arg(long, value_parser = super::output::a_dir)]
     out: Option<PathBuf>,
     /// Print the table and every replay's outcome as JSON instead of as text.
     #[arg(long)]

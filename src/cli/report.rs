@@ -16,10 +16,10 @@ pub struct ReportArgs {
     format: Format,
     /// Also write each table to DIR/<table>.<md|csv|json> (with html: the page to
     /// DIR/report.html, figures inline when --plots draws them).
-    #[arg(long, value_parser = super::output::a_path)]
+    #[arg(long, value_parser = super::output::a_dir)]
     out: Option<PathBuf>,
     /// Draw the figures (SVG and PNG) into DIR.
-    #[arg(long)]
+    #[arg(long, value_parser = super::output::a_dir)]
     plots: Option<PathBuf>,
     /// Only the table of this name (the names are those of --out's files); CSV on standard
     /// output holds one table, so with several this picks it.

@@ -77,7 +77,7 @@ pub struct ReproduceArgs {
     #[arg(long, value_delimiter = ',', requires = "sensitivity")]
     sensitivity_parameters: Vec<String>,
     /// Where every step's outputs and the findings report go.
-    #[arg(long, value_parser = super::output::a_path, default_value = "results/paper")]
+    #[arg(long, value_parser = super::output::a_dir, default_value = "results/paper")]
     out: PathBuf,
     /// Finish or update a reproduction in --out: steps whose inputs are unchanged are kept.
     #[arg(long)]
@@ -109,7 +109,7 @@ struct MergeArgs {
     #[arg(required = true)]
     shards: Vec<PathBuf>,
     /// Where the joined reproduction and its findings report go (it must hold none yet).
-    #[arg(long, value_parser = super::output::a_path, default_value = "results/paper")]
+    #[arg(long, value_parser = super::output::a_dir, default_value = "results/paper")]
     out: PathBuf,
 }
 

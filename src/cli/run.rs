@@ -29,7 +29,7 @@ pub struct RunArgs {
     #[arg(long, value_enum, default_value = "sim")]
     backend: Backend,
     /// Batch directory (default results/<protocol name>).
-    #[arg(long, value_parser = super::output::a_path)]
+    #[arg(long, value_parser = super::output::a_dir)]
     out: Option<PathBuf>,
     /// Overrides the protocol's seed.
     #[arg(long)]

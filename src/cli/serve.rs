@@ -25,7 +25,7 @@ pub struct ServeArgs {
     #[arg(long)]
     hardware: PathBuf,
     /// Where to write the served hardware file (ports replaced by the served ones).
-    #[arg(long, value_parser = super::output::a_path, default_value = "served-hardware.toml")]
+    #[arg(long, value_parser = super::output::a_file, default_value = "served-hardware.toml")]
     out: PathBuf,
     /// Which rig: the hand over the table, or the single finger on the slip rail (served
     /// with one fingertip camera).

@@ -49,7 +49,7 @@ pub struct CollectArgs {
     config: Option<PathBuf>,
     /// Output directory; trials already there are kept and not run again (they must be this
     /// collection's own: another rig, object, grasp or seed is refused).
-    #[arg(long, value_parser = super::output::a_path, default_value = "trials/collect")]
+    #[arg(long, value_parser = super::output::a_dir, default_value = "trials/collect")]
     out: PathBuf,
 }
 
@@ -83,7 +83,7 @@ pub struct TraceArgs {
     #[arg(long)]
     no_faults: bool,
     /// Output directory.
-    #[arg(long, value_parser = super::output::a_path, default_value = "results/trace")]
+    #[arg(long, value_parser = super::output::a_dir, default_value = "results/trace")]
     out: PathBuf,
 }
 

@@ -51,8 +51,8 @@ pub struct ExportArgs {
     /// --downsample do not apply).
     #[arg(long, value_enum, default_value = "features")]
     format: ExportFormat,
-    /// The CSV file to write.
-    #[arg(long)]
+    /// The CSV file to write (`-`: standard output).
+    #[arg(long, value_parser = super::output::a_file_or_stdout)]
     out: PathBuf,
 }
 
@@ -119,7 +119,7 @@ pub struct TrainArgs {
     #[arg(long)]
     strict: bool,
     /// The model file to write (JSON, docs/formats.md).
-    #[arg(long, value_parser = super::output::a_path)]
+    #[arg(long, value_parser = super::output::a_file)]
     out: PathBuf,
 }
 
@@ -136,8 +136,8 @@ pub struct EvaluateArgs {
     /// Trial logs (.mcap) or directories of them.
     #[arg(required = true)]
     trials: Vec<PathBuf>,
-    /// Also write the scores as JSON (for `tmo report`).
-    #[arg(long)]
+    /// Also write the scores as JSON (for `tmo report`; `-`: standard output).
+    #[arg(long, value_parser = super::output::a_file_or_stdout)]
     out: Option<PathBuf>,
     /// Print the scores as JSON (the `--out` file's contents) instead of as text.
     #[arg(long)]
@@ -340,7 +340,7 @@ fn check_model_out(out: &std::path::Path) -> Result<()> {
     }
     // The model is written beside its final name first; that file must be creatable.
     let partial = out.with_extension("json.partial");
-    std::fs::write(&partial, b"")
+    tmo::output::atomic::create_fresh(&partial)
         .with_context(|| format!("--out {}: cannot write there", out.display()))?;
     let _ = std::fs::remove_file(&partial);
     Ok(())

@@ -98,7 +98,7 @@ pub struct SweepArgs {
     #[arg(long, value_name = "K/N")]
     shard: Option<Shard>,
     /// The CSV to write; its provenance goes beside it as .json, its heatmaps as .png.
-    #[arg(long, value_parser = super::output::a_path, default_value = "results/sweep.csv")]
+    #[arg(long, value_parser = super::output::a_file, default_value = "results/sweep.csv")]
     out: PathBuf,
     /// Print the best cells and the files written as JSON instead of as text (progress
     /// and notes go to standard error).
@@ -118,7 +118,7 @@ struct MergeArgs {
     #[arg(required = true)]
     shards: Vec<PathBuf>,
     /// The merged CSV to write (its provenance .json and figures beside it).
-    #[arg(long, value_parser = super::output::a_path, default_value = "results/sweep.csv")]
+    #[arg(long, value_parser = super::output::a_file, default_value = "results/sweep.csv")]
     out: PathBuf,
 }
 

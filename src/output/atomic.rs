@@ -15,6 +15,19 @@ pub fn partial_path(path: &Path) -> PathBuf {
     path.with_file_name(name)
 }
 
+/// A new file at `path`, never opened through what was there: a temporary left by a
+/// crash (or planted as a link to another file) is removed, not truncated.
+pub fn create_fresh(path: &Path) -> io::Result<File> {
+    match std::fs::remove_file(path) {
+        Err(e) if e.kind() != io::ErrorKind::NotFound => return Err(e),
+        _ => {}
+    }
+    std::fs::OpenOptions::new()
+        .write(true)
+        .create_new(true)
+        .open(path)
+}
+
 /// Writes `bytes` to `path` whole or not at all.
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> io::Result<()> {
     let mut f = AtomicFile::create(path)?;
@@ -32,9 +45,12 @@ pub struct AtomicFile {
 }
 
 impl AtomicFile {
+    /// Refuses a target that is not absent or a regular file ([`super::target::check_file`]):
+    /// the rename at commit would replace a device node or a link.
     pub fn create(path: &Path) -> io::Result<Self> {
+        super::target::check_file(path)?;
         let tmp = partial_path(path);
-        let file = BufWriter::new(File::create(&tmp)?);
+        let file = BufWriter::new(create_fresh(&tmp)?);
         Ok(Self {
             path: path.to_path_buf(),
             tmp,
@@ -91,5 +107,36 @@ mod tests {
         f.commit().unwrap();
         assert_eq!(std::fs::read(&path).unwrap(), b"new");
         assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 1);
+    }
+
+    #[cfg(unix)]
+    #[test]
+    fn a_link_or_a_device_is_never_written_through_or_replaced() {
+        let dir = tempfile::tempdir().unwrap();
+        let precious = dir.path().join("precious");
+        std::fs::write(&precious, "keep").unwrap();
+        // the output itself a link: refused, the link and its target as they were
+        let link = dir.path().join("out.csv");
+        std::os::unix::fs::symlink(&precious, &link).unwrap();
+        let e = write_atomic(&link, b"new").unwrap_err();
+        assert!(e.to_string().contains("symbolic link"), "{e}");
+        assert!(std::fs::symlink_metadata(&link)
+            .unwrap()
+            .file_type()
+            .is_symlink());
+        // a stale temporary that links elsewhere is removed, not truncated through
+        let out = dir.path().join("t.csv");
+        std::os::unix::fs::symlink(&precious, partial_path(&out)).unwrap();
+        write_atomic(&out, b"new").unwrap();
+        assert_eq!(std::fs::read(&precious).unwrap(), b"keep");
+        assert_eq!(std::fs::read(&out).unwrap(), b"new");
+        // a node that is not a file (a FIFO here: no test touches the machine's devices)
+        let fifo = dir.path().join("fifo");
+        let name = std::ffi::CString::new(fifo.as_os_str().as_encoded_bytes()).unwrap();
+        // SAFETY: a valid C string; mkfifo only creates the node
+        assert_eq!(unsafe { libc::mkfifo(name.as_ptr(), 0o600) }, 0);
+        let e = write_atomic(&fifo, b"x").unwrap_err();
+        assert!(e.to_string().contains("FIFO"), "{e}");
+        assert!(!std::fs::metadata(&fifo).unwrap().is_file());
     }
 }

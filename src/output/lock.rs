@@ -4,7 +4,6 @@
 //! files with the first's. A lock left by a process that no longer runs (killed with -9),
 //! or whose process id now belongs to another program, is taken over.
 
-use std::io::Write;
 use std::path::{Path, PathBuf};
 
 #[derive(Debug, thiserror::Error)]
@@ -71,23 +70,34 @@ impl OutputLock {
                 source,
             })?;
         }
-        for _ in 0..2 {
-            match std::fs::OpenOptions::new()
-                .write(true)
-                .create_new(true)
-                .open(&path)
-            {
-                Ok(mut f) => {
-                    write!(f, "{}", std::process::id()).map_err(|source| LockError::Io {
-                        path: path.clone(),
-                        source,
-                    })?;
-                    return Ok(Self { path });
+        let io = |path: &Path| {
+            let path = path.to_path_buf();
+            move |source| LockError::Io { path, source }
+        };
+        // The lock appears with its process id already in it (a finished temporary linked
+        // to its name, which fails if the name is taken): a second writer never reads a
+        // lock half-written and takes it for a stale one.
+        let mut tmp = path.as_os_str().to_owned();
+        tmp.push(format!(".{}.new", std::process::id()));
+        let tmp = PathBuf::from(tmp);
+        let _ = std::fs::remove_file(&tmp);
+        std::fs::write(&tmp, std::process::id().to_string()).map_err(io(&tmp))?;
+        let result = Self::link_in(target, &path, &tmp);
+        let _ = std::fs::remove_file(&tmp);
+        result
+    }
+
+    fn link_in(target: &Path, path: &Path, tmp: &Path) -> Result<Self, LockError> {
+        for _ in 0..3 {
+            match std::fs::hard_link(tmp, path) {
+                Ok(()) => {
+                    return Ok(Self {
+                        path: path.to_path_buf(),
+                    })
                 }
                 Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => {
-                    let pid = std::fs::read_to_string(&path)
-                        .ok()
-                        .and_then(|t| t.trim().parse::<u32>().ok());
+                    let seen = std::fs::read_to_string(path).ok();
+                    let pid = seen.as_deref().and_then(|t| t.trim().parse::<u32>().ok());
                     match pid {
                         Some(pid) if pid != std::process::id() && a_tmo_runs_as(pid) => {
                             return Err(LockError::Held {
@@ -95,17 +105,33 @@ impl OutputLock {
                                 pid,
                             })
                         }
-                        // stale (its writer is gone) or half-written: take it over
+                        // stale (its writer is gone) or unreadable: moved aside under a
+                        // name of this process's own, so that of two processes taking it
+                        // over at once only one moves it; a lock that is not the one read
+                        // (another process took it over meanwhile) is put back.
                         _ => {
-                            let _ = std::fs::remove_file(&path);
+                            let mut aside = path.as_os_str().to_owned();
+                            aside.push(format!(".{}.stale", std::process::id()));
+                            let aside = PathBuf::from(aside);
+                            if std::fs::rename(path, &aside).is_ok() {
+                                if std::fs::read_to_string(&aside).ok() != seen {
+                                    let _ = std::fs::hard_link(&aside, path);
+                                }
+                                let _ = std::fs::remove_file(&aside);
+                            }
                         }
                     }
                 }
-                Err(source) => return Err(LockError::Io { path, source }),
+                Err(source) => {
+                    return Err(LockError::Io {
+                        path: path.to_path_buf(),
+                        source,
+                    })
+                }
             }
         }
         Err(LockError::Io {
-            path,
+            path: path.to_path_buf(),
             source: std::io::Error::other("could not take over a stale lock"),
         })
     }

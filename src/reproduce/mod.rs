@@ -715,6 +715,27 @@ fn finished_as_is(ctx: &steps::Context) -> Result<bool, ReproduceError> {
 
 /// `to` as a copy of the finished step `from`, its files hard-linked where the file system
 /// allows (a finished step's files are never written again) and copied where not.
+/// `to` made a new name of `from`'s file, or a new copy of it where links cannot be made
+/// (another file system). Never written through an existing `to`: that may be `from`
+/// itself under another name (a hard link a concurrent merge made), and copying onto it
+/// would truncate the input.
+fn link_or_copy(from: &Path, to: &Path) -> Result<(), ReproduceError> {
+    match std::fs::hard_link(from, to) {
+        Ok(()) => Ok(()),
+        Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => Err(io(to)(e)),
+        Err(_) => {
+            let mut src = std::fs::File::open(from).map_err(io(from))?;
+            let mut dst = std::fs::OpenOptions::new()
+                .write(true)
+                .create_new(true)
+                .open(to)
+                .map_err(io(to))?;
+            std::io::copy(&mut src, &mut dst).map_err(io(to))?;
+            Ok(())
+        }
+    }
+}
+
 fn link_tree(from: &Path, to: &Path) -> Result<(), ReproduceError> {
     std::fs::create_dir_all(to).map_err(io(to))?;
     for entry in std::fs::read_dir(from).map_err(io(from))? {
@@ -722,8 +743,8 @@ fn link_tree(from: &Path, to: &Path) -> Result<(), ReproduceError> {
         let target = to.join(path.file_name().expect("a directory entry has a name"));
         if path.is_dir() {
             link_tree(&path, &target)?;
-        } else if std::fs::hard_link(&path, &target).is_err() {
-            std::fs::copy(&path, &target).map_err(io(&target))?;
+        } else {
+            link_or_copy(&path, &target)?;
         }
     }
     Ok(())

@@ -198,6 +198,13 @@ pub struct Merged {
 /// Joins the finished shards in `dirs` into `out` (which must hold no reproduction yet)
 /// and writes the findings report there.
 pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<Merged, ReproduceError> {
+    // The output apart from every input (else the merge links into what it reads, a tree
+    // without end), and this merge its only writer before anything of it is looked at: two
+    // merges into one --out (a requeued cluster job) must not both find it empty.
+    crate::output::target::check_dir(out).map_err(|e| ReproduceError::step("merge", e))?;
+    crate::output::target::check_apart(out, dirs).map_err(|e| ReproduceError::step("merge", e))?;
+    let _lock = crate::output::lock::OutputLock::acquire(out)
+        .map_err(|e| ReproduceError::step("merge", e))?;
     let parts = check_parts(dirs)?;
     let plan = parts[0].1.plan.clone();
     let preset = match plan.preset.as_str() {
@@ -242,8 +249,6 @@ pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<Merged, ReproduceError> {
         return Err(ReproduceError::AlreadyThere(out.to_path_buf()));
     }
     std::fs::create_dir_all(out).map_err(io(out))?;
-    let _lock = crate::output::lock::OutputLock::acquire(out)
-        .map_err(|e| ReproduceError::step("merge", e))?;
     for (dir, record) in &parts {
         for job in &record.jobs {
             let from = dir.join(&job.dir);

@@ -24,6 +24,8 @@ pub enum SweepFileError {
     Csv { path: PathBuf, message: String },
     #[error(transparent)]
     Lock(#[from] crate::output::lock::LockError),
+    #[error(transparent)]
+    Target(#[from] crate::output::target::TargetError),
     #[error("{0} holds cells of an interrupted sweep: pass --resume to finish it, or delete it")]
     PartialThere(PathBuf),
     #[error("{path} holds cells of a different sweep: it was made with `{was}`, this one asks `{now}`; choose another --out, or delete it")]
@@ -118,9 +120,15 @@ fn drop_torn_last_line(path: &Path) -> Result<bool, SweepFileError> {
 
 /// Writes `rows` to `path` through a temporary file.
 pub fn write_rows(path: &Path, rows: &[SweepRow]) -> Result<(), SweepFileError> {
+    let io = |p: &Path| {
+        let p = p.to_path_buf();
+        move |source| SweepFileError::Io { path: p, source }
+    };
+    crate::output::target::check_file(path)?;
     let tmp = partial_path(&path.with_extension("writing"));
     {
-        let mut w = csv::Writer::from_path(&tmp).map_err(csv_error(&tmp))?;
+        let file = crate::output::atomic::create_fresh(&tmp).map_err(io(&tmp))?;
+        let mut w = csv::Writer::from_writer(file);
         for r in rows {
             w.serialize(r).map_err(csv_error(&tmp))?;
         }
@@ -239,6 +247,8 @@ pub fn run_to_file(
 ) -> Result<SweepResult, SweepFileError> {
     let (out, resume, stop) = (target.out, target.resume, target.stop);
     let _lock = crate::output::lock::OutputLock::acquire(out)?;
+    crate::output::target::check_file(out)?;
+    crate::output::target::check_file(&partial_path(out))?;
     let partial = partial_path(out);
     let mut cut_torn_line = false;
     let done: Vec<SweepRow> = if resume {

@@ -361,9 +361,10 @@ pub fn write_trial(path: &Path, trial: &Trial) -> Result<(), TrialError> {
     if let Some(dir) = path.parent() {
         fs::create_dir_all(dir).map_err(io)?;
     }
+    crate::output::target::check_file(path).map_err(|e| io(e.into()))?;
     let tmp = path.with_extension("mcap.partial");
     {
-        let file = fs::File::create(&tmp).map_err(io)?;
+        let file = crate::output::atomic::create_fresh(&tmp).map_err(io)?;
         let mut w = mcap::WriteOptions::new()
             .compression(Some(mcap::Compression::Zstd))
             // Level 1: on the paper preset's 240 hand-release trials it wrote 38 % of the
