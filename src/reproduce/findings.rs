@@ -24,7 +24,7 @@ pub enum Rule {
         #[serde(default)]
         by: f64,
     },
-    /// `lo <= metric <= hi`; "partly" when only its 95 % interval reaches the range.
+    /// `lo <= metric <= hi`; "not resolved" when its 95 % interval crosses an edge.
     Within { metric: String, lo: f64, hi: f64 },
     /// `metric` above every one of `among`.
     Largest { metric: String, among: Vec<String> },
@@ -48,6 +48,13 @@ pub struct Finding {
     /// `[coef, k, n]` terms of a sum of rates (`[[1, 10, 50]]` for 10 of 50).
     #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
     pub paper_counts: BTreeMap<String, Vec<(f64, u64, u64)>>,
+    /// The value lens: the paper's number for a metric of the rule, and how far from it
+    /// ours may lie (`[paper, tolerance]`), written before any run that used it.
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    pub value: BTreeMap<String, (f64, f64)>,
+    /// Why each tolerance is what it is.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub value_why: Option<String>,
 }
 
 #[derive(Debug, serde::Deserialize)]
@@ -101,6 +108,23 @@ pub fn parse(text: &str, origin: &str) -> Result<Vec<Finding>, FindingsError> {
                 )));
             }
         }
+        for (metric, &(paper, tolerance)) in &f.value {
+            if !f.rule.metrics().contains(&metric.as_str()) {
+                return Err(invalid(format!(
+                    "value names `{metric}`, which its rule does not read"
+                )));
+            }
+            if !(paper.is_finite() && tolerance.is_finite() && tolerance >= 0.0) {
+                return Err(invalid(format!(
+                    "value `{metric}`: expected [paper, tolerance] with a finite number and a tolerance >= 0"
+                )));
+            }
+        }
+        if f.value.is_empty() != f.value_why.is_none() {
+            return Err(invalid(
+                "value and value_why go together: the tolerance needs its reason".into(),
+            ));
+        }
     }
     Ok(file.finding)
 }
@@ -116,13 +140,13 @@ pub fn paper() -> Vec<Finding> {
 pub enum Reproduced {
     /// The claim holds with its 95 % interval clear of the rule's margin.
     Yes,
-    /// `within`: the interval reaches into the range and out of it; `exceeds` with a
-    /// margin: clearly above, and clearly by less than the margin; `decreasing`: at least
-    /// half of its steps clearly hold and one clearly fails.
+    /// Only for a claim with parts: `exceeds` with a margin, whose direction clearly holds
+    /// and whose size clearly does not (above, and clearly by less than the margin);
+    /// `decreasing`, at least half of whose steps clearly hold and one clearly fails.
     Partly,
     /// The opposite holds with its interval clear.
     No,
-    /// The interval straddles the rule's margin: the data cannot tell.
+    /// The interval straddles the rule's margin (or a range's edge): the data cannot tell.
     NotResolved,
     /// A metric the rule needs was not measured (a step did not run or gave nothing).
     NotMeasured,
@@ -211,13 +235,14 @@ impl Rule {
         }
     }
 
-    /// The differences the rule reads, with their intervals.
-    pub fn comparisons(&self, m: &Measures) -> Vec<Comparison> {
+    /// The differences the rule reads, with their intervals (a bootstrap drawing from
+    /// `seed`: the finding's own, [`super::evidence::seed_of`] its id).
+    pub fn comparisons(&self, m: &Measures, seed: u64) -> Vec<Comparison> {
         self.pairs()
             .into_iter()
             .filter_map(|(a, b)| {
                 let (x, y) = (m.get(a)?, m.get(b)?);
-                let (difference, interval) = super::evidence::difference(x, y);
+                let (difference, interval) = super::evidence::difference(x, y, seed);
                 Some(Comparison {
                     metric: a.into(),
                     than: b.into(),
@@ -230,13 +255,18 @@ impl Rule {
 
     /// Applies the rule to `m`, with the measures' intervals (docs/reproduce.md).
     pub fn judge(&self, m: &Measures) -> Reproduced {
+        self.judge_seeded(m, 0)
+    }
+
+    /// [`Rule::judge`], with the bootstraps of its differences drawn from `seed`.
+    pub fn judge_seeded(&self, m: &Measures, seed: u64) -> Reproduced {
         for name in self.metrics() {
             if !m.get(name).is_some_and(|v| v.value.is_finite()) {
                 return Reproduced::NotMeasured;
             }
         }
-        let steps: Vec<Reproduced> = self
-            .comparisons(m)
+        let comparisons = self.comparisons(m, seed);
+        let steps: Vec<Reproduced> = comparisons
             .iter()
             .map(|c| exceeds(c.difference, c.interval, 0.0))
             .collect();
@@ -249,7 +279,7 @@ impl Rule {
                 }
             }
             Rule::Exceeds { by, .. } => {
-                let c = &self.comparisons(m)[0];
+                let c = &comparisons[0];
                 exceeds(c.difference, c.interval, *by)
             }
             Rule::Within { metric, lo, hi } => {
@@ -257,7 +287,8 @@ impl Rule {
                 match v.interval {
                     Some((a, b)) if a >= *lo && b <= *hi => Reproduced::Yes,
                     Some((a, b)) if b < *lo || a > *hi => Reproduced::No,
-                    Some(_) => Reproduced::Partly,
+                    // a range is one claim: an interval across its edge cannot tell
+                    Some(_) => Reproduced::NotResolved,
                     None if (*lo..=*hi).contains(&v.value) => Reproduced::Yes,
                     None => Reproduced::No,
                 }
@@ -341,6 +372,7 @@ pub fn judge_all(findings: &[Finding], m: &Measures, replicates: &[Measures]) ->
     findings
         .iter()
         .map(|f| {
+            let seed = super::evidence::seed_of(&f.id);
             let measured = |r: &Measures| f.rule.metrics().iter().all(|k| r.contains_key(*k));
             let counted: Vec<&Measures> = replicates.iter().filter(|r| measured(r)).collect();
             Judged {
@@ -351,8 +383,8 @@ pub fn judge_all(findings: &[Finding], m: &Measures, replicates: &[Measures]) ->
                     .into_iter()
                     .map(|k| (k.to_string(), m.get(k).cloned()))
                     .collect(),
-                comparisons: f.rule.comparisons(m),
-                reproduced: f.rule.judge(m),
+                comparisons: f.rule.comparisons(m, seed),
+                reproduced: f.rule.judge_seeded(m, seed),
                 held_in: (
                     counted.iter().filter(|r| f.rule.holds_at_point(r)).count() as u32,
                     counted.len() as u32,
@@ -501,11 +533,16 @@ mod tests {
         };
         let mut m = measures(&[("d", 30.0)]);
         assert_eq!(rule.judge(&m), Reproduced::Yes);
+        // a range is one claim, with no parts: an interval across an edge cannot tell
         m.insert("d".into(), Measure::with_interval(8.0, (6.0, 11.0)));
-        assert_eq!(rule.judge(&m), Reproduced::Partly);
-        // inside, but the interval leaves the range: not clear
+        assert_eq!(rule.judge(&m), Reproduced::NotResolved);
         m.insert("d".into(), Measure::with_interval(45.0, (40.0, 55.0)));
-        assert_eq!(rule.judge(&m), Reproduced::Partly);
+        assert_eq!(rule.judge(&m), Reproduced::NotResolved);
+        // at the edges themselves: inside
+        m.insert("d".into(), Measure::with_interval(10.0, (10.0, 50.0)));
+        assert_eq!(rule.judge(&m), Reproduced::Yes);
+        m.insert("d".into(), Measure::with_interval(9.0, (8.0, 9.999)));
+        assert_eq!(rule.judge(&m), Reproduced::No);
         m.insert("d".into(), Measure::with_interval(45.0, (40.0, 50.0)));
         assert_eq!(rule.judge(&m), Reproduced::Yes);
         m.insert("d".into(), Measure::exact(4.0));
@@ -611,9 +648,9 @@ mod tests {
             rule.judge(&m)
         };
         assert_eq!(judge(375, 500), Reproduced::Yes); // 0.75 [0.71, 0.79]
-        assert_eq!(judge(15, 20), Reproduced::Partly); // 0.75 [0.53, 0.89]: not clear
+        assert_eq!(judge(15, 20), Reproduced::NotResolved); // 0.75 [0.53, 0.89]: not clear
         assert_eq!(judge(10, 200), Reproduced::No); // 0.05, far below
-        assert_eq!(judge(11, 20), Reproduced::Partly); // below, interval reaches in
+        assert_eq!(judge(11, 20), Reproduced::NotResolved); // below, interval reaches in
     }
 
     #[test]

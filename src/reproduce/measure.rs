@@ -58,9 +58,12 @@ pub fn rate<T>(rows: &[&T], keep: impl Fn(&T) -> bool) -> Option<Measure> {
     Some(Measure::proportion(k, rows.len() as u64))
 }
 
-/// A mean over trials with a bootstrap 95 % interval (fixed seed).
+/// A mean over trials with a bootstrap 95 % interval (seeded by the metric's name when
+/// [`put`] stores it).
 pub fn mean(values: &[f64]) -> Option<Measure> {
-    Measure::mean_of(values.to_vec())
+    let mut m = Measure::mean_of("", values.to_vec())?;
+    m.interval = None;
+    Some(m)
 }
 
 /// The difference of two rates, `a - b`, with its Newcombe interval.
@@ -142,10 +145,28 @@ pub fn spearman(x: &[f64], y: &[f64]) -> Option<f64> {
     (sxx > 0.0 && syy > 0.0).then(|| sxy / (sxx * syy).sqrt())
 }
 
+/// Stores `v` as `name`; a mean over trials gets its bootstrap interval here, from
+/// resamples of its own (seeded by the name).
 fn put(m: &mut Measures, name: &str, v: Option<Measure>) {
-    if let Some(v) = v {
+    if let Some(mut v) = v {
+        if let (Basis::Samples(values), None) = (&v.basis, v.interval) {
+            v.interval = Some(super::evidence::bootstrap_mean(
+                values,
+                super::evidence::seed_of(name),
+            ));
+        }
         m.insert(name.to_string(), v);
     }
+}
+
+/// A share of rows or cells measured once per replicate (grid cells, frames): not
+/// independent trials, so no interval of its own; the replicates' spread gives one.
+fn share(k: usize, n: usize) -> Option<Measure> {
+    (n > 0).then(|| {
+        let mut m = Measure::exact(k as f64 / n as f64).in_domain((0.0, 1.0));
+        m.n = Some(n as u64);
+        m
+    })
 }
 
 fn completed(rows: &[OutcomeRow]) -> Vec<&OutcomeRow> {
@@ -229,11 +250,10 @@ fn sweep_measures(m: &mut Measures, rows: &[SweepRow]) {
         })
         .collect();
     if !pairs.is_empty() {
-        let refs: Vec<&bool> = pairs.iter().collect();
         put(
             m,
             "rail.offline.svm_beats_logreg_share",
-            rate(&refs, |b| *b),
+            share(pairs.iter().filter(|b| **b).count(), pairs.len()),
         );
     }
     let part = |few: bool| -> Vec<f64> {
@@ -359,15 +379,18 @@ fn object_measures(m: &mut Measures, rows: &[OutcomeRow]) {
     for s in ["2Fr2Sen", "1Fr2Sen"] {
         let mine = select(&|r| r.strategy == s);
         put(m, &format!("objects.tp.{s}"), rate(&mine, &tp));
-        put(
-            m,
-            &format!("objects.fp.{s}"),
-            rate(&mine, reacted_before_slip),
-        );
+        // FN and FP of the same trials: rates that know their trials, so that their
+        // difference takes the paired interval
+        let trials = format!("objects.{s}");
+        let hits = |keep: &dyn Fn(&OutcomeRow) -> bool| -> Option<Measure> {
+            (!mine.is_empty())
+                .then(|| Measure::share_of(&trials, mine.iter().map(|r| keep(r)).collect()))
+        };
+        put(m, &format!("objects.fp.{s}"), hits(&reacted_before_slip));
         put(
             m,
             &format!("objects.fn.{s}"),
-            rate(&mine, is(Verdict::FalseNegative)),
+            hits(&is(Verdict::FalseNegative)),
         );
     }
     let training = |r: &OutcomeRow| TRAINING_OBJECTS.contains(&r.object.as_str());
@@ -439,17 +462,18 @@ pub fn measure(o: &Observations) -> Measures {
                 );
             }
         }
-        let slip_refs: Vec<&f64> = slip.iter().collect();
         put(
             &mut m,
             "rail.pin_speed.slip_below_threshold",
-            rate(&slip_refs, |v| *v < threshold),
+            share(slip.iter().filter(|v| **v < threshold).count(), slip.len()),
         );
     }
     put(
         &mut m,
         "online.classify_ms",
-        o.classify_ms.map(Measure::exact),
+        // a time cannot be negative: the replicates' t interval is cut at 0 (T4-4)
+        o.classify_ms
+            .map(|ms| Measure::exact(ms).in_domain((0.0, f64::INFINITY))),
     );
     if let Some(rows) = o.rail_online {
         rail_online_measures(&mut m, rows);
@@ -536,7 +560,9 @@ mod tests {
         assert_eq!(r.value, 0.5);
         let (lo, hi) = r.interval.unwrap();
         assert!(lo < 0.5 && hi > 0.5);
-        let m = mean(&[10.0, 20.0, 30.0]).unwrap();
+        let mut measures = Measures::new();
+        put(&mut measures, "d", mean(&[10.0, 20.0, 30.0]));
+        let m = &measures["d"];
         assert_eq!(m.value, 20.0);
         let (lo, hi) = m.interval.unwrap();
         assert!(

@@ -710,7 +710,7 @@ mod tests {
         assert!(show(&f1).starts_with("0.880 [0.8"), "{}", show(&f1));
         assert_eq!(show(&Measure::exact(15.0)), "15.0");
         // an interval reads with its value's decimals
-        let d = Measure::mean_of(vec![9.5, 11.0, 12.5, 10.0, 13.0]).unwrap();
+        let d = Measure::mean_of("d", vec![9.5, 11.0, 12.5, 10.0, 13.0]).unwrap();
         assert!(
             show(&d).starts_with("11.2 [") && show(&d).ends_with("(n=5)"),
             "{}",
