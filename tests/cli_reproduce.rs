@@ -28,8 +28,12 @@ fn the_quick_preset_writes_every_step_and_the_findings_report() {
             "rail.rail_mu",
         ],
     ));
-    assert!(out.contains("held-out findings: "), "{out}");
-    assert!(out.contains("calibrated findings: "), "{out}");
+    assert!(
+        out.contains("evidence (pre-registered or never-seen findings): "),
+        "{out}"
+    );
+    assert!(out.contains("  calibrated: rule "), "{out}");
+    assert!(out.contains("  pipeline check: rule "), "{out}");
     assert!(out.contains("findings.html"), "{out}");
     assert!(out.contains("ground truth"), "{out}");
     for step in [
@@ -69,13 +73,15 @@ fn the_quick_preset_writes_every_step_and_the_findings_report() {
     let findings = json["findings"].as_array().unwrap();
     assert!(findings.len() >= 25);
     assert_eq!(json["replicates"], 1);
-    // held-out and calibrated findings are counted apart, and add up to all of them
-    let total = |k: &str| json[k]["total"].as_u64().unwrap();
-    assert_eq!(
-        total("held_out") + total("calibrated"),
-        findings.len() as u64
-    );
-    assert!(total("calibrated") > 0);
+    // every finding has one standing: the standings' counts add up to all of them
+    let standings = json["standings"].as_array().unwrap();
+    let total: u64 = standings
+        .iter()
+        .map(|t| t["shape"]["total"].as_u64().unwrap())
+        .sum();
+    assert_eq!(total, findings.len() as u64);
+    assert!(standings.iter().any(|t| t["standing"] == "calibrated"));
+    assert!(findings.iter().all(|f| f["standing"].is_string()));
     // every finding was measured: each step gave what its rows read. Slip distances are
     // means over caught trials only, and the quick preset's three trials per strategy may
     // catch none with some strategy, so those rows need only be measured somewhere.
@@ -210,7 +216,7 @@ fn the_quick_preset_writes_every_step_and_the_findings_report() {
 
     // the report again from the finished steps, running nothing (and with no study)
     let again = ok(&tmo(d, &["reproduce", "--out", "paper", "--findings-only"]));
-    assert!(again.contains("held-out findings: "), "{again}");
+    assert!(again.contains("evidence (pre-registered"), "{again}");
     let rewritten = std::fs::read_to_string(d.join("paper/findings.md")).unwrap();
     assert_eq!(
         rewritten.lines().take(3).collect::<Vec<_>>(),
@@ -418,7 +424,7 @@ fn a_reproduction_killed_mid_way_resumes_without_rerunning_finished_steps() {
         &["reproduce", "merge", "part2", "part1", "--out", "seq"],
     ));
     assert!(out.contains("merged 2 shards (2 jobs"), "{out}");
-    assert!(out.contains("held-out findings:"), "{out}");
+    assert!(out.contains("evidence (pre-registered"), "{out}");
     same_results(d, "r", "seq");
 
     // T4-1: merges into one --out at once (a requeued cluster job): one succeeds, the
@@ -618,7 +624,7 @@ fn same_results(d: &std::path::Path, a: &str, b: &str) {
             .unwrap()
             .retain(|k, _| !k.contains("classify"));
         // the counts include that row's verdict, which a busy machine can flip
-        for count in ["all", "held_out", "calibrated", "headline"] {
+        for count in ["all", "values", "evidence", "standings", "headline"] {
             v.as_object_mut().unwrap().remove(count);
         }
         v

@@ -304,9 +304,15 @@ fn merge(args: MergeArgs) -> Result<u8> {
         merged.longest_shard_s
     );
     outln!("{}", merged.report.summary_line());
-    for line in [merged.report.noise_line(), merged.report.agreement_line()]
-        .into_iter()
-        .flatten()
+    for line in merged.report.standing_lines() {
+        outln!("  {line}");
+    }
+    for line in [
+        Some(merged.report.noise_text()),
+        merged.report.agreement_line(),
+    ]
+    .into_iter()
+    .flatten()
     {
         outln!("{line}");
     }
@@ -322,9 +328,10 @@ fn merge(args: MergeArgs) -> Result<u8> {
 
 fn print_report(report: &reproduce::page::Written, options: &Options) -> Result<()> {
     outln!("{}", report.summary_line());
-    if let Some(line) = report.noise_line() {
-        outln!("{line}");
+    for line in report.standing_lines() {
+        outln!("  {line}");
     }
+    outln!("{}", report.noise_text());
     if let Some((n, agree)) = report.truth_agreement {
         outln!(
             "marker-scored verdicts agree with the simulator's ground truth in {agree} of {n} catch trials ({:.1} %)",

@@ -22,6 +22,37 @@ th{background:#f3f3f3}tr:nth-child(even) td{background:#fafafa}\
 figure svg{max-width:100%;height:auto}figcaption{font-size:0.85em;color:#555}code{font-size:0.9em}";
 
 /// A table as HTML, title above.
+/// `s` escaped, with the inline Markdown tmo's own texts use rendered: `**bold**` and
+/// `` `code` ``. (Only these two: a Markdown crate would be a dependency for four lines.)
+pub fn inline_markdown(s: &str) -> String {
+    let mut out = String::new();
+    let (mut bold, mut code) = (false, false);
+    let mut rest = s;
+    while !rest.is_empty() {
+        if !code && rest.starts_with("**") {
+            out += if bold { "</b>" } else { "<b>" };
+            bold = !bold;
+            rest = &rest[2..];
+        } else if rest.starts_with('`') {
+            out += if code { "</code>" } else { "<code>" };
+            code = !code;
+            rest = &rest[1..];
+        } else {
+            let c = rest.chars().next().expect("not empty");
+            out += &escape(c.encode_utf8(&mut [0; 4]));
+            rest = &rest[c.len_utf8()..];
+        }
+    }
+    // an unmatched marker is closed, so the page's markup stays whole
+    if code {
+        out += "</code>";
+    }
+    if bold {
+        out += "</b>";
+    }
+    out
+}
+
 pub fn table(t: &Table) -> String {
     let mut out = format!("<h3>{}</h3>\n<table>\n<tr>", escape(&t.title));
     for c in &t.columns {
@@ -98,6 +129,17 @@ pub fn write(path: &Path, html: &str) -> std::io::Result<()> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn inline_markdown_renders_bold_and_code_and_escapes_the_rest() {
+        assert_eq!(
+            inline_markdown("**yes** where `a < b` & more"),
+            "<b>yes</b> where <code>a &lt; b</code> &amp; more"
+        );
+        // inside code, stars are text; an unmatched marker is closed
+        assert_eq!(inline_markdown("`**x`"), "<code>**x</code>");
+        assert_eq!(inline_markdown("**open"), "<b>open</b>");
+    }
     use crate::report::Cell;
 
     #[test]

@@ -317,7 +317,39 @@ impl Rule {
     }
 }
 
+/// One metric through the value lens: the paper's number `paper` inside our interval, or
+/// our whole interval within `tolerance` of it, is "yes"; our interval wholly outside that
+/// band is "no"; anything else "not resolved". With no interval, the point decides.
+pub fn value_lens(m: &Measure, paper: f64, tolerance: f64) -> Reproduced {
+    let (lo, hi) = m.interval.unwrap_or((m.value, m.value));
+    let (band_lo, band_hi) = (paper - tolerance, paper + tolerance);
+    if (lo <= paper && paper <= hi) || (band_lo <= lo && hi <= band_hi) {
+        Reproduced::Yes
+    } else if hi < band_lo || lo > band_hi {
+        Reproduced::No
+    } else {
+        Reproduced::NotResolved
+    }
+}
+
 impl Finding {
+    /// The value lens over every metric the paper gives a number for: "yes" if each
+    /// metric's is, "no" if any is, otherwise "not resolved"; `None` where the paper gives
+    /// no number (an order, a sign) and "not measured" where a metric is missing.
+    pub fn value_verdict(&self, m: &Measures) -> Option<Reproduced> {
+        if self.value.is_empty() {
+            return None;
+        }
+        let mut verdicts = Vec::new();
+        for (metric, &(paper, tolerance)) in &self.value {
+            match m.get(metric).filter(|v| v.value.is_finite()) {
+                None => return Some(Reproduced::NotMeasured),
+                Some(v) => verdicts.push(value_lens(v, paper, tolerance)),
+            }
+        }
+        Some(all_of(&verdicts))
+    }
+
     /// The rule applied to the paper's own counts, where it prints the counts of every
     /// metric the rule reads: whether its effect was clear at its own n.
     pub fn paper_verdict(&self) -> Option<Reproduced> {
@@ -351,6 +383,18 @@ pub struct Judged {
     /// The differences the rule compared, with their intervals.
     pub comparisons: Vec<Comparison>,
     pub reproduced: Reproduced,
+    /// The value lens: the paper's numbers against ours (`None`: the paper gives none).
+    #[serde(default)]
+    pub value_verdict: Option<Reproduced>,
+    /// What was seen of this finding while the simulator was chosen (docs/standings.toml).
+    #[serde(default)]
+    pub standing: super::standing::Standing,
+    /// The record that gave the standing, in words.
+    #[serde(default)]
+    pub standing_why: String,
+    /// The verdict a prediction committed before the run expected, if one did.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub predicted: Option<String>,
     /// Replicates in which the claim held at the point, and replicates that measured it.
     pub held_in: (u32, u32),
     /// The rule on the paper's own counts, where it gives them.
@@ -385,6 +429,10 @@ pub fn judge_all(findings: &[Finding], m: &Measures, replicates: &[Measures]) ->
                     .collect(),
                 comparisons: f.rule.comparisons(m, seed),
                 reproduced: f.rule.judge_seeded(m, seed),
+                value_verdict: f.value_verdict(m),
+                standing: super::standing::Standing::NeverSeen,
+                standing_why: String::new(),
+                predicted: None,
                 held_in: (
                     counted.iter().filter(|r| f.rule.holds_at_point(r)).count() as u32,
                     counted.len() as u32,
@@ -399,38 +447,87 @@ pub fn judge_all(findings: &[Finding], m: &Measures, replicates: &[Measures]) ->
         .collect()
 }
 
-/// Reproduced, partly and all findings among `judged`.
+/// How many of some findings' verdicts are of each kind.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize)]
 pub struct Tally {
     pub yes: usize,
     pub partly: usize,
+    pub no: usize,
     pub not_resolved: usize,
+    pub not_measured: usize,
     pub total: usize,
 }
 
 impl Tally {
+    fn add(&mut self, v: Reproduced) {
+        self.total += 1;
+        match v {
+            Reproduced::Yes => self.yes += 1,
+            Reproduced::Partly => self.partly += 1,
+            Reproduced::No => self.no += 1,
+            Reproduced::NotResolved => self.not_resolved += 1,
+            Reproduced::NotMeasured => self.not_measured += 1,
+        }
+    }
+
+    /// The shape lens (the rule) over `judged`.
     pub fn of<'a>(judged: impl IntoIterator<Item = &'a Judged>) -> Self {
         let mut t = Tally::default();
         for j in judged {
-            t.total += 1;
-            match j.reproduced {
-                Reproduced::Yes => t.yes += 1,
-                Reproduced::Partly => t.partly += 1,
-                Reproduced::NotResolved => t.not_resolved += 1,
-                _ => {}
-            }
+            t.add(j.reproduced);
+        }
+        t
+    }
+
+    /// The value lens over those of `judged` that have one.
+    pub fn of_values<'a>(judged: impl IntoIterator<Item = &'a Judged>) -> Self {
+        let mut t = Tally::default();
+        for v in judged.into_iter().filter_map(|j| j.value_verdict) {
+            t.add(v);
         }
         t
     }
 }
 
-/// The held-out findings (no parameter was chosen with them in view) and the calibrated
-/// ones, tallied apart.
-pub fn held_out_and_calibrated(judged: &[Judged]) -> (Tally, Tally) {
-    (
-        Tally::of(judged.iter().filter(|j| j.calibrated_by.is_empty())),
-        Tally::of(judged.iter().filter(|j| !j.calibrated_by.is_empty())),
-    )
+/// The findings of one standing, through both lenses.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+pub struct StandingTally {
+    pub standing: super::standing::Standing,
+    pub shape: Tally,
+    pub value: Tally,
+}
+
+/// The findings tallied by standing, evidence first (standings with no finding left out).
+pub fn by_standing(judged: &[Judged]) -> Vec<StandingTally> {
+    super::standing::Standing::ALL
+        .iter()
+        .map(|&standing| {
+            let rows: Vec<&Judged> = judged.iter().filter(|j| j.standing == standing).collect();
+            StandingTally {
+                standing,
+                shape: Tally::of(rows.iter().copied()),
+                value: Tally::of_values(rows.iter().copied()),
+            }
+        })
+        .filter(|t| t.shape.total > 0)
+        .collect()
+}
+
+/// The evidence: pre-registered and never-seen findings, through both lenses.
+pub fn evidence(judged: &[Judged]) -> (Tally, Tally) {
+    let rows = || judged.iter().filter(|j| j.standing.is_evidence());
+    (Tally::of(rows()), Tally::of_values(rows()))
+}
+
+/// Gives each finding its standing from `records` and the parameters calibrated against
+/// it ([`mark_calibrated`] first), and the verdict a prediction expected of it.
+pub fn mark_standings(judged: &mut [Judged], records: &super::standing::Records) {
+    for j in judged.iter_mut() {
+        let (standing, why) = super::standing::of(&j.finding.id, &j.calibrated_by, records);
+        j.standing = standing;
+        j.standing_why = why;
+        j.predicted = super::standing::predicted(&j.finding.id, records).map(str::to_string);
+    }
 }
 
 /// Marks each finding with the parameters calibrated against it.
@@ -475,6 +572,76 @@ mod tests {
                 "{}",
                 finding.id
             );
+        }
+    }
+
+    #[test]
+    fn the_value_lens_asks_for_the_papers_number_in_our_interval_or_ours_within_its_tolerance() {
+        let at = |v: f64, lo: f64, hi: f64| Measure::with_interval(v, (lo, hi));
+        // the paper's 0.972 inside our interval
+        assert_eq!(
+            value_lens(&at(0.96, 0.95, 0.975), 0.972, 0.03),
+            Reproduced::Yes
+        );
+        // not inside, but our whole interval within 0.03 of it
+        assert_eq!(
+            value_lens(&at(0.95, 0.945, 0.955), 0.972, 0.03),
+            Reproduced::Yes
+        );
+        // wholly outside the band: no (0.837 [0.813, 0.861] against 0.972 +- 0.03)
+        assert_eq!(
+            value_lens(&at(0.837, 0.813, 0.861), 0.972, 0.03),
+            Reproduced::No
+        );
+        // across the band's edge: not resolved
+        assert_eq!(
+            value_lens(&at(0.94, 0.93, 0.95), 0.972, 0.03),
+            Reproduced::NotResolved
+        );
+        // at the edge exactly: inside
+        assert_eq!(
+            value_lens(&at(0.942, 0.942, 0.942), 0.972, 0.03),
+            Reproduced::Yes
+        );
+        // a point decides alone
+        assert_eq!(
+            value_lens(&Measure::exact(13.0), 13.0, 0.0),
+            Reproduced::Yes
+        );
+        assert_eq!(value_lens(&Measure::exact(15.1), 13.0, 2.0), Reproduced::No);
+        // a row: every metric, and none missing
+        let f = Finding {
+            value: [("a".to_string(), (0.5, 0.1)), ("b".to_string(), (0.2, 0.1))].into(),
+            value_why: Some("test".into()),
+            ..paper().remove(0)
+        };
+        let m = |a: f64, b: f64| measures(&[("a", a), ("b", b)]);
+        assert_eq!(f.value_verdict(&m(0.55, 0.25)), Some(Reproduced::Yes));
+        assert_eq!(f.value_verdict(&m(0.55, 0.35)), Some(Reproduced::No));
+        assert_eq!(
+            f.value_verdict(&measures(&[("a", 0.5)])),
+            Some(Reproduced::NotMeasured)
+        );
+        let none = Finding {
+            value: BTreeMap::new(),
+            value_why: None,
+            ..f.clone()
+        };
+        assert_eq!(none.value_verdict(&m(0.5, 0.2)), None);
+    }
+
+    #[test]
+    fn every_range_with_the_papers_counts_is_won_by_those_counts() {
+        // a rule the paper's own data cannot win is no fair test of it
+        for f in paper() {
+            if let (Rule::Within { .. }, Some(v)) = (&f.rule, f.paper_verdict()) {
+                assert_eq!(
+                    v,
+                    Reproduced::Yes,
+                    "{}: the paper's own counts give {v:?}",
+                    f.id
+                );
+            }
         }
     }
 
@@ -734,7 +901,7 @@ mod tests {
     }
 
     #[test]
-    fn a_parameter_calibrated_against_a_finding_moves_it_from_held_out_to_calibrated() {
+    fn a_calibration_an_in_view_record_or_a_pipeline_check_takes_a_finding_out_of_the_evidence() {
         let f = paper();
         let mut m = Measures::new();
         m.insert(
@@ -750,14 +917,38 @@ mod tests {
         };
         assert_eq!(caught(&judged).reproduced, Reproduced::Yes);
         assert_eq!(caught(&judged).held_in, (1, 1));
-        let (held_out, calibrated) = held_out_and_calibrated(&judged);
-        assert_eq!((held_out.yes, held_out.total), (1, f.len()));
-        assert_eq!(calibrated, Tally::default());
+        let none = super::super::standing::Records::default();
+        mark_standings(&mut judged, &none);
+        let (shape, _) = evidence(&judged);
+        assert_eq!((shape.yes, shape.total), (1, f.len()));
         let against = vec!["sf-rail-caught".to_string()];
         mark_calibrated(&mut judged, [("arm.latency_s", against.as_slice())]);
-        let (held_out, calibrated) = held_out_and_calibrated(&judged);
-        assert_eq!((held_out.yes, held_out.total), (0, f.len() - 1));
-        assert_eq!((calibrated.yes, calibrated.total), (1, 1));
+        mark_standings(&mut judged, &none);
+        let (shape, _) = evidence(&judged);
+        assert_eq!((shape.yes, shape.total), (0, f.len() - 1));
+        let tallies = by_standing(&judged);
+        let calibrated = tallies
+            .iter()
+            .find(|t| t.standing == super::super::standing::Standing::Calibrated)
+            .unwrap();
+        assert_eq!((calibrated.shape.yes, calibrated.shape.total), (1, 1));
         assert_eq!(caught(&judged).calibrated_by, vec!["arm.latency_s"]);
+        // an in-view record takes a finding out of the evidence too; a pipeline check is
+        // never evidence, even where nothing else names it
+        let ids: Vec<&str> = f.iter().map(|f| f.id.as_str()).collect();
+        let records = super::super::standing::parse(
+            "[[in_view]]\ncommits = [\"x\"]\nchose = \"c\"\nfindings = [\"sf-rail-fp-2fr\"]\n[[pipeline_check]]\nfinding = \"sf-classify-time\"\nwhy = \"the host CPU\"\n",
+            "test",
+            &ids,
+        )
+        .unwrap();
+        mark_standings(&mut judged, &records);
+        let (shape, _) = evidence(&judged);
+        assert_eq!(shape.total, f.len() - 3);
+        let standing_of = |id: &str| judged.iter().find(|j| j.finding.id == id).unwrap().standing;
+        use super::super::standing::Standing;
+        assert_eq!(standing_of("sf-rail-fp-2fr"), Standing::InView);
+        assert_eq!(standing_of("sf-classify-time"), Standing::PipelineCheck);
+        assert_eq!(standing_of("sf-rail-caught"), Standing::Calibrated);
     }
 }

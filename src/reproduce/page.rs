@@ -9,10 +9,11 @@ use std::path::{Path, PathBuf};
 
 use super::evidence::Basis;
 use super::findings::{
-    held_out_and_calibrated, judge_all, mark_calibrated, paper, Judged, Measure, Measures,
-    Reproduced, Tally,
+    by_standing, evidence, judge_all, mark_calibrated, mark_standings, paper, Judged, Measure,
+    Measures, Reproduced, StandingTally, Tally,
 };
 use super::measure::{measure, Observations};
+use super::standing::Standing;
 use super::steps::{read_sweep, Preset, Step, Timing};
 use super::{io, replicate_dir, ReproduceError};
 use crate::report::html;
@@ -27,11 +28,14 @@ pub struct Written {
     pub json: PathBuf,
     pub html: PathBuf,
     pub figures: Vec<PathBuf>,
+    pub preset: Preset,
     pub replicates: u32,
     pub all: Tally,
-    /// Findings no simulator value was chosen with in view, and the calibrated ones.
-    pub held_out: Tally,
-    pub calibrated: Tally,
+    /// The evidence (pre-registered and never-seen findings) through the shape lens (the
+    /// rule) and the value lens.
+    pub evidence: (Tally, Tally),
+    /// Every standing's findings, evidence first.
+    pub by_standing: Vec<StandingTally>,
     /// Simulated catch trials with a ground-truth verdict, and how many agree.
     pub truth_agreement: Option<(usize, usize)>,
     /// Verdicts the sensitivity study's noise reference (other seeds alone) changes, and
@@ -39,23 +43,64 @@ pub struct Written {
     pub seed_noise: Option<(usize, usize)>,
 }
 
+/// `yes Y, no N, ...` of a tally, the kinds it has.
 fn tally_text(t: &Tally) -> String {
-    format!(
-        "{} of {} reproduced ({} partly, {} not resolved)",
-        t.yes, t.total, t.partly, t.not_resolved
-    )
+    let mut parts = vec![format!("{} yes", t.yes), format!("{} no", t.no)];
+    if t.partly > 0 {
+        parts.push(format!("{} partly", t.partly));
+    }
+    parts.push(format!("{} not resolved", t.not_resolved));
+    if t.not_measured > 0 {
+        parts.push(format!("{} not measured", t.not_measured));
+    }
+    format!("{} of {}", parts.join(", "), t.total)
 }
 
 impl Written {
-    /// The headline: held-out and calibrated findings counted apart.
+    /// The headline: the evidence through both lenses, then the other standings' counts.
     pub fn summary_line(&self) -> String {
-        format!(
-            "held-out findings: {}; calibrated findings: {} ({} replicate{})",
-            tally_text(&self.held_out),
-            tally_text(&self.calibrated),
+        let (shape, value) = &self.evidence;
+        let mut s = format!(
+            "evidence (pre-registered or never-seen findings): {} rows",
+            shape.total
+        );
+        if shape.total > 0 {
+            s += &format!(", rule {}; value {}", tally_text(shape), tally_text(value));
+        }
+        let others: Vec<String> = self
+            .by_standing
+            .iter()
+            .filter(|t| !t.standing.is_evidence())
+            .map(|t| format!("{} {}", t.standing.label(), t.shape.total))
+            .collect();
+        if !others.is_empty() {
+            s += &format!("; not evidence: {}", others.join(", "));
+        }
+        s + &format!(
+            " ({} replicate{})",
             self.replicates,
             if self.replicates == 1 { "" } else { "s" }
         )
+    }
+
+    /// Each standing's findings through both lenses, a line each (the page's and the
+    /// command's second lines).
+    pub fn standing_lines(&self) -> Vec<String> {
+        self.by_standing
+            .iter()
+            .map(|t| {
+                let value = if t.value.total > 0 {
+                    format!("; value lens: {}", tally_text(&t.value))
+                } else {
+                    String::new()
+                };
+                format!(
+                    "{}: rule {}{value}",
+                    t.standing.label(),
+                    tally_text(&t.shape)
+                )
+            })
+            .collect()
     }
 
     /// How many verdicts other seeds alone change, if a noise reference was run: the
@@ -68,6 +113,34 @@ impl Written {
         })
     }
 
+    /// The noise line, in every run: the reference's count where one ran beside it, or
+    /// the last one measured for this preset and replicate count (docs/noise_reference.toml),
+    /// or that none is on record.
+    pub fn noise_text(&self) -> String {
+        let preset = self.preset;
+        if let Some(line) = self.noise_line() {
+            return line;
+        }
+        match last_noise(preset.name(), self.replicates) {
+            Some(m) => format!(
+                "No noise reference ran beside this run. The last one measured for the {} preset at {} replicate{} (tmo at {}, {}): other seeds alone changed {} of {} verdicts (docs/noise_reference.toml).",
+                m.preset,
+                m.replicates,
+                if m.replicates == 1 { "" } else { "s" },
+                m.version,
+                m.date,
+                m.changed,
+                m.of
+            ),
+            None => format!(
+                "No noise reference ran beside this run, and none is on record for the {} preset at {} replicate{}: `--sensitivity --sensitivity-parameters reseeded` measures how many verdicts other seeds alone change.",
+                preset.name(),
+                self.replicates,
+                if self.replicates == 1 { "" } else { "s" }
+            ),
+        }
+    }
+
     /// How often the marker verdicts agree with ground truth, if any trial has one.
     pub fn agreement_line(&self) -> Option<String> {
         self.truth_agreement.map(|(n, agree)| {
@@ -77,6 +150,37 @@ impl Written {
             )
         })
     }
+}
+
+/// A noise reference's count on record (docs/noise_reference.toml).
+#[derive(Debug, Clone, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+struct NoiseMeasured {
+    preset: String,
+    replicates: u32,
+    changed: usize,
+    of: usize,
+    version: String,
+    date: String,
+}
+
+#[derive(Debug, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+struct NoiseRecords {
+    measured: Vec<NoiseMeasured>,
+}
+
+const NOISE_RECORDS: &str = include_str!("../../docs/noise_reference.toml");
+
+/// The newest noise reference on record for `preset` at `replicates`.
+fn last_noise(preset: &str, replicates: u32) -> Option<NoiseMeasured> {
+    let records: NoiseRecords =
+        toml::from_str(NOISE_RECORDS).expect("docs/noise_reference.toml parses");
+    records
+        .measured
+        .into_iter()
+        .rev()
+        .find(|m| m.preset == preset && m.replicates == replicates)
 }
 
 /// Verdicts the noise reference changed, of those it judged (`None`: no reference).
@@ -248,8 +352,8 @@ fn ours(j: &Judged) -> String {
 /// The metric keys, the rule and the calibrated parameters, for the details line.
 fn details(j: &Judged) -> String {
     let mut s = format!("rule `{}` ({})", j.rule_text, j.finding.source);
-    if !j.calibrated_by.is_empty() {
-        s += &format!("; calibrated by {}", j.calibrated_by.join(", "));
+    if !j.standing_why.is_empty() {
+        s += &format!("; {}: {}", j.standing.label(), j.standing_why);
     }
     s
 }
@@ -273,11 +377,22 @@ fn paper_effect(j: &Judged) -> String {
 }
 
 fn standing(j: &Judged) -> String {
-    match j.calibrated_by.len() {
-        0 => "held-out".into(),
-        1 => "calibrated (1 parameter)".into(),
-        n => format!("calibrated ({n} parameters)"),
+    match &j.predicted {
+        Some(expected) if j.standing == Standing::PreRegistered => format!(
+            "pre-registered: expected {expected}, {}",
+            if expected == j.reproduced.label() {
+                "came true"
+            } else {
+                "did not come true"
+            }
+        ),
+        _ => j.standing.label().to_string(),
     }
+}
+
+fn value_cell(j: &Judged) -> String {
+    j.value_verdict
+        .map_or("no number".to_string(), |v| v.label().to_string())
 }
 
 /// Whether every value the verdict used was a point with no interval (one replicate of an
@@ -291,16 +406,18 @@ fn decided_at_point(j: &Judged) -> bool {
     }
 }
 
-/// Central claims first, each group in the findings file's order.
+/// Central claims first; within each, the evidence first (standings in their order), then
+/// the findings file's order.
 fn ordered(judged: &[Judged]) -> Vec<&Judged> {
-    let mut rows: Vec<&Judged> = judged.iter().filter(|j| j.finding.central).collect();
-    rows.extend(judged.iter().filter(|j| !j.finding.central));
+    let mut rows: Vec<&Judged> = judged.iter().collect();
+    rows.sort_by_key(|j| (!j.finding.central, j.standing));
     rows
 }
 
-const COLUMNS: [&str; 9] = [
-    "verdict",
+const COLUMNS: [&str; 10] = [
+    "rule",
     "finding",
+    "value",
     "paper",
     "ours (95 % interval)",
     "replicates holding",
@@ -341,15 +458,16 @@ fn studied(judged: &[Judged]) -> bool {
 fn shown<T: Clone>(row: &[T], judged: &[Judged]) -> Vec<T> {
     row.iter()
         .enumerate()
-        .filter(|(i, _)| studied(judged) || *i != 7)
+        .filter(|(i, _)| studied(judged) || *i != 8)
         .map(|(_, c)| c.clone())
         .collect()
 }
 
-fn cells(j: &Judged) -> [String; 9] {
+fn cells(j: &Judged) -> [String; 10] {
     [
         j.reproduced.label().to_string(),
         j.finding.measured.clone(),
+        value_cell(j),
         j.finding.paper.clone(),
         ours(j),
         held_in(j),
@@ -363,8 +481,16 @@ fn cells(j: &Judged) -> [String; 9] {
 /// What the page says about how far its verdicts can be trusted.
 fn caveats(preset: Preset, judged: &[Judged], w: &Written) -> Vec<String> {
     let mut out = vec![
-        "A verdict is **yes** only where the claim holds with its 95 % interval clear of the rule's margin, **no** where the opposite holds that way, and **not resolved** where the interval straddles it (docs/reproduce.md). \"Replicates holding\" counts the replicates in which the claim held at the measured values alone.".to_string(),
-        "A **calibrated** finding is one a simulator value was chosen while looking at (sim/data/parameters.toml); it is not evidence that the simulator predicts it, and is counted apart.".to_string(),
+        "**Rule** (the claim's shape: an order, a sign, a range): **yes** where the claim holds with its 95 % interval clear of the rule's margin, **no** where the opposite holds that way, **not resolved** where the interval straddles the margin or a range's edge; **partly** only for a claim with parts (an order whose steps mostly hold and one clearly fails; a lead in the right direction clearly smaller than the margin asked). \"Replicates holding\" counts the replicates in which the claim held at the measured values alone (docs/reproduce.md).".to_string(),
+        "**Value** (the paper's number): **yes** where the paper's number lies inside our 95 % interval or our whole interval within the tolerance written for the row before any run (docs/paper_findings.toml), **no** where our interval lies wholly outside that tolerance, **not resolved** otherwise; **no number** where the paper gives an order or a sign but no number.".to_string(),
+        format!(
+            "**Standing** (what was seen of the row while the simulator was chosen; docs/standings.toml): {}. Only pre-registered and never-seen rows are evidence.",
+            Standing::ALL
+                .iter()
+                .map(|s| format!("**{}**, {}", s.label(), s.meaning()))
+                .collect::<Vec<_>>()
+                .join("; ")
+        ),
         "An **FP** in the findings is the paper's \"action triggered before slip\", judged from the simulator's ground truth. The tables below give the markers' verdicts: an early reaction that stopped the object before it ever moved shows there as \"held, no slip\", not as an FP, so a table's FP count can be smaller than the finding's (docs/reproduce.md, \"Scoring catch trials\").".to_string(),
     ];
     let unresolved: Vec<&str> = judged
@@ -403,7 +529,14 @@ fn markdown(preset: Preset, judged: &[Judged], w: &Written, tables: &str) -> Str
         preset.name(),
         w.summary_line()
     );
-    for line in [w.noise_line(), w.agreement_line()].into_iter().flatten() {
+    for line in w.standing_lines() {
+        out += &format!("- {line}\n");
+    }
+    out += "\n";
+    for line in [Some(w.noise_text()), w.agreement_line()]
+        .into_iter()
+        .flatten()
+    {
         out += &format!("{line}\n\n");
     }
     for c in caveats(preset, judged, w) {
@@ -459,13 +592,20 @@ fn html_page(
         html::escape(&w.summary_line()),
         preset.name()
     );
-    for line in [w.noise_line(), w.agreement_line()].into_iter().flatten() {
-        body += &format!("<p>{}</p>\n", html::escape(&line));
+    body += "<ul>\n";
+    for line in w.standing_lines() {
+        body += &format!("<li>{}</li>\n", html::escape(&line));
+    }
+    body += "</ul>\n";
+    for line in [Some(w.noise_text()), w.agreement_line()]
+        .into_iter()
+        .flatten()
+    {
+        body += &format!("<p>{}</p>\n", html::inline_markdown(&line));
     }
     body += "<ul>\n";
     for c in caveats(preset, judged, w) {
-        let text = html::escape(&c).replace("**", "");
-        body += &format!("<li>{text}</li>\n");
+        body += &format!("<li>{}</li>\n", html::inline_markdown(&c));
     }
     body += "</ul>\n";
     let table = |title: &str, rows: &[&Judged]| {
@@ -481,10 +621,10 @@ fn html_page(
                 verdict_class(j.reproduced),
                 html::escape(&c[0]),
                 html::escape(&c[1]),
-                html::escape(&details(j))
+                html::inline_markdown(&details(j))
             );
             for cell in &c[2..] {
-                t += &format!("<td>{}</td>", html::escape(cell));
+                t += &format!("<td>{}</td>", html::inline_markdown(cell));
             }
             t += "</tr>\n";
         }
@@ -568,6 +708,7 @@ pub fn judge_replicates(out: &Path, replicates: u32) -> (Vec<Judged>, Measures, 
             .iter()
             .map(|r| (r.name.as_str(), r.calibrated_against.as_slice())),
     );
+    mark_standings(&mut judged, &super::standing::shipped());
     (judged, measures, loaded)
 }
 
@@ -607,7 +748,8 @@ pub fn write_findings(
         .map_err(io(&path))?;
         sensitivity_md = Some(md);
     }
-    let (held_out, calibrated) = held_out_and_calibrated(&judged);
+    let evidence = evidence(&judged);
+    let by_standing = by_standing(&judged);
     let truth_agreement = crate::outcome::truth_agreement(
         loaded
             .iter()
@@ -655,10 +797,11 @@ pub fn write_findings(
         json: out.join("findings.json"),
         html: out.join("findings.html"),
         figures,
+        preset: *preset,
         replicates: replicates.max(1),
         all: Tally::of(&judged),
-        held_out,
-        calibrated,
+        evidence,
+        by_standing,
         truth_agreement,
         seed_noise: seed_noise(&judged),
     };
@@ -675,8 +818,9 @@ pub fn write_findings(
         "replicates": written.replicates,
         "headline": written.summary_line(),
         "all": written.all,
-        "held_out": written.held_out,
-        "calibrated": written.calibrated,
+        "values": Tally::of_values(&judged),
+        "evidence": {"rule": written.evidence.0, "value": written.evidence.1},
+        "standings": written.by_standing,
         "truth_agreement": truth_agreement.map(|(n, agree)| serde_json::json!({"trials": n, "agree": agree})),
         "seed_noise": written.seed_noise.map(|(changed, of)| serde_json::json!({"changed": changed, "verdicts": of})),
         "findings": judged,

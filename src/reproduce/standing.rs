@@ -1,0 +1,368 @@
+//! What was seen of each finding while the simulator was chosen: its standing, derived
+//! from the records in `docs/standings.toml` and the parameter records' `calibrated_against`.
+//! Only pre-registered and never-seen findings count as evidence that the simulator
+//! predicts what the paper found; the rest are reported, and counted apart.
+
+use std::collections::BTreeMap;
+
+/// The records file, as shipped.
+pub const STANDINGS: &str = include_str!("../../docs/standings.toml");
+
+/// A finding's standing: the first of these that applies.
+#[derive(
+    Debug,
+    Clone,
+    Copy,
+    PartialEq,
+    Eq,
+    PartialOrd,
+    Ord,
+    Default,
+    serde::Serialize,
+    serde::Deserialize,
+)]
+#[serde(rename_all = "snake_case")]
+pub enum Standing {
+    /// Its expected verdict under a change was committed before the run that judged it.
+    PreRegistered,
+    /// Never seen while a simulator value or mechanism was chosen.
+    #[default]
+    NeverSeen,
+    /// Shown in a table while a value or mechanism was chosen, though not its target.
+    InView,
+    /// A simulator value or mechanism was chosen to move it.
+    Calibrated,
+    /// The simulator as built cannot fail it: a check of the pipeline, not the physics.
+    PipelineCheck,
+}
+
+impl Standing {
+    /// Every standing, evidence first (the page's order).
+    pub const ALL: [Standing; 5] = [
+        Standing::PreRegistered,
+        Standing::NeverSeen,
+        Standing::InView,
+        Standing::Calibrated,
+        Standing::PipelineCheck,
+    ];
+
+    pub fn is_evidence(self) -> bool {
+        matches!(self, Standing::PreRegistered | Standing::NeverSeen)
+    }
+
+    pub fn label(self) -> &'static str {
+        match self {
+            Standing::PreRegistered => "pre-registered",
+            Standing::NeverSeen => "never seen",
+            Standing::InView => "in view",
+            Standing::Calibrated => "calibrated",
+            Standing::PipelineCheck => "pipeline check",
+        }
+    }
+
+    /// What the standing means, for the page's legend.
+    pub fn meaning(self) -> &'static str {
+        match self {
+            Standing::PreRegistered => "its expected verdict under a simulator change was committed, with the change's sourced values and reasoning, before the run that judged it: evidence",
+            Standing::NeverSeen => "never shown while a simulator value or mechanism was chosen: evidence",
+            Standing::InView => "shown in a table while a simulator value or mechanism was chosen, though not its target: not evidence",
+            Standing::Calibrated => "a simulator value or mechanism was chosen to move it: not evidence",
+            Standing::PipelineCheck => "the simulator as built cannot fail it: it checks the pipeline, not the physics; never evidence",
+        }
+    }
+}
+
+#[derive(Debug, Clone, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PipelineCheck {
+    pub finding: String,
+    pub why: String,
+}
+
+#[derive(Debug, Clone, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CalibratedMechanism {
+    pub mechanism: String,
+    pub commits: Vec<String>,
+    pub findings: Vec<String>,
+    pub why: String,
+}
+
+/// The findings a record names: every one, or a list.
+#[derive(Debug, Clone, serde::Deserialize)]
+#[serde(untagged)]
+pub enum Named {
+    /// `"all"`.
+    All(String),
+    Some(Vec<String>),
+}
+
+impl Named {
+    fn names(&self, id: &str) -> bool {
+        match self {
+            Named::All(all) => all == "all",
+            Named::Some(ids) => ids.iter().any(|i| i == id),
+        }
+    }
+}
+
+#[derive(Debug, Clone, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct InView {
+    pub commits: Vec<String>,
+    pub chose: String,
+    pub findings: Named,
+}
+
+#[derive(Debug, Clone, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Prediction {
+    pub change: String,
+    pub values: String,
+    pub reasoning: String,
+    /// The expected verdict of each finding, by id.
+    pub expect: BTreeMap<String, String>,
+}
+
+/// Everything `docs/standings.toml` records.
+#[derive(Debug, Clone, Default, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Records {
+    #[serde(default)]
+    pub pipeline_check: Vec<PipelineCheck>,
+    #[serde(default)]
+    pub calibrated_mechanism: Vec<CalibratedMechanism>,
+    #[serde(default)]
+    pub in_view: Vec<InView>,
+    #[serde(default)]
+    pub prediction: Vec<Prediction>,
+}
+
+#[derive(Debug, thiserror::Error)]
+#[error("{origin}: {message}")]
+pub struct RecordsError {
+    origin: String,
+    message: String,
+}
+
+const VERDICTS: [&str; 4] = ["yes", "no", "partly", "not resolved"];
+
+/// Parses a records file against the findings' ids (`origin` names it in errors): every
+/// id a record names exists, every `all` is spelled so, every expectation is a verdict.
+pub fn parse(text: &str, origin: &str, ids: &[&str]) -> Result<Records, RecordsError> {
+    let bad = |message: String| RecordsError {
+        origin: origin.into(),
+        message,
+    };
+    let r: Records = toml::from_str(text).map_err(|e| bad(e.to_string()))?;
+    let known = |id: &str, what: &str| {
+        if ids.contains(&id) {
+            Ok(())
+        } else {
+            Err(bad(format!("{what} names `{id}`, which is no finding")))
+        }
+    };
+    for p in &r.pipeline_check {
+        known(&p.finding, "a pipeline check")?;
+    }
+    for m in &r.calibrated_mechanism {
+        for id in &m.findings {
+            known(id, "a calibrated mechanism")?;
+        }
+    }
+    for v in &r.in_view {
+        match &v.findings {
+            Named::All(all) if all != "all" => {
+                return Err(bad(format!(
+                    "an in-view record's findings: expected \"all\" or a list, found \"{all}\""
+                )))
+            }
+            Named::All(_) => {}
+            Named::Some(list) => {
+                for id in list {
+                    known(id, "an in-view record")?;
+                }
+            }
+        }
+    }
+    for p in &r.prediction {
+        for (id, verdict) in &p.expect {
+            known(id, "a prediction")?;
+            if !VERDICTS.contains(&verdict.as_str()) {
+                return Err(bad(format!(
+                    "a prediction expects `{verdict}` of `{id}`: expected one of {VERDICTS:?}"
+                )));
+            }
+        }
+    }
+    Ok(r)
+}
+
+/// The shipped records, checked against the shipped findings.
+pub fn shipped() -> Records {
+    let findings = super::findings::paper();
+    let ids: Vec<&str> = findings.iter().map(|f| f.id.as_str()).collect();
+    parse(STANDINGS, "docs/standings.toml", &ids).expect("the shipped standings parse")
+}
+
+/// The standing of finding `id`, with the record that gave it, in words; `parameters` are
+/// the simulator parameters calibrated against it.
+pub fn of(id: &str, parameters: &[String], records: &Records) -> (Standing, String) {
+    if let Some(p) = records.pipeline_check.iter().find(|p| p.finding == id) {
+        return (Standing::PipelineCheck, p.why.clone());
+    }
+    let mechanisms: Vec<&CalibratedMechanism> = records
+        .calibrated_mechanism
+        .iter()
+        .filter(|m| m.findings.iter().any(|f| f == id))
+        .collect();
+    if !parameters.is_empty() || !mechanisms.is_empty() {
+        let mut by: Vec<String> = parameters.to_vec();
+        by.extend(
+            mechanisms
+                .iter()
+                .map(|m| format!("{} ({})", m.mechanism, m.commits.join(", "))),
+        );
+        return (
+            Standing::Calibrated,
+            format!("calibrated by {}", by.join("; ")),
+        );
+    }
+    if let Some(p) = records
+        .prediction
+        .iter()
+        .find(|p| p.expect.contains_key(id))
+    {
+        return (
+            Standing::PreRegistered,
+            format!("predicted `{}` under: {}", p.expect[id], p.change),
+        );
+    }
+    let seen: Vec<String> = records
+        .in_view
+        .iter()
+        .filter(|v| v.findings.names(id))
+        .map(|v| {
+            if v.commits.is_empty() {
+                v.chose.clone()
+            } else {
+                v.commits.join(", ")
+            }
+        })
+        .collect();
+    if !seen.is_empty() {
+        return (
+            Standing::InView,
+            format!(
+                "in view while the simulator was chosen: {}",
+                seen.join("; ")
+            ),
+        );
+    }
+    (Standing::NeverSeen, "never in view".into())
+}
+
+/// The expected verdict a prediction committed for `id`, if any.
+pub fn predicted<'a>(id: &str, records: &'a Records) -> Option<&'a str> {
+    records
+        .prediction
+        .iter()
+        .find_map(|p| p.expect.get(id).map(String::as_str))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const IDS: [&str; 4] = ["a", "b", "c", "d"];
+
+    fn records(text: &str) -> Records {
+        parse(text, "test", &IDS).unwrap()
+    }
+
+    #[test]
+    fn the_shipped_records_name_only_findings_that_exist() {
+        let r = shipped();
+        assert!(r.pipeline_check.len() >= 5);
+        assert!(!r.in_view.is_empty());
+    }
+
+    #[test]
+    fn each_finding_has_the_first_standing_that_applies_and_only_two_are_evidence() {
+        let r = records(
+            r#"
+[[pipeline_check]]
+finding = "a"
+why = "it times the CPU"
+
+[[calibrated_mechanism]]
+mechanism = "m"
+commits = ["x"]
+findings = ["a", "b"]
+why = "w"
+
+[[in_view]]
+commits = ["y"]
+chose = "z"
+findings = ["a", "b", "c"]
+
+[[prediction]]
+change = "ch"
+values = "v"
+reasoning = "r"
+expect = { "c" = "yes" }
+"#,
+        );
+        let standing = |id: &str, params: &[String]| of(id, params, &r).0;
+        // a pipeline check stays one, whatever else names it: never evidence
+        assert_eq!(standing("a", &[]), Standing::PipelineCheck);
+        assert_eq!(standing("a", &["p".into()]), Standing::PipelineCheck);
+        assert!(!Standing::PipelineCheck.is_evidence());
+        // a mechanism or a parameter calibrated against it: calibrated, not evidence
+        assert_eq!(standing("b", &[]), Standing::Calibrated);
+        assert_eq!(
+            standing("d", &["arm.latency_s".into()]),
+            Standing::Calibrated
+        );
+        // a prediction committed before its run makes an in-view row evidence again
+        assert_eq!(standing("c", &[]), Standing::PreRegistered);
+        assert_eq!(predicted("c", &r), Some("yes"));
+        // named by nothing: never seen
+        assert_eq!(standing("d", &[]), Standing::NeverSeen);
+        let evidence: Vec<&str> = IDS
+            .iter()
+            .copied()
+            .filter(|id| standing(id, &[]).is_evidence())
+            .collect();
+        assert_eq!(evidence, ["c", "d"]);
+        // an in-view record of every finding takes every unnamed one out of evidence
+        let all =
+            records("[[in_view]]\ncommits = []\nchose = \"everything\"\nfindings = \"all\"\n");
+        assert_eq!(of("d", &[], &all).0, Standing::InView);
+    }
+
+    #[test]
+    fn records_naming_unknown_findings_or_verdicts_are_refused() {
+        let e = parse(
+            "[[pipeline_check]]\nfinding = \"zz\"\nwhy = \"w\"\n",
+            "f",
+            &IDS,
+        )
+        .unwrap_err();
+        assert!(e.to_string().contains("`zz`"), "{e}");
+        let e = parse(
+            "[[in_view]]\ncommits = []\nchose = \"c\"\nfindings = \"every\"\n",
+            "f",
+            &IDS,
+        )
+        .unwrap_err();
+        assert!(e.to_string().contains("\"all\""), "{e}");
+        let e = parse(
+            "[[prediction]]\nchange = \"c\"\nvalues = \"v\"\nreasoning = \"r\"\nexpect = { a = \"maybe\" }\n",
+            "f",
+            &IDS,
+        )
+        .unwrap_err();
+        assert!(e.to_string().contains("maybe"), "{e}");
+    }
+}
