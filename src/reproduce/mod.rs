@@ -16,6 +16,7 @@ pub mod measure;
 pub mod page;
 pub mod sensitivity;
 pub mod shards;
+pub mod show;
 pub mod standing;
 pub mod steps;
 pub mod sweep_parts;

@@ -7,12 +7,12 @@
 
 use std::path::{Path, PathBuf};
 
-use super::evidence::Basis;
 use super::findings::{
     by_standing, evidence, judge_all, mark_calibrated, mark_standings, paper, Judged, Measure,
     Measures, Reproduced, StandingTally, Tally,
 };
 use super::measure::{measure, Observations};
+use super::show::ours;
 use super::standing::Standing;
 use super::steps::{read_sweep, Preset, Step, Timing};
 use super::{io, replicate_dir, ReproduceError};
@@ -252,108 +252,12 @@ fn load(out: &Path) -> Loaded {
     }
 }
 
-fn number(x: f64) -> String {
-    if x.abs() >= 10.0 {
-        format!("{x:.1}")
-    } else {
-        format!("{x:.3}")
-    }
-}
-
-/// `k` and `n` of a measure that is one rate.
-fn single_rate(m: &Measure) -> Option<(u64, u64)> {
-    match &m.basis {
-        Basis::Counts(terms) if terms.len() == 1 && terms[0].coef == 1.0 => {
-            Some((terms[0].k, terms[0].n))
-        }
-        _ => None,
-    }
-}
-
-/// The value of a measure as the report shows it: a rate as a percentage with its counts,
-/// anything else as a number; its interval; what it rests on.
-pub fn show(m: &Measure) -> String {
-    if matches!(m.basis, Basis::Counts(_)) && single_rate(m).is_none() {
-        // a difference of rates, in percentage points
-        return points(m.value, m.interval);
-    }
-    if let Some((k, n)) = single_rate(m) {
-        let pct = |x: f64| format!("{:.0}", 100.0 * x);
-        let mut s = format!("{} %", pct(m.value));
-        if let Some((lo, hi)) = m.interval {
-            s += &format!(" [{}, {}]", pct(lo), pct(hi));
-        }
-        return s + &format!(" ({k}/{n})");
-    }
-    let mut s = number(m.value);
-    if let Some((lo, hi)) = m.interval {
-        s += &format!(" [{}, {}]", like(m.value, lo), like(m.value, hi));
-    }
-    // a mean over trials says over how many; a mean over replicates has its own column
-    if let (Basis::Samples(_), Some(n)) = (&m.basis, m.n) {
-        s += &format!(" (n={n})");
-    }
-    s
-}
-
-/// `x` with as many decimals as `number` gives `value`.
-fn like(value: f64, x: f64) -> String {
-    if value.abs() >= 10.0 {
-        format!("{x:.1}")
-    } else {
-        format!("{x:.3}")
-    }
-}
-
-/// A difference of rates in percentage points, with its interval.
-fn points(value: f64, interval: Option<(f64, f64)>) -> String {
-    let pp = |x: f64| format!("{:+.0}", 100.0 * x);
-    let mut s = format!("{} pp", pp(value));
-    if let Some((lo, hi)) = interval {
-        s += &format!(" [{}, {}]", pp(lo), pp(hi));
-    }
-    s
-}
-
-/// Our side of a row, in the rule's terms: the values it compares and, for a comparison,
-/// the difference with its interval.
-fn ours(j: &Judged) -> String {
-    let value = |k: &str| {
-        j.ours
-            .get(k)
-            .and_then(|m| m.as_ref())
-            .map_or("not measured".to_string(), show)
-    };
-    let metrics = j.finding.rule.metrics();
-    let mut s = metrics
-        .iter()
-        .map(|k| value(k))
-        .collect::<Vec<_>>()
-        .join(" vs ");
-    if let [c] = j.comparisons.as_slice() {
-        let rates = [&c.metric, &c.than].iter().all(|k| {
-            j.ours
-                .get(k.as_str())
-                .and_then(|m| m.as_ref())
-                .is_some_and(|m| matches!(m.basis, Basis::Counts(_)))
-        });
-        if rates {
-            s += &format!("; difference {}", points(c.difference, c.interval));
-        } else {
-            s += &format!("; difference {}", number(c.difference));
-            if let Some((lo, hi)) = c.interval {
-                s += &format!(" [{}, {}]", like(c.difference, lo), like(c.difference, hi));
-            }
-        }
-    }
-    s
-}
-
 /// The metric keys, the rule and the calibrated parameters, for the details line.
 fn details(j: &Judged) -> String {
     let mut s = format!("rule `{}` ({})", j.rule_text, j.finding.source);
+    s += &format!("; {}", j.standing.label());
     if !j.standing_why.is_empty() {
-        s += &format!("; {}: {}", j.standing.label(), j.standing_why);
+        s += &format!(": {}", j.standing_why);
     }
     s
 }
@@ -838,28 +742,4 @@ pub fn write_findings(
         .map_err(io(&written.html))?;
     written.figures.retain(|p| p.exists());
     Ok(written)
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::reproduce::evidence::Count;
-
-    #[test]
-    fn values_read_in_the_papers_units() {
-        assert_eq!(show(&Measure::proportion(37, 50)), "74 % [60, 84] (37/50)");
-        let drop = Measure::counts(vec![Count::new(1.0, 36, 40), Count::new(-1.0, 31, 40)]);
-        assert!(show(&drop).starts_with("+12 pp ["), "{}", show(&drop));
-        let f1 = Measure::of_replicates(vec![0.88, 0.87, 0.89], Some((0.0, 1.0)));
-        assert!(show(&f1).starts_with("0.880 [0.8"), "{}", show(&f1));
-        assert_eq!(show(&Measure::exact(15.0)), "15.0");
-        // an interval reads with its value's decimals
-        let d = Measure::mean_of("d", vec![9.5, 11.0, 12.5, 10.0, 13.0]).unwrap();
-        assert!(
-            show(&d).starts_with("11.2 [") && show(&d).ends_with("(n=5)"),
-            "{}",
-            show(&d)
-        );
-        assert!(!show(&d).contains(".000"), "{}", show(&d));
-    }
 }

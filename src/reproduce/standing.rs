@@ -225,7 +225,7 @@ pub fn of(id: &str, parameters: &[String], records: &Records) -> (Standing, Stri
         );
         return (
             Standing::Calibrated,
-            format!("calibrated by {}", by.join("; ")),
+            format!("chosen to move it: {}", by.join("; ")),
         );
     }
     if let Some(p) = records
@@ -235,7 +235,7 @@ pub fn of(id: &str, parameters: &[String], records: &Records) -> (Standing, Stri
     {
         return (
             Standing::PreRegistered,
-            format!("predicted `{}` under: {}", p.expect[id], p.change),
+            format!("expected `{}` under: {}", p.expect[id], p.change),
         );
     }
     let seen: Vec<String> = records
@@ -254,12 +254,12 @@ pub fn of(id: &str, parameters: &[String], records: &Records) -> (Standing, Stri
         return (
             Standing::InView,
             format!(
-                "in view while the simulator was chosen: {}",
+                "shown while the simulator was chosen in {}",
                 seen.join("; ")
             ),
         );
     }
-    (Standing::NeverSeen, "never in view".into())
+    (Standing::NeverSeen, String::new())
 }
 
 /// The expected verdict a prediction committed for `id`, if any.
