@@ -15,6 +15,7 @@ pub struct SimConfig {
     pub tactip: TactipParams,
     pub faults: FaultRates,
     pub marker: MarkerParams,
+    pub operator: OperatorParams,
 }
 
 impl Default for SimConfig {
@@ -28,6 +29,7 @@ impl Default for SimConfig {
             tactip: TactipParams::default(),
             faults: FaultRates::default(),
             marker: MarkerParams::default(),
+            operator: OperatorParams::default(),
         }
     }
 }
@@ -121,6 +123,24 @@ impl SimConfig {
                 Low(p.surface_wavelength_mm[0], false),
                 1e3,
             ),
+            (
+                "physics.surface_waves",
+                p.surface_waves,
+                Low(1.0, false),
+                64.0,
+            ),
+            (
+                "physics.texture_patch_smoothing",
+                p.texture_patch_smoothing,
+                positive,
+                1e3,
+            ),
+            (
+                "physics.texture_local_length",
+                p.texture_local_length,
+                positive,
+                1e3,
+            ),
             ("physics.finger_roll_ratio", p.finger_roll_ratio, zero, 10.0),
             ("physics.load_transfer_s", p.load_transfer_s, zero, 10.0),
             ("physics.drop_limit_mm", p.drop_limit_mm, positive, 1e4),
@@ -187,6 +207,33 @@ impl SimConfig {
             ),
             ("tactip.contact_offset_px", t.contact_offset_px, zero, 1e5),
             ("tactip.unit_variation", t.unit_variation, zero, 0.9),
+            (
+                "tactip.shear_spread_factor",
+                t.shear_spread_factor,
+                positive,
+                100.0,
+            ),
+        ]);
+        let o = &self.operator;
+        fields.extend([
+            (
+                "operator.release_grip_safety[0]",
+                o.release_grip_safety[0],
+                Low(1.0, false),
+                10.0,
+            ),
+            (
+                "operator.release_grip_safety[1]",
+                o.release_grip_safety[1],
+                Low(o.release_grip_safety[0], false),
+                10.0,
+            ),
+            (
+                "operator.pour_grip_safety",
+                o.pour_grip_safety,
+                Low(1.0, false),
+                10.0,
+            ),
         ]);
         let f = &self.faults;
         fields.extend([
@@ -478,6 +525,14 @@ pub struct PhysicsParams {
     pub surface_friction_sd: f64,
     /// Shortest and longest wavelength of that variation, mm.
     pub surface_wavelength_mm: [f64; 2],
+    /// Sinusoids that make that variation (rounded to a whole number).
+    pub surface_waves: f64,
+    /// `s` in `exp(-(k a)^2 / s)`, how far a wave of wave number `k` survives the average
+    /// of friction under a Hertz patch of radius `a` (Gaussian approximation: 10).
+    pub texture_patch_smoothing: f64,
+    /// `c` in `min(1, L / (c a))`, the share of a wave of wavelength `L` a spot of skin
+    /// shows against the whole patch's shear (Mindlin half-space: 3.8).
+    pub texture_local_length: f64,
     /// How far the fingertip rolls along the object per mm it presses past first touch
     /// (the under-actuated finger curls as its proximal link stops), mm/mm.
     pub finger_roll_ratio: f64,
@@ -507,6 +562,9 @@ impl Default for PhysicsParams {
             strengthening_from_mm_s: 10.0,
             surface_friction_sd: 0.2,
             surface_wavelength_mm: [0.5, 20.0],
+            surface_waves: 8.0,
+            texture_patch_smoothing: 10.0,
+            texture_local_length: 3.8,
             finger_roll_ratio: 0.3,
             load_transfer_s: 0.2,
             drop_limit_mm: 80.0,
@@ -603,6 +661,9 @@ pub struct TactipParams {
     pub contact_offset_px: f64,
     /// Unit-to-unit variation of the gains (uniform, +-), fraction.
     pub unit_variation: f64,
+    /// How much wider than the carried region the patch's shear spreads in the image: the
+    /// shear field falls as `exp(-r^2 / 2 (f rho_c)^2)`.
+    pub shear_spread_factor: f64,
 }
 
 impl Default for TactipParams {
@@ -623,6 +684,30 @@ impl Default for TactipParams {
             instant_fraction: 0.3,
             contact_offset_px: 20.0,
             unit_variation: 0.25,
+            shear_spread_factor: 1.3,
+        }
+    }
+}
+
+/// What the simulated operator does where a person would set the rig up by hand: how firmly
+/// a grasp is set before a trial. (The runners of the simulated rig read these; the
+/// simulator itself does not.)
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct OperatorParams {
+    /// The hand release's starting grasp, as a factor on the grasp that just holds the
+    /// object: drawn uniformly between the two, trial by trial, as a hand-set grasp varies.
+    pub release_grip_safety: [f64; 2],
+    /// The rice pour's starting grasp, as a factor on the grasp that just holds the empty
+    /// can ("a light grasp").
+    pub pour_grip_safety: f64,
+}
+
+impl Default for OperatorParams {
+    fn default() -> Self {
+        Self {
+            release_grip_safety: [1.2, 1.8],
+            pour_grip_safety: 1.2,
         }
     }
 }

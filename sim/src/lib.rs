@@ -21,8 +21,8 @@ use std::cell::RefCell;
 use std::rc::Rc;
 
 pub use config::{
-    ArmParams, FaultRates, HandSetup, MarkerParams, ObjectStart, PhysicsParams, RailSetup,
-    RigSetup, ServoParams, SimConfig, TactipParams,
+    ArmParams, FaultRates, HandSetup, MarkerParams, ObjectStart, OperatorParams, PhysicsParams,
+    RailSetup, RigSetup, ServoParams, SimConfig, TactipParams,
 };
 pub use objects::{ObjectLibrary, ObjectSpec};
 pub use world::{nominal_contact_law, nominal_skin, TruthEvents, TruthState, MEASURABLE_FALL_MM};

@@ -142,14 +142,48 @@ impl SlidingFriction {
 pub struct SurfaceTexture {
     /// (wave number rad/mm, phase, amplitude)
     waves: Vec<[f64; 3]>,
+    /// `s` in a patch's `exp(-(k a)^2 / s)` ([`Self::patch_at`]).
+    patch_smoothing: f64,
+    /// `c` in a spot's `min(1, L / (c a))` ([`Self::local_at`]).
+    local_length: f64,
+}
+
+/// The shape of a [`SurfaceTexture`] beyond its spread and wavelengths: how many waves make
+/// it and the two constants of its averaging over a contact (`physics.surface_waves`,
+/// `physics.texture_patch_smoothing`, `physics.texture_local_length`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TextureShape {
+    pub waves: usize,
+    pub patch_smoothing: f64,
+    pub local_length: f64,
+}
+
+impl Default for TextureShape {
+    fn default() -> Self {
+        Self {
+            waves: 8,
+            patch_smoothing: 10.0,
+            local_length: 3.8,
+        }
+    }
 }
 
 impl SurfaceTexture {
-    pub fn new(sigma: f64, min_mm: f64, max_mm: f64, mut uniform: impl FnMut() -> f64) -> Self {
-        const WAVES: usize = 8;
-        // Each sinusoid has variance a^2 / 2: a = sigma sqrt(2 / WAVES) gives variance sigma^2.
-        let amplitude = sigma * (2.0 / WAVES as f64).sqrt();
-        let waves = (0..WAVES)
+    pub fn new(sigma: f64, min_mm: f64, max_mm: f64, uniform: impl FnMut() -> f64) -> Self {
+        Self::shaped(sigma, min_mm, max_mm, TextureShape::default(), uniform)
+    }
+
+    pub fn shaped(
+        sigma: f64,
+        min_mm: f64,
+        max_mm: f64,
+        shape: TextureShape,
+        mut uniform: impl FnMut() -> f64,
+    ) -> Self {
+        let count = shape.waves.max(1);
+        // Each sinusoid has variance a^2 / 2: a = sigma sqrt(2 / N) gives variance sigma^2.
+        let amplitude = sigma * (2.0 / count as f64).sqrt();
+        let waves = (0..count)
             .map(|_| {
                 let wavelength = min_mm + (max_mm - min_mm) * uniform();
                 [
@@ -159,7 +193,11 @@ impl SurfaceTexture {
                 ]
             })
             .collect();
-        Self { waves }
+        Self {
+            waves,
+            patch_smoothing: shape.patch_smoothing,
+            local_length: shape.local_length,
+        }
     }
 
     /// Relative friction variation at `position_mm` along the surface.
@@ -172,15 +210,16 @@ impl SurfaceTexture {
 
     /// Relative friction variation of a whole contact patch of radius `contact_radius_mm`
     /// centred at `position_mm`: the variation averaged under the patch's Hertz pressure.
-    /// Each wave of wave number `k` survives the average by about `exp(-(k a)^2 / 10)` (a
-    /// Gaussian with the pressure's spread along the surface, `a^2 / 5`), so texture finer
+    /// Each wave of wave number `k` survives the average by about `exp(-(k a)^2 / s)`, `s` =
+    /// 10 (a Gaussian with the pressure's spread along the surface, `a^2 / 5`), so texture finer
     /// than the contact barely changes the patch's friction, while each spot of skin still
     /// feels it ([`Self::local_at`]).
     pub fn patch_at(&self, position_mm: f64, contact_radius_mm: f64) -> f64 {
         let a2 = contact_radius_mm * contact_radius_mm;
+        let s = self.patch_smoothing;
         self.waves
             .iter()
-            .map(|[k, phase, a]| a * (-k * k * a2 / 10.0).exp() * (k * position_mm + phase).sin())
+            .map(|[k, phase, a]| a * (-k * k * a2 / s).exp() * (k * position_mm + phase).sin())
             .sum()
     }
 
@@ -191,7 +230,7 @@ impl SurfaceTexture {
     /// one spot answers its own. An elastic half-space under a traction varying with
     /// wavelength `L` moves by about `L / 2 pi` times the traction over the modulus, against
     /// about `0.6 a` times the mean traction for the whole patch (Mindlin, `nu` = 0.5), so
-    /// each wave shows locally at `min(1, L / (3.8 a))` of its share: fine texture barely
+    /// each wave shows locally at `min(1, L / (c a))`, `c` = 3.8, of its share: fine texture barely
     /// moves the skin, texture as long as the contact moves it fully. While the surface
     /// slides past at `speed_mm_s`, a wave passes at `v / L` Hz, and the viscoelastic skin
     /// follows it as far as [`SkinTimes::follows_at`] says.
@@ -209,7 +248,7 @@ impl SurfaceTexture {
             .iter()
             .map(|[k, phase, a]| {
                 let wavelength = std::f64::consts::TAU / k;
-                let spatial = (wavelength / (3.8 * contact_radius_mm)).min(1.0);
+                let spatial = (wavelength / (self.local_length * contact_radius_mm)).min(1.0);
                 let lag = skin.follows_at(speed_mm_s.abs() / wavelength);
                 spatial * lag * a * (k * position_mm + phase).sin()
             })

@@ -50,6 +50,8 @@ pub struct SensorOptics {
     radial_gain_px_per_mm: f64,
     /// How far the gel spreads an indentation beyond the contact patch, px.
     spread_px: f64,
+    /// `f` in the shear's spread `f rho_c` around the carried region ([`pin_positions`]).
+    shear_spread_factor: f64,
     /// Each pin's offset from the contact centre and its distance, px.
     offsets: Vec<[f64; 3]>,
     /// How much of a skin element's displacement under pin `k` moves pin `j` (row `j`,
@@ -109,9 +111,16 @@ impl SensorOptics {
             roll_direction: [-slip_direction[1], slip_direction[0]],
             radial_gain_px_per_mm,
             spread_px,
+            shear_spread_factor: 1.3,
             offsets,
             element_kernel,
         }
+    }
+
+    /// The same optics with the shear's spread factor `f` (`tactip.shear_spread_factor`).
+    pub fn with_shear_spread(mut self, factor: f64) -> Self {
+        self.shear_spread_factor = factor;
+        self
     }
 
     /// What the pins show of the skin elements' own displacements `elements` (one per pin,
@@ -159,7 +168,8 @@ impl SensorOptics {
 /// Noise-free pin positions for the skin state `skin`.
 ///
 /// Pin `j` at offset `d_j` (distance `r`) from the contact centre moves by
-/// `G delta g(r / rho) d_j / r + exp(-r^2 / (2 (1.3 rho_c)^2)) (s u + l v)`, where
+/// `G delta g(r / rho) d_j / r + exp(-r^2 / (2 (f rho_c)^2)) (s u + l v)`, `f` = 1.3
+/// (`tactip.shear_spread_factor`), where
 /// `rho = sqrt(rho_0^2 + a^2)` grows with the contact radius `a`, `g(x) = x exp((1 - x^2) / 2)`
 /// (0 at the centre, peak 1 at `r = rho`), `s` and `l` the patch's shear and roll along the
 /// slip and roll directions `u` and `v`, and `rho_c = sqrt(rho_0^2 + c^2)` with `c` the
@@ -170,7 +180,7 @@ pub fn pin_positions(optics: &SensorOptics, skin: &SkinState, out: &mut Vec<[f64
     let radial = optics.radial_gain_px_per_mm * skin.indentation_mm;
     let inv_rho = 1.0 / rho;
     let carried = optics.spread_px.hypot(skin.carried_radius_px);
-    let inv_two_sigma2 = 1.0 / (2.0 * (1.3 * carried).powi(2));
+    let inv_two_sigma2 = 1.0 / (2.0 * (optics.shear_spread_factor * carried).powi(2));
     let [ux, uy] = optics.slip_direction;
     let [vx, vy] = optics.roll_direction;
     let (tx, ty) = (

@@ -15,7 +15,9 @@ use super::grasp::{
     pinch_normal_forces, share_stuck_load, Contact, ContactLaw, StuckShare, MAX_CONTACTS,
 };
 use super::objects::{ObjectLibrary, ObjectSpec};
-use super::skin::{ElementStickSlip, SkinContact, SlidingFriction, SlidingPatch, SurfaceTexture};
+use super::skin::{
+    ElementStickSlip, SkinContact, SlidingFriction, SlidingPatch, SurfaceTexture, TextureShape,
+};
 use super::statics;
 use super::tactip::{
     add_local_shear, dome_layout, local_shear_factors, pin_positions, CreepingDisplacement,
@@ -316,7 +318,8 @@ impl World {
                     [angle.sin(), angle.cos()],
                     t.radial_gain_px_per_mm * vary(&mut srng),
                     t.spread_radius_px * vary(&mut srng),
-                );
+                )
+                .with_shear_spread(t.shear_spread_factor);
                 let skin = nominal_skin(p).scaled(vary(&mut srng));
                 let period =
                     (1.0 + t.clock_error_ppm * 1e-6 * srng.gen_range(-1.0..=1.0)) / t.frame_rate_hz;
@@ -353,7 +356,14 @@ impl World {
         let textures = (0..sensor_count)
             .map(|_| {
                 let [lo, hi] = p.surface_wavelength_mm;
-                SurfaceTexture::new(p.surface_friction_sd, lo, hi, || trng.gen_range(0.0..1.0))
+                let shape = TextureShape {
+                    waves: p.surface_waves.round().max(1.0) as usize,
+                    patch_smoothing: p.texture_patch_smoothing,
+                    local_length: p.texture_local_length,
+                };
+                SurfaceTexture::shaped(p.surface_friction_sd, lo, hi, shape, || {
+                    trng.gen_range(0.0..1.0)
+                })
             })
             .collect();
         let friction = SlidingFriction {

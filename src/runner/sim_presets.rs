@@ -142,7 +142,7 @@ pub fn build(
             },
         ),
         Preset::Pour => (
-            holding_closure(&cfg, &object, 0.0, 1.2)?,
+            holding_closure(&cfg, &object, 0.0, cfg.operator.pour_grip_safety)?,
             ObjectStart::InHand,
             Script::Wait,
         ),

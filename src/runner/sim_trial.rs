@@ -188,7 +188,8 @@ pub fn run_sim_trial(
             // "Closed until stable": unless the protocol finds the grasp from contact, the
             // simulator knows the grasp that holds each object; the safety factor varies
             // from trial to trial as a hand-set grasp would.
-            let safety: f64 = rng.gen_range(1.2..1.8);
+            let [lo, hi] = config.operator.release_grip_safety;
+            let safety: f64 = if hi > lo { rng.gen_range(lo..hi) } else { lo };
             let closure =
                 sim_presets::holding_closure(&base, &planned.object, planned.extra_mass_g, safety)?;
             let params = release_params(
