@@ -865,3 +865,24 @@ fn every_output_that_is_not_a_plain_file_or_directory_is_refused_and_left_alone(
     names.sort();
     assert_eq!(names, ["fifo", "link", "precious.csv"]);
 }
+
+/// A sensitivity study's second stage needs a finished screen with its noise reference.
+#[test]
+fn a_second_stage_without_a_screen_or_its_noise_reference_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let e = fails(&tmo(d, &["reproduce", "--screen", "none", "--out", "r"]));
+    assert!(
+        e.contains("none/sensitivity.json") && e.contains("--sensitivity"),
+        "{e}"
+    );
+    std::fs::create_dir(d.join("s")).unwrap();
+    std::fs::write(
+        d.join("s/sensitivity.json"),
+        r#"[{"variant": {"parameter": "rail.rail_mu", "end": "low", "value": 0.02, "default": 0.05}, "changed": {}}]"#,
+    )
+    .unwrap();
+    let e = fails(&tmo(d, &["reproduce", "--screen", "s", "--out", "r"]));
+    assert!(e.contains("no noise reference"), "{e}");
+    assert!(!d.join("r").exists());
+}

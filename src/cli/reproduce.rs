@@ -76,6 +76,12 @@ pub struct ReproduceArgs {
     /// alone runs only the noise reference).
     #[arg(long, value_delimiter = ',', requires = "sensitivity")]
     sensitivity_parameters: Vec<String>,
+    /// The second stage of a sensitivity study (implies --sensitivity): vary, at this
+    /// preset's counts, only what a finished screen (the --out of a `--sensitivity` run at
+    /// the quick preset's counts) could not clear: every calibrated parameter, and every
+    /// one whose screen changed more verdicts than the screen's noise reference did.
+    #[arg(long, value_name = "DIR", conflicts_with_all = ["sensitivity_parameters", "findings_only"])]
+    screen: Option<PathBuf>,
     /// Where every step's outputs and the findings report go.
     #[arg(long, value_parser = super::output::a_dir, default_value = "results/paper")]
     out: PathBuf,
@@ -135,6 +141,12 @@ pub fn run(args: ReproduceArgs) -> Result<u8> {
         PresetArg::Quick => Preset::Quick,
         PresetArg::Paper => Preset::Paper,
     };
+    let sensitivity = match &args.screen {
+        Some(dir) => Some(second_stage(dir)?),
+        None => args
+            .sensitivity
+            .then(|| args.sensitivity_parameters.clone()),
+    };
     let options = Options {
         out: args.out.clone(),
         preset,
@@ -147,9 +159,7 @@ pub fn run(args: ReproduceArgs) -> Result<u8> {
         sweep_from: args.sweep_from.clone(),
         keep_variant_logs: args.keep_variant_logs,
         backend,
-        sensitivity: args
-            .sensitivity
-            .then(|| args.sensitivity_parameters.clone()),
+        sensitivity,
         jobs: args.jobs.map_or_else(
             || std::thread::available_parallelism().map_or(1, |n| n.get()),
             |j| j as usize,
@@ -293,6 +303,36 @@ fn warn_remade(remade: &[String]) {
     for why in remade {
         eprintln!("warning: ran again {why}");
     }
+}
+
+/// The parameters of a sensitivity study's second stage, from its screen in `dir`, each
+/// said with why it was chosen.
+fn second_stage(dir: &std::path::Path) -> Result<Vec<String>> {
+    let (reference, screened) = reproduce::screen::read(dir)?;
+    let records = tmo_sim::parameters::built_in();
+    let chosen = reproduce::screen::second_stage(&records, reference, &screened);
+    super::output::note(format!(
+        "second stage: the screen's noise reference changed {reference} verdicts; {} of {} screened parameters are varied here",
+        chosen.len(),
+        screened.len()
+    ));
+    for s in &chosen {
+        let mut why = Vec::new();
+        if !s.calibrated_against.is_empty() {
+            why.push(format!("calibrated against {}", s.calibrated_against.len()));
+        }
+        match s.screen_changes {
+            Some(c) if c > reference => why.push(format!("changed {c} verdicts in the screen")),
+            None => why.push("its screen did not finish".into()),
+            _ => {}
+        }
+        super::output::note(format!("  {}: {}", s.parameter, why.join("; ")));
+    }
+    Ok(if chosen.is_empty() {
+        vec![reproduce::sensitivity::RESEEDED.to_string()]
+    } else {
+        chosen.into_iter().map(|s| s.parameter).collect()
+    })
 }
 
 fn merge(args: MergeArgs) -> Result<u8> {

@@ -14,6 +14,7 @@ pub mod evidence;
 pub mod findings;
 pub mod measure;
 pub mod page;
+pub mod screen;
 pub mod sensitivity;
 pub mod shards;
 pub mod show;

@@ -136,7 +136,13 @@ pub fn variants(records: &[ParameterRecord], only: &[String]) -> Result<Vec<Vari
 /// A study: the noise reference first, then [`variants`] of the parameters in `only` (all
 /// when it is empty; none when it names only the reference, `reseeded`).
 pub fn study(records: &[ParameterRecord], only: &[String]) -> Result<Vec<Variant>, String> {
-    let parameters: Vec<String> = only.iter().filter(|n| *n != RESEEDED).cloned().collect();
+    // a name given twice is one parameter (else `x` and `x,x` would be different plans)
+    let mut parameters: Vec<String> = Vec::new();
+    for n in only.iter().filter(|n| *n != RESEEDED) {
+        if !parameters.contains(n) {
+            parameters.push(n.clone());
+        }
+    }
     let mut all = vec![Variant::reseeded()];
     if only.is_empty() || !parameters.is_empty() {
         all.extend(variants(records, &parameters)?);
