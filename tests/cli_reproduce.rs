@@ -283,6 +283,15 @@ impl ReplaceFirst for Vec<u8> {
     }
 }
 
+/// `from` copied to `to`, file by file.
+fn copy_tree(from: &std::path::Path, to: &std::path::Path) {
+    for f in walk(from) {
+        let target = to.join(f.strip_prefix(from).unwrap());
+        std::fs::create_dir_all(target.parent().unwrap()).unwrap();
+        std::fs::copy(&f, &target).unwrap();
+    }
+}
+
 /// Every file under `dir`.
 fn walk(dir: &std::path::Path) -> Vec<std::path::PathBuf> {
     let mut out = Vec::new();
@@ -380,6 +389,53 @@ fn a_reproduction_killed_mid_way_resumes_without_rerunning_finished_steps() {
         "{caught}"
     );
 
+    // T4-3: the page is never written from replicates or steps the run does not have: one
+    // asked for beyond those there, a step unfinished, a replicate that is another's copy
+    let e = fails(&tmo(
+        d,
+        &[
+            "reproduce",
+            "--out",
+            "r",
+            "--findings-only",
+            "--replicates",
+            "3",
+        ],
+    ));
+    assert!(e.contains("replicate-03: no such replicate"), "{e}");
+    copy_tree(&d.join("r"), &d.join("c"));
+    std::fs::remove_dir_all(d.join("c/replicate-02")).unwrap();
+    copy_tree(&d.join("r/replicate-01"), &d.join("c/replicate-02"));
+    let e = fails(&tmo(
+        d,
+        &[
+            "reproduce",
+            "--out",
+            "c",
+            "--findings-only",
+            "--replicates",
+            "2",
+        ],
+    ));
+    assert!(e.contains("a copy of replicate 1"), "{e}");
+    std::fs::remove_file(d.join("c/replicate-02/07_hand_online/step.json")).unwrap();
+    let e = fails(&tmo(
+        d,
+        &[
+            "reproduce",
+            "--out",
+            "c",
+            "--findings-only",
+            "--replicates",
+            "2",
+        ],
+    ));
+    assert!(e.contains("07_hand_online: not finished"), "{e}");
+    // T4-13: the default count on a 2-replicate run says what it leaves out
+    let page = tmo(d, &["reproduce", "--out", "r", "--findings-only"]);
+    let said = String::from_utf8_lossy(&page.stderr);
+    assert!(said.contains("also holds replicate(s) 2"), "{said}");
+
     // the two replicates ran side by side (one job per core); run one at a time as two
     // shards and merged, they give the same trials, sweep, models and findings
     for k in ["1", "2"] {
@@ -419,6 +475,45 @@ fn a_reproduction_killed_mid_way_resumes_without_rerunning_finished_steps() {
     assert!(e.contains("09_rice_pour") && e.contains("changed"), "{e}");
     assert!(!d.join("seq").exists());
     std::fs::write(&touched, &original).unwrap();
+    // T4-6: a shard whose replicate is a copy of another's, or whose plan names another
+    // preset, is refused before anything is written
+    copy_tree(&d.join("part2"), &d.join("swapped"));
+    std::fs::remove_dir_all(d.join("swapped/replicate-02")).unwrap();
+    copy_tree(
+        &d.join("part1/replicate-01"),
+        &d.join("swapped/replicate-02"),
+    );
+    let e = fails(&tmo(
+        d,
+        &["reproduce", "merge", "part1", "swapped", "--out", "seq"],
+    ));
+    assert!(e.contains("a copy of replicate 1"), "{e}");
+    std::fs::remove_dir_all(d.join("swapped")).unwrap();
+    copy_tree(&d.join("part1"), &d.join("relabelled"));
+    copy_tree(&d.join("part2"), &d.join("relabelled2"));
+    for part in ["relabelled", "relabelled2"] {
+        let path = d.join(part).join("shard.json");
+        let text = std::fs::read_to_string(&path).unwrap();
+        assert!(text.contains("\"preset\": \"quick\""), "{text}");
+        std::fs::write(
+            &path,
+            text.replace("\"preset\": \"quick\"", "\"preset\": \"paper\""),
+        )
+        .unwrap();
+    }
+    let e = fails(&tmo(
+        d,
+        &[
+            "reproduce",
+            "merge",
+            "relabelled",
+            "relabelled2",
+            "--out",
+            "seq",
+        ],
+    ));
+    assert!(e.contains("made for other inputs"), "{e}");
+    assert!(!d.join("seq").exists());
     let out = ok(&tmo(
         d,
         &["reproduce", "merge", "part2", "part1", "--out", "seq"],

@@ -198,6 +198,7 @@ pub fn run(args: ReproduceArgs) -> Result<u8> {
             }
             None => None,
         };
+        check_before_findings(&options, variants.as_deref().unwrap_or_default())?;
         let report = reproduce::page::write_findings(
             &options.out,
             &preset,
@@ -303,6 +304,64 @@ fn warn_remade(remade: &[String]) {
     for why in remade {
         eprintln!("warning: ran again {why}");
     }
+}
+
+/// Refuses to write a page from replicates or steps the plan does not have (missing,
+/// unfinished, another replicate's copy, made for other inputs, altered), and says what
+/// the page leaves out or was made by another build.
+fn check_before_findings(
+    options: &Options,
+    variants: &[reproduce::sensitivity::Variant],
+) -> Result<()> {
+    let problems = reproduce::check::check_plan(
+        &options.out,
+        &options.preset,
+        options.replicates,
+        variants,
+        &options.backend,
+    )?;
+    let (fatal, builds): (Vec<_>, Vec<_>) = problems.iter().partition(|p| p.is_fatal());
+    if !fatal.is_empty() {
+        let shown: Vec<String> = fatal.iter().take(12).map(|p| format!("  {p}")).collect();
+        anyhow::bail!(
+            "{} does not hold the {} replicate(s) this page would say it pools:\n{}{}\nfinish or remake them with `tmo reproduce --out {} --replicates {} --resume` (with the same preset{}), or write the page for the replicates it has (--replicates K)",
+            options.out.display(),
+            options.replicates,
+            shown.join("\n"),
+            if fatal.len() > shown.len() {
+                format!("\n  ... and {} more", fatal.len() - shown.len())
+            } else {
+                String::new()
+            },
+            options.out.display(),
+            options.replicates,
+            if variants.is_empty() { "" } else { " and study" }
+        );
+    }
+    if let Some(reproduce::check::Problem::OtherBuild {
+        version, revision, ..
+    }) = builds.first()
+    {
+        super::output::note(format!(
+            "{} step(s) were made by tmo {version} ({revision}), not this build: the page is written by this build from their outputs",
+            builds.len()
+        ));
+    }
+    let beyond = reproduce::check::beyond(&options.out, options.replicates);
+    if !beyond.is_empty() {
+        super::output::note(format!(
+            "{} also holds replicate(s) {}: this page pools only replicates 1 to {} (--replicates {} takes them all)",
+            options.out.display(),
+            beyond
+                .iter()
+                .map(|r| r.to_string())
+                .collect::<Vec<_>>()
+                .join(", "),
+            options.replicates,
+            options.replicates + beyond.len() as u32
+        ));
+    }
+    Ok(())
 }
 
 /// The parameters of a sensitivity study's second stage, from its screen in `dir`, each

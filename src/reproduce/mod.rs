@@ -10,6 +10,7 @@
 //! whose inputs changed or whose outputs did. A step is only ever marked
 //! done once all its files are in place, so a Ctrl-C or kill -9 loses no finished step.
 
+pub mod check;
 pub mod evidence;
 pub mod findings;
 pub mod measure;

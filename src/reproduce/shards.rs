@@ -9,7 +9,7 @@
 
 use std::path::{Path, PathBuf};
 
-use super::{digest_dir, io, link_tree, read_record, sensitivity, Options, ReproduceError, Step};
+use super::{io, link_tree, sensitivity, Options, ReproduceError};
 use crate::output::shard::Shard;
 
 /// The record a finished shard leaves in its directory.
@@ -136,12 +136,27 @@ pub enum MergeError {
         expected: Vec<String>,
         found: Vec<String>,
     },
-    #[error("{dir}: step {step} is not finished: finish the shard with --resume")]
-    Unfinished { dir: PathBuf, step: &'static str },
-    #[error("{dir}: its files changed after the step finished (their SHA-256 is not the one step.json records): run the shard again")]
-    Altered { dir: PathBuf },
     #[error("{0}: {1}")]
     Plan(String, String),
+    #[error("{0}: run the shard again (or finish it with --resume)")]
+    Job(String),
+}
+
+/// The variant (`None`: the baseline) and replicate a job's directory names.
+fn job_of<'a>(
+    dir: &str,
+    variants: &'a [sensitivity::Variant],
+) -> Option<(Option<&'a sensitivity::Variant>, u32)> {
+    let (run, replicate) = dir.rsplit_once('/').unwrap_or(("", dir));
+    let r: u32 = replicate.strip_prefix("replicate-")?.parse().ok()?;
+    match run.strip_prefix("sensitivity/") {
+        None if run.is_empty() => Some((None, r)),
+        None => None,
+        Some(name) => variants
+            .iter()
+            .find(|v| v.dir_name() == name)
+            .map(|v| (Some(v), r)),
+    }
 }
 
 /// A record each finished part of a plan leaves in its directory.
@@ -228,19 +243,43 @@ pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<Merged, ReproduceError> {
         )
         .into());
     }
-    // Every job finished, and its files are the ones its steps recorded.
+    // The shards were made by this build: their records are checked as it states inputs.
+    let (version, revision) = crate::trial::TrialMeta::code_version();
+    if plan.tmo_version != version || plan.git_revision != revision {
+        return Err(MergeError::Plan(
+            "build".into(),
+            format!(
+                "the shards were run by tmo {} ({}), this is {version} ({revision}): merge with the build that ran them",
+                plan.tmo_version, plan.git_revision
+            ),
+        )
+        .into());
+    }
+    // Every job finished, each step made for its own job (its replicate's seeds, the
+    // plan's preset, its variant's parameters, this build), its files as recorded: the
+    // check --findings-only and --resume make (super::check).
     for (dir, record) in &parts {
         for job in record.jobs.iter().filter(|j| j.failed.is_none()) {
-            let from = dir.join(&job.dir);
-            for step in Step::ALL {
-                let step_dir = from.join(step.dir());
-                let done = read_record(&step_dir).ok_or(MergeError::Unfinished {
-                    dir: from.clone(),
-                    step: step.name(),
-                })?;
-                if digest_dir(&step_dir)? != done.outputs_sha256 {
-                    return Err(MergeError::Altered { dir: step_dir }.into());
-                }
+            let (variant, r) = job_of(&job.dir, &variants).ok_or_else(|| {
+                MergeError::Plan(
+                    "jobs".into(),
+                    format!("`{}` is no job of the plan", job.dir),
+                )
+            })?;
+            let of = match variant {
+                Some(v) => super::check::Job::of(v, plan.replicates),
+                None => super::check::Job::baseline(),
+            };
+            let problems = super::check::check_replicate(
+                &dir.join(&job.dir),
+                r,
+                &of,
+                &preset,
+                plan.replicates,
+                &super::Backend::Sim,
+            )?;
+            if let Some(p) = problems.first() {
+                return Err(MergeError::Job(p.to_string()).into());
             }
         }
     }
@@ -254,12 +293,12 @@ pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<Merged, ReproduceError> {
             let from = dir.join(&job.dir);
             let to = out.join(&job.dir);
             if let Some(why) = &job.failed {
+                // a failed job's files are not checked, so none is merged: its marker only
                 let run = to.parent().expect("a job sits in its run's directory");
                 std::fs::create_dir_all(run).map_err(io(run))?;
                 let path = run.join(sensitivity::FAILED);
                 crate::output::atomic::write_atomic(&path, why.as_bytes()).map_err(io(&path))?;
-            }
-            if from.is_dir() {
+            } else if from.is_dir() {
                 link_tree(&from, &to)?;
             }
         }

@@ -403,9 +403,21 @@ impl Step {
     /// code's version and git revision, its settings and the output digests of the steps
     /// it reads.
     pub fn inputs(self, ctx: &Context) -> Result<String, ReproduceError> {
-        let c = ctx.preset.counts();
         // The code is an input: a step made by another build of tmo is made again.
         let (version, revision) = crate::trial::TrialMeta::code_version();
+        self.inputs_of_build(ctx, &version, &revision)
+    }
+
+    /// The step's inputs as the build `version` (`revision`) would state them: what a
+    /// finished step's record is checked against when the page is written again by a
+    /// later build (`--findings-only`).
+    pub fn inputs_of_build(
+        self,
+        ctx: &Context,
+        version: &str,
+        revision: &str,
+    ) -> Result<String, ReproduceError> {
+        let c = ctx.preset.counts();
         let mut text = format!(
             "step {}\ntmo {version} {revision}\nreplicate {} learner seed {}\n",
             self.name(),
