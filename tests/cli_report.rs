@@ -49,9 +49,11 @@ fn a_fixed_batch_gives_the_expected_markdown_and_csv() {
     assert!(e.contains("no such table"), "{e}");
     let json = ok(&tmo(&d, &["report", "hand", "rail", "--format", "json"]));
     let v: serde_json::Value = serde_json::from_str(&json).unwrap();
-    let overall = &v["hand_online"]["rows"][5];
-    assert_eq!(overall[3]["count"], 3);
-    assert_eq!(overall[3]["trials"], 6);
+    // the two objects' batches are kept apart (T4-7): the crisps can's own totals
+    let can = &v["hand_online"]["rows"][6];
+    assert_eq!(can[0], "crisps_can: all", "{can}");
+    assert_eq!(can[3]["count"], 2);
+    assert_eq!(can[3]["trials"], 4);
 }
 
 #[test]

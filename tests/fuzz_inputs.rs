@@ -598,4 +598,53 @@ proptest! {
     fn sweep_csvs(e in edits()) {
         survives("s/sweep.csv", mutate(&seeds().sweep_csv, &e), &[], read_sweep)?;
     }
+
+    /// What an output path names (T4-2, T4-5): nothing, a file, a link to a file, a
+    /// dangling link, a FIFO, a directory, or an empty path; a file written there either
+    /// replaces a regular file or an absent one, or is refused with the node left as it
+    /// was, and a stale temporary planted as a link never writes through.
+    #[cfg(unix)]
+    #[test]
+    fn output_targets(shape in 0u8..7, planted_partial in any::<bool>(), bytes in prop::collection::vec(any::<u8>(), 0..64)) {
+        let dir = tempfile::tempdir().unwrap();
+        let precious = dir.path().join("precious");
+        std::fs::write(&precious, b"keep").unwrap();
+        let target = dir.path().join("out");
+        match shape {
+            0 => {}
+            1 => std::fs::write(&target, b"old").unwrap(),
+            2 => std::os::unix::fs::symlink(&precious, &target).unwrap(),
+            3 => std::os::unix::fs::symlink(dir.path().join("nowhere"), &target).unwrap(),
+            4 => {
+                let name = std::ffi::CString::new(target.as_os_str().as_encoded_bytes()).unwrap();
+                // SAFETY: a valid C string; mkfifo only creates the node
+                prop_assert_eq!(unsafe { libc::mkfifo(name.as_ptr(), 0o600) }, 0);
+            }
+            5 => std::fs::create_dir(&target).unwrap(),
+            _ => {}
+        }
+        let target = if shape == 6 { std::path::PathBuf::new() } else { target };
+        if planted_partial && shape != 6 {
+            let partial = tmo::output::atomic::partial_path(&target);
+            let _ = std::os::unix::fs::symlink(&precious, partial);
+        }
+        let before = std::fs::symlink_metadata(&target).ok().map(|m| m.file_type());
+        // the directory check agrees: a directory output is absent or a directory
+        let dir_ok = tmo::output::target::check_dir(&target).is_ok();
+        prop_assert_eq!(dir_ok, matches!(shape, 0 | 5));
+        let written = tmo::output::atomic::write_atomic(&target, &bytes);
+        match shape {
+            0 | 1 => {
+                prop_assert!(written.is_ok(), "{:?}", written);
+                prop_assert_eq!(std::fs::read(&target).unwrap(), bytes);
+            }
+            _ => {
+                prop_assert!(written.is_err(), "shape {} was written", shape);
+                let after = std::fs::symlink_metadata(&target).ok().map(|m| m.file_type());
+                prop_assert_eq!(before, after);
+            }
+        }
+        // nothing was ever written through a link
+        prop_assert_eq!(std::fs::read(&precious).unwrap(), b"keep".to_vec());
+    }
 }

@@ -184,6 +184,14 @@ pub fn run(args: ReproduceArgs) -> Result<u8> {
                 let (run, missing): (Vec<_>, Vec<_>) = study
                     .into_iter()
                     .partition(|v| v.dir(&options.out).is_dir());
+                // T4-9: no study at all is not a study of nothing
+                anyhow::ensure!(
+                    !run.is_empty(),
+                    "{} holds no sensitivity study (no {}): drop --sensitivity, or run the study with `tmo reproduce --out {} --sensitivity --resume`",
+                    options.out.display(),
+                    options.out.join("sensitivity").display(),
+                    options.out.display()
+                );
                 if !missing.is_empty() {
                     outln!(
                         "not run, left out of the study: {}",

@@ -55,6 +55,29 @@ fn columns(
             INTERCHANGE_COLUMNS.join(", ")
         ));
     }
+    // one file column read as two interchange columns would be read twice, and the real
+    // one left out (T4-8)
+    let mut mapped: Vec<(&String, &String)> = opts.columns.iter().collect();
+    mapped.sort_by_key(|(_, theirs)| theirs.as_str());
+    if let Some(w) = mapped.windows(2).find(|w| w[0].1 == w[1].1) {
+        return Err(format!(
+            "--columns {}={} and {}={}: the file's `{}` column is mapped twice; map each file column to one interchange column",
+            w[0].0, w[0].1, w[1].0, w[1].1, w[0].1
+        ));
+    }
+    // a column named twice in the file: which one is meant cannot be told (I-c)
+    let names: Vec<&str> = header.iter().map(str::trim).collect();
+    if let Some((i, name)) = names
+        .iter()
+        .enumerate()
+        .find(|(i, n)| names[..*i].contains(n))
+    {
+        return Err(format!(
+            "the header names `{name}` twice (columns {} and {}): rename one",
+            names.iter().position(|n| n == name).expect("seen") + 1,
+            i + 1
+        ));
+    }
     let in_file = |h: &str| header.iter().any(|c| c.trim() == h);
     for (ours, theirs) in &opts.columns {
         if !in_file(theirs) {
@@ -585,6 +608,28 @@ mod tests {
         let huge = "trial,sensor,frame,t_s,element,x,y,slip\na,s,0,0.5,0,1e6,1,0\n";
         let e = message(read(huge, &opts()).unwrap_err());
         assert!(e.contains(":2:") && e.contains("baseline"), "{e}");
+    }
+
+    #[test]
+    fn a_file_column_mapped_twice_or_named_twice_is_refused() {
+        let header = csv::StringRecord::from(vec![
+            "trial", "sensor", "frame", "t_s", "element", "x", "y", "slip",
+        ]);
+        let opts = ImportOptions {
+            columns: [
+                ("x".to_string(), "x".to_string()),
+                ("y".to_string(), "x".to_string()),
+            ]
+            .into(),
+            ..Default::default()
+        };
+        let e = columns(&header, &opts).err().unwrap();
+        assert!(e.contains("`x` column is mapped twice"), "{e}");
+        let doubled = csv::StringRecord::from(vec![
+            "trial", "sensor", "frame", "t_s", "element", "x", "x", "slip",
+        ]);
+        let e = columns(&doubled, &ImportOptions::default()).err().unwrap();
+        assert!(e.contains("names `x` twice (columns 6 and 7)"), "{e}");
     }
 
     #[test]

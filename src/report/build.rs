@@ -244,9 +244,14 @@ pub fn hand_online(inputs: &Inputs) -> Option<Table> {
         Kind::HandRelease,
         "Whole hand: online release and regrasp",
     )?;
+    Some(hand_online_table(&rows, &title))
+}
+
+/// [`hand_online`]'s table of `rows`.
+fn hand_online_table(rows: &[&OutcomeRow], title: &str) -> Table {
     let mut t = Table::new(
         "hand_online",
-        &title,
+        title,
         &[
             "scope",
             "strategy",
@@ -258,18 +263,47 @@ pub fn hand_online(inputs: &Inputs) -> Option<Table> {
             "D (mm)",
         ],
     );
-    let cells = group(&rows, |r| {
-        (r.scope.clone(), r.strategy.clone(), r.grasp_deg.to_bits())
-    });
-    for ((scope, strategy, grasp), rs) in &cells {
-        let grasp = f64::from_bits(*grasp).to_string();
-        t.push(catch_row([scope.clone(), strategy.clone(), grasp], rs));
+    // Batches of different objects are never pooled into one strategy x grasp table (an
+    // objects batch beside the crisps can's would change its counts): one block of rows
+    // per object, each with its own totals, the object named in the scope column.
+    let objects = group(rows, object_label);
+    let several = objects.len() > 1;
+    for (object, rows) in &objects {
+        let scope_of = |scope: &str| {
+            if several {
+                format!("{object}: {scope}")
+            } else {
+                scope.to_string()
+            }
+        };
+        let cells = group(rows, |r| {
+            (r.scope.clone(), r.strategy.clone(), r.grasp_deg.to_bits())
+        });
+        for ((scope, strategy, grasp), rs) in &cells {
+            let grasp = f64::from_bits(*grasp).to_string();
+            t.push(catch_row([scope_of(scope), strategy.clone(), grasp], rs));
+        }
+        for (scope, rs) in group(rows, |r| r.scope.clone()) {
+            t.push(catch_row(
+                [scope_of(&scope), "all".into(), "all".into()],
+                &rs,
+            ));
+        }
+        t.push(catch_row(
+            [scope_of("all"), "all".into(), "all".into()],
+            rows,
+        ));
     }
-    for (scope, rs) in group(&rows, |r| r.scope.clone()) {
-        t.push(catch_row([scope, "all".into(), "all".into()], &rs));
+    t
+}
+
+/// An object as the tables name it: with its added mass, if any.
+pub fn object_label(r: &OutcomeRow) -> String {
+    if r.extra_mass_g > 0.0 {
+        format!("{} +{:.0} g", r.object, r.extra_mass_g)
+    } else {
+        r.object.clone()
     }
-    t.push(catch_row(["all".into(), "all".into(), "all".into()], &rows));
-    Some(t)
 }
 
 /// object | strategy | TP | FP | FN (whole-hand trials, all scopes and grasps).
@@ -280,14 +314,7 @@ pub fn per_object(inputs: &Inputs) -> Option<Table> {
         &title,
         &["object", "strategy", "TP", "FP", "FN", "held no slip"],
     );
-    let label = |r: &OutcomeRow| {
-        if r.extra_mass_g > 0.0 {
-            format!("{} +{:.0} g", r.object, r.extra_mass_g)
-        } else {
-            r.object.clone()
-        }
-    };
-    for ((object, strategy), rs) in group(&rows, |r| (label(r), r.strategy.clone())) {
+    for ((object, strategy), rs) in group(&rows, |r| (object_label(r), r.strategy.clone())) {
         t.push(vec![
             Cell::text(object),
             Cell::text(strategy),
@@ -432,8 +459,57 @@ pub fn first_time_lift(inputs: &Inputs) -> Option<Table> {
 
 #[cfg(test)]
 mod tests {
-    use super::short_label;
+    use super::{hand_online_table, short_label};
+    use crate::outcome::Verdict;
+    use crate::runner::score::OutcomeRow;
     use std::path::Path;
+
+    /// T4-7: an objects batch beside the crisps can's is kept apart, never pooled into its
+    /// strategy x grasp counts.
+    #[test]
+    fn batches_of_different_objects_are_kept_apart_in_the_hand_table() {
+        let row = |object: &str, v: Verdict| OutcomeRow {
+            trial_id: "t".into(),
+            object: object.into(),
+            grasp_deg: 0.0,
+            scope: "global".into(),
+            strategy: "2Fr2Sen".into(),
+            verdict: v,
+            onset_s: None,
+            reaction_s: None,
+            latency_s: None,
+            dropped: false,
+            slip_distance_mm: Some(10.0),
+            fault: None,
+            responses: 1,
+            truth_verdict: None,
+            extra_mass_g: 0.0,
+        };
+        let can: Vec<OutcomeRow> = (0..3)
+            .map(|_| row("crisps_can", Verdict::TruePositive))
+            .collect();
+        let others: Vec<OutcomeRow> = (0..30)
+            .map(|i| {
+                row(
+                    if i % 2 == 0 { "banana" } else { "softball" },
+                    Verdict::FalseNegative,
+                )
+            })
+            .collect();
+        let rows: Vec<&OutcomeRow> = can.iter().chain(&others).collect();
+        let t = hand_online_table(&rows, "t");
+        let text = crate::report::render(&[t], crate::report::Format::Csv).unwrap();
+        let can_line = text
+            .lines()
+            .find(|l| l.starts_with("crisps_can: global,2Fr2Sen,0"))
+            .unwrap_or_else(|| panic!("{text}"));
+        assert!(
+            can_line.contains(",3,") || can_line.contains("3/3"),
+            "{can_line}"
+        );
+        assert!(!text.lines().any(|l| l.starts_with("global,")), "{text}");
+        assert!(text.contains("banana: all"), "{text}");
+    }
 
     #[test]
     fn row_labels_are_short_names_not_absolute_paths() {

@@ -138,7 +138,7 @@ pub enum MergeError {
     },
     #[error("{0}: {1}")]
     Plan(String, String),
-    #[error("{0}: run the shard again (or finish it with --resume)")]
+    #[error("{0}: finish or remake that shard with `tmo reproduce --shard K/N --out SHARD --resume` (the merge itself has no --resume)")]
     Job(String),
 }
 
