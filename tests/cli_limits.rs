@@ -75,7 +75,7 @@ fn train_checks_where_the_model_goes_before_training() {
         &["train", "t", "--classifier", "logreg", "--out", "models"],
     ));
     assert!(
-        err.contains("is a folder; expected the model file's path"),
+        err.contains("is a folder; expected the output file's path"),
         "{err}"
     );
     assert!(!d.join("models.json.partial").exists());

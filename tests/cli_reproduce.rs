@@ -101,7 +101,7 @@ fn the_quick_preset_writes_every_step_and_the_findings_report() {
     );
     let md = std::fs::read_to_string(d.join("paper/findings.md")).unwrap();
     assert!(md.contains("| sf-offline-order |"), "{md}");
-    assert!(md.contains("| verdict | finding | paper |"), "{md}");
+    assert!(md.contains("| rule | finding | value | paper |"), "{md}");
     // nothing names where the reproduction was made: a copy of it reads the same (X-b)
     let here = d.to_str().unwrap();
     for page in ["findings.md", "findings.html", "findings.json"] {
@@ -403,33 +403,26 @@ fn a_reproduction_killed_mid_way_resumes_without_rerunning_finished_steps() {
         ],
     ));
     assert!(e.contains("replicate-03: no such replicate"), "{e}");
+    let page_of_two = |out: &str| {
+        fails(&tmo(
+            d,
+            &[
+                "reproduce",
+                "--out",
+                out,
+                "--findings-only",
+                "--replicates",
+                "2",
+            ],
+        ))
+    };
     copy_tree(&d.join("r"), &d.join("c"));
     std::fs::remove_dir_all(d.join("c/replicate-02")).unwrap();
     copy_tree(&d.join("r/replicate-01"), &d.join("c/replicate-02"));
-    let e = fails(&tmo(
-        d,
-        &[
-            "reproduce",
-            "--out",
-            "c",
-            "--findings-only",
-            "--replicates",
-            "2",
-        ],
-    ));
+    let e = page_of_two("c");
     assert!(e.contains("a copy of replicate 1"), "{e}");
     std::fs::remove_file(d.join("c/replicate-02/07_hand_online/step.json")).unwrap();
-    let e = fails(&tmo(
-        d,
-        &[
-            "reproduce",
-            "--out",
-            "c",
-            "--findings-only",
-            "--replicates",
-            "2",
-        ],
-    ));
+    let e = page_of_two("c");
     assert!(e.contains("07_hand_online: not finished"), "{e}");
     // T4-13: the default count on a 2-replicate run says what it leaves out (on a copy:
     // the page it writes is of one replicate)

@@ -201,8 +201,15 @@ fn hand_release_and_rice_pour_run_on_the_real_backend_against_the_served_simulat
     for r in &rows {
         assert!(r["fault"].is_null(), "{rows:?}");
         assert!(
-            ["true_positive", "false_positive", "false_negative"]
-                .contains(&r["verdict"].as_str().unwrap()),
+            // in wall-clock time a reaction can also come before the object ever moved
+            // (held, no slip): a verdict of the trial, not a fault of the backend
+            [
+                "true_positive",
+                "false_positive",
+                "false_negative",
+                "no_slip"
+            ]
+            .contains(&r["verdict"].as_str().unwrap()),
             "{rows:?}"
         );
     }

@@ -137,28 +137,29 @@ const NOT_STDOUT: &str = "`-` (standard output) cannot hold what this command wr
 // and it is refused before any work if writing it would replace something that is not an
 // output (tmo::output::target). The writers check again when they write.
 
-/// An `--out` that is a directory of outputs.
-pub fn a_dir(s: &str) -> Result<std::path::PathBuf, String> {
+/// `s` as an output path that `check` accepts: never empty, never `-`.
+fn checked(
+    s: &str,
+    check: fn(&std::path::Path) -> Result<(), tmo::output::target::TargetError>,
+) -> Result<std::path::PathBuf, String> {
     match s {
         "" => Err(EMPTY.into()),
         "-" => Err(NOT_STDOUT.into()),
         _ => {
-            tmo::output::target::check_dir(s.as_ref()).map_err(|e| e.to_string())?;
+            check(s.as_ref()).map_err(|e| e.to_string())?;
             Ok(s.into())
         }
     }
 }
 
+/// An `--out` that is a directory of outputs.
+pub fn a_dir(s: &str) -> Result<std::path::PathBuf, String> {
+    checked(s, tmo::output::target::check_dir)
+}
+
 /// An `--out` that is one file (with, perhaps, files named after it beside it).
 pub fn a_file(s: &str) -> Result<std::path::PathBuf, String> {
-    match s {
-        "" => Err(EMPTY.into()),
-        "-" => Err(NOT_STDOUT.into()),
-        _ => {
-            tmo::output::target::check_file(s.as_ref()).map_err(|e| e.to_string())?;
-            Ok(s.into())
-        }
-    }
+    checked(s, tmo::output::target::check_file)
 }
 
 /// An `--out` that is a file or `-` (standard output).

@@ -344,7 +344,21 @@ pub fn read_interchange(path: &Path, opts: &ImportOptions) -> Result<ImportSumma
             } else {
                 Some(number(&record, c, "onset_s").map_err(row_err)?)
             };
-            same(&mut trial.onset_s, onset.map(f64::to_bits), "onset_s").map_err(row_err)?;
+            // compared bit for bit, said as the numbers they are (T4-12)
+            let show = |bits: Option<u64>| {
+                bits.map_or("empty".to_string(), |b| f64::from_bits(b).to_string())
+            };
+            match trial.onset_s {
+                Some(old) if old != onset.map(f64::to_bits) => {
+                    return Err(row_err(format!(
+                        "onset_s is {} here but {} earlier in the same trial; it is one value per trial",
+                        show(onset.map(f64::to_bits)),
+                        show(old)
+                    )))
+                }
+                Some(_) => {}
+                None => trial.onset_s = Some(onset.map(f64::to_bits)),
+            }
         }
         if let Some((co, ch)) = cols.heights {
             let m = MarkerSample {
@@ -608,6 +622,14 @@ mod tests {
         let huge = "trial,sensor,frame,t_s,element,x,y,slip\na,s,0,0.5,0,1e6,1,0\n";
         let e = message(read(huge, &opts()).unwrap_err());
         assert!(e.contains(":2:") && e.contains("baseline"), "{e}");
+    }
+
+    #[test]
+    fn two_onsets_of_one_trial_are_said_as_numbers() {
+        let text = "trial,sensor,frame,t_s,element,x,y,onset_s\nb,s,0,0.0,0,1,1,0.05\nb,s,1,0.02,0,1,2,0.07\n";
+        let e = read(text, &opts()).unwrap_err().to_string();
+        assert!(e.contains("onset_s is 0.07 here but 0.05 earlier"), "{e}");
+        assert!(!e.contains("Some("), "{e}");
     }
 
     #[test]

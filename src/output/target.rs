@@ -17,6 +17,8 @@ pub enum TargetError {
     Empty,
     #[error("{path} is {what}, not a regular file: tmo writes outputs only as regular files and will not replace it; choose another --out")]
     NotRegular { path: PathBuf, what: &'static str },
+    #[error("{} is a folder; expected the output file's path (e.g. {})", .0.display(), .0.join("<name>").display())]
+    IsFolder(PathBuf),
     #[error("{path} is a symbolic link (to {to}): an output is replaced whole, which would replace the link itself; give the path it points to, or another --out")]
     Link { path: PathBuf, to: PathBuf },
     #[error("{path} is {what}, not a directory: this output is a directory; choose another --out")]
@@ -86,6 +88,7 @@ pub fn check_file(path: &Path) -> Result<(), TargetError> {
             to: std::fs::read_link(path).unwrap_or_default(),
         }),
         Ok(m) if m.file_type().is_file() => Ok(()),
+        Ok(m) if m.file_type().is_dir() => Err(TargetError::IsFolder(path.to_path_buf())),
         Ok(m) => Err(TargetError::NotRegular {
             path: path.to_path_buf(),
             what: kind(&m.file_type()),
@@ -189,7 +192,7 @@ mod tests {
         check_file(&file).unwrap();
         assert!(matches!(check_file(Path::new("")), Err(TargetError::Empty)));
         let e = check_file(dir.path()).unwrap_err();
-        assert!(e.to_string().contains("a directory"), "{e}");
+        assert!(e.to_string().contains("is a folder; expected"), "{e}");
         // a device is only looked at, never opened
         let e = check_file(Path::new("/dev/null")).unwrap_err();
         assert!(

@@ -578,37 +578,29 @@ mod tests {
     #[test]
     fn the_value_lens_asks_for_the_papers_number_in_our_interval_or_ours_within_its_tolerance() {
         let at = |v: f64, lo: f64, hi: f64| Measure::with_interval(v, (lo, hi));
-        // the paper's 0.972 inside our interval
-        assert_eq!(
-            value_lens(&at(0.96, 0.95, 0.975), 0.972, 0.03),
-            Reproduced::Yes
-        );
-        // not inside, but our whole interval within 0.03 of it
-        assert_eq!(
-            value_lens(&at(0.95, 0.945, 0.955), 0.972, 0.03),
-            Reproduced::Yes
-        );
-        // wholly outside the band: no (0.837 [0.813, 0.861] against 0.972 +- 0.03)
-        assert_eq!(
-            value_lens(&at(0.837, 0.813, 0.861), 0.972, 0.03),
-            Reproduced::No
-        );
-        // across the band's edge: not resolved
-        assert_eq!(
-            value_lens(&at(0.94, 0.93, 0.95), 0.972, 0.03),
-            Reproduced::NotResolved
-        );
-        // at the edge exactly: inside
-        assert_eq!(
-            value_lens(&at(0.942, 0.942, 0.942), 0.972, 0.03),
-            Reproduced::Yes
-        );
-        // a point decides alone
-        assert_eq!(
-            value_lens(&Measure::exact(13.0), 13.0, 0.0),
-            Reproduced::Yes
-        );
-        assert_eq!(value_lens(&Measure::exact(15.1), 13.0, 2.0), Reproduced::No);
+        // (ours, the paper's number, its tolerance, the verdict)
+        let cases = [
+            // the paper's 0.972 inside our interval
+            (at(0.96, 0.95, 0.975), 0.972, 0.03, Reproduced::Yes),
+            // not inside, but our whole interval within 0.03 of it
+            (at(0.95, 0.945, 0.955), 0.972, 0.03, Reproduced::Yes),
+            // wholly outside the band: no (0.837 [0.813, 0.861] against 0.972 +- 0.03)
+            (at(0.837, 0.813, 0.861), 0.972, 0.03, Reproduced::No),
+            // across the band's edge: not resolved
+            (at(0.94, 0.93, 0.95), 0.972, 0.03, Reproduced::NotResolved),
+            // at the edge exactly: inside
+            (at(0.942, 0.942, 0.942), 0.972, 0.03, Reproduced::Yes),
+            // a point decides alone
+            (Measure::exact(13.0), 13.0, 0.0, Reproduced::Yes),
+            (Measure::exact(15.1), 13.0, 2.0, Reproduced::No),
+        ];
+        for (ours, paper, tolerance, verdict) in &cases {
+            assert_eq!(
+                value_lens(ours, *paper, *tolerance),
+                *verdict,
+                "{ours:?} against {paper} +- {tolerance}"
+            );
+        }
         // a row: every metric, and none missing
         let f = Finding {
             value: [("a".to_string(), (0.5, 0.1)), ("b".to_string(), (0.2, 0.1))].into(),
