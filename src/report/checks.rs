@@ -67,6 +67,16 @@ impl Rows<'_> {
     }
 
     fn scores(&self, row: usize, prefix: &str, s: &Scores) -> Result<(), InputError> {
+        // scores over no frames at all say nothing (R-d)
+        let c = &s.confusion;
+        if c.true_slip + c.false_slip + c.true_static + c.false_static == 0 {
+            return Err(InputError::Format {
+                path: self.path.to_path_buf(),
+                message: format!(
+                    "`{prefix}confusion`: every count is 0: expected the scored frames of an evaluation"
+                ),
+            });
+        }
         for (name, v) in [
             ("macro_f1", s.macro_f1),
             ("slip.precision", s.slip.precision),
@@ -83,6 +93,13 @@ impl Rows<'_> {
 }
 
 pub fn sweep(path: &Path, rows: &[SweepRow]) -> Result<(), InputError> {
+    // a header alone is no sweep (R-d)
+    if rows.is_empty() {
+        return Err(InputError::Format {
+            path: path.to_path_buf(),
+            message: "a header and no rows: expected the cells of a finished `tmo sweep`".into(),
+        });
+    }
     let c = Rows { path };
     for (i, r) in rows.iter().enumerate() {
         let row = i + 1;
@@ -261,4 +278,24 @@ pub fn evaluation(path: &Path, e: &Evaluation) -> Result<(), InputError> {
         c.scores(1, &format!("per_sensor.{i}.scores."), &s.scores)?;
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_header_only_sweep_and_scores_of_no_frames_are_refused() {
+        let path = Path::new("s.csv");
+        let e = sweep(path, &[]).unwrap_err();
+        assert!(e.to_string().contains("a header and no rows"), "{e}");
+        let zero = Scores {
+            confusion: Default::default(),
+            slip: Default::default(),
+            static_: Default::default(),
+            macro_f1: 0.0,
+        };
+        let e = Rows { path }.scores(1, "overall.", &zero).unwrap_err();
+        assert!(e.to_string().contains("every count is 0"), "{e}");
+    }
 }
