@@ -527,7 +527,13 @@ fn html_page(
                 html::escape(&c[1]),
                 html::inline_markdown(&details(j))
             );
-            for cell in &c[2..] {
+            // the value lens's cell in its verdict's colour, as the rule's
+            let value_class = j.value_verdict.map_or("", verdict_class);
+            t += &format!(
+                "<td class=\"{value_class}\">{}</td>",
+                html::inline_markdown(&c[2])
+            );
+            for cell in &c[3..] {
                 t += &format!("<td>{}</td>", html::inline_markdown(cell));
             }
             t += "</tr>\n";
