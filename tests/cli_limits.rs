@@ -886,3 +886,22 @@ fn a_second_stage_without_a_screen_or_its_noise_reference_is_refused() {
     assert!(e.contains("no noise reference"), "{e}");
     assert!(!d.join("r").exists());
 }
+
+/// T4-12: frames exactly at the fastest rate the importer takes (100 kHz) are taken, though
+/// the inverse of their spacing comes out a rounding above it.
+#[test]
+fn frames_exactly_at_the_fastest_rate_are_imported() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let mut csv = String::from("trial,sensor,frame,t_s,element,x,y,slip\n");
+    for i in 0..21 {
+        csv += &format!(
+            "a,s,{i},{:.5},0,1,{i},{}\n",
+            i as f64 * 1e-5,
+            u8::from(i > 10)
+        );
+    }
+    std::fs::write(d.join("r.csv"), csv).unwrap();
+    let out = ok(&tmo(d, &["import", "csv", "r.csv", "--out", "logs"]));
+    assert!(out.contains("1 trial log(s)"), "{out}");
+}
