@@ -527,15 +527,16 @@ pub fn run_chains_until(
 #[error("`{text}`: expected {expected}")]
 pub struct RangeError {
     pub text: String,
-    pub expected: &'static str,
+    pub expected: String,
 }
 
 /// Grid values from `start:end:step` (inclusive), `start:end` (step 1), or `a,b,c`.
 pub fn parse_f64_grid(text: &str) -> Result<Vec<f64>, RangeError> {
-    let err = || RangeError {
+    let said = |expected: &str| RangeError {
         text: text.to_string(),
-        expected: "start:end:step (e.g. 0.1:1.0:0.1) or a list (0.2,0.4)",
+        expected: expected.to_string(),
     };
+    let err = || said("start:end:step (e.g. 0.1:1.0:0.1) or a list (0.2,0.4)");
     let num = |s: &str| s.trim().parse::<f64>().ok().filter(|v| v.is_finite());
     if text.contains(':') {
         let parts: Vec<&str> = text.split(':').collect();
@@ -547,13 +548,19 @@ pub fn parse_f64_grid(text: &str) -> Result<Vec<f64>, RangeError> {
         let (Some(start), Some(end), Some(step)) = (start, end, step) else {
             return Err(err());
         };
-        if step <= 0.0 || end < start {
-            return Err(err());
+        // each way a range can be wrong, said as it is (T4-12)
+        if end < start {
+            return Err(said(&format!(
+                "an end at or above the start (a grid counts up: write {end}:{start})"
+            )));
+        }
+        if step <= 0.0 {
+            return Err(said("a positive step"));
         }
         // Count steps rather than accumulate, so 0.1:1.0:0.1 ends at exactly 1.0.
         let n = ((end - start) / step + 1e-9).floor() as usize;
         if n > 10_000 {
-            return Err(err());
+            return Err(said("at most 10,001 values (a coarser step)"));
         }
         Ok((0..=n).map(|i| start + step * i as f64).collect())
     } else {
@@ -569,9 +576,9 @@ pub fn parse_usize_grid(text: &str) -> Result<Vec<usize>, RangeError> {
         .map(|v| {
             (v.fract() == 0.0 && *v >= 0.0)
                 .then_some(*v as usize)
-                .ok_or(RangeError {
+                .ok_or_else(|| RangeError {
                     text: text.to_string(),
-                    expected: "whole numbers, e.g. 1:15 or 5,10,13",
+                    expected: "whole numbers, e.g. 1:15 or 5,10,13".into(),
                 })
         })
         .collect()
@@ -580,6 +587,16 @@ pub fn parse_usize_grid(text: &str) -> Result<Vec<usize>, RangeError> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_range_that_counts_down_or_never_moves_says_so() {
+        let e = parse_usize_grid("5:1").unwrap_err().to_string();
+        assert!(e.contains("write 1:5"), "{e}");
+        let e = parse_f64_grid("0.1:1:0").unwrap_err().to_string();
+        assert!(e.contains("a positive step"), "{e}");
+        let e = parse_f64_grid("0:1:0.00001").unwrap_err().to_string();
+        assert!(e.contains("at most"), "{e}");
+    }
 
     #[test]
     fn grids_parse_as_the_paper_writes_them() {
