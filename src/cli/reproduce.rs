@@ -377,7 +377,19 @@ fn check_before_findings(
 fn second_stage(dir: &std::path::Path) -> Result<Vec<String>> {
     let (reference, screened) = reproduce::screen::read(dir)?;
     let records = tmo_sim::parameters::built_in();
-    let chosen = reproduce::screen::second_stage(&records, reference, &screened);
+    let variable = reproduce::sensitivity::variable(&records);
+    let chosen = reproduce::screen::second_stage(&records, &variable, reference, &screened);
+    let unvaried: Vec<&str> = records
+        .iter()
+        .filter(|r| !r.calibrated_against.is_empty() && !variable.contains(&r.name))
+        .map(|r| r.name.as_str())
+        .collect();
+    if !unvaried.is_empty() {
+        super::output::note(format!(
+            "calibrated but not varied by any study (an object's property): {}",
+            unvaried.join(", ")
+        ));
+    }
     super::output::note(format!(
         "second stage: the screen's noise reference changed {reference} verdicts; {} of {} screened parameters are varied here",
         chosen.len(),
@@ -390,7 +402,10 @@ fn second_stage(dir: &std::path::Path) -> Result<Vec<String>> {
         }
         match s.screen_changes {
             Some(c) if c > reference => why.push(format!("changed {c} verdicts in the screen")),
-            None => why.push("its screen did not finish".into()),
+            None if screened.get(&s.parameter).is_some() => {
+                why.push("its screen did not finish".into())
+            }
+            None => why.push("not in the screen".into()),
             _ => {}
         }
         super::output::note(format!("  {}: {}", s.parameter, why.join("; ")));

@@ -92,15 +92,19 @@ pub fn read(dir: &Path) -> Result<(usize, BTreeMap<String, Option<usize>>), Scre
 }
 
 /// The second stage's parameters, in the records' order: the calibrated ones and those
-/// whose screen changed more verdicts than the reference did. A parameter the screen
-/// could not judge (its variants failed) is kept: it was not cleared.
+/// whose screen changed more verdicts than the reference did, among the `variable` ones
+/// (a study cannot vary an object's property: a calibrated one is left out, and the
+/// caller says so). A parameter the screen could not judge (its variants failed) is
+/// kept: it was not cleared.
 pub fn second_stage(
     records: &[ParameterRecord],
+    variable: &[String],
     reference: usize,
     screened: &BTreeMap<String, Option<usize>>,
 ) -> Vec<Selected> {
     records
         .iter()
+        .filter(|r| variable.contains(&r.name))
         .filter_map(|r| {
             let changes = screened.get(&r.name).copied();
             let calibrated = !r.calibrated_against.is_empty();
@@ -167,11 +171,19 @@ mod tests {
             record("d", &[]),
             record("e", &[]), // never screened: not selected
         ];
-        let chosen: Vec<String> = second_stage(&records, reference, &screened)
+        let variable: Vec<String> = records.iter().map(|r| r.name.clone()).collect();
+        let chosen: Vec<String> = second_stage(&records, &variable, reference, &screened)
             .into_iter()
             .map(|s| s.parameter)
             .collect();
         assert_eq!(chosen, ["b", "c", "d"]);
+        // a calibrated record a study cannot vary (an object's property) is left out
+        let variable: Vec<String> = ["a", "b", "d", "e"].iter().map(|s| s.to_string()).collect();
+        let chosen: Vec<String> = second_stage(&records, &variable, reference, &screened)
+            .into_iter()
+            .map(|s| s.parameter)
+            .collect();
+        assert_eq!(chosen, ["b", "d"]);
     }
 
     #[test]

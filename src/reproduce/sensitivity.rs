@@ -90,6 +90,19 @@ fn varied(r: &ParameterRecord, settable: &[String]) -> bool {
         && settable.contains(&r.name)
 }
 
+/// The names of the records a study can vary (see [`variants`]).
+pub fn variable(records: &[ParameterRecord]) -> Vec<String> {
+    let settable: Vec<String> = SimConfig::parameters()
+        .into_iter()
+        .map(|(n, _)| n)
+        .collect();
+    records
+        .iter()
+        .filter(|r| varied(r, &settable))
+        .map(|r| r.name.clone())
+        .collect()
+}
+
 /// The variants to run: both ends of every varied parameter, or of the parameters named
 /// in `only` (an unknown or unvaried name is an error naming it).
 pub fn variants(records: &[ParameterRecord], only: &[String]) -> Result<Vec<Variant>, String> {
