@@ -402,7 +402,7 @@ fn second_stage(dir: &std::path::Path) -> Result<Vec<String>> {
         }
         match s.screen_changes {
             Some(c) if c > reference => why.push(format!("changed {c} verdicts in the screen")),
-            None if screened.get(&s.parameter).is_some() => {
+            None if screened.contains_key(&s.parameter) => {
                 why.push("its screen did not finish".into())
             }
             None => why.push("not in the screen".into()),
