@@ -90,7 +90,7 @@ SelectTypeParameters=CR_Core
 JobAcctGatherType=jobacct_gather/none
 AccountingStorageType=accounting_storage/none
 ReturnToService=2
-MinJobAge=600
+MinJobAge=7200
 NodeName=$host CPUs=$cores RealMemory=$memory_mb State=UNKNOWN
 PartitionName=test Nodes=$host Default=YES MaxTime=INFINITE State=UP
 CONF
@@ -110,7 +110,9 @@ echo "slurm is up on $host ($cores cores); scratch in $work"
 wait_for() {
     local id="$1" state=""
     for _ in $(seq 3000); do
-        state="$(scontrol show job "$id" 2>/dev/null | sed -n 's/.*JobState=\([A-Z_]*\).*/\1/p' | head -1)"
+        # a job slurmctld no longer knows makes scontrol fail: not a reason for set -e to
+        # end the test without a word (it did, when the single runs outlasted MinJobAge)
+        state="$( (scontrol show job "$id" 2>/dev/null || true) | sed -n 's/.*JobState=\([A-Z_]*\).*/\1/p' | head -1)"
         case "$state" in
             COMPLETED) return 0 ;;
             FAILED | CANCELLED | TIMEOUT | NODE_FAIL | OUT_OF_MEMORY | BOOT_FAIL | DEADLINE)
@@ -157,7 +159,7 @@ def load(path):
     j["findings"] = [f for f in j["findings"] if f["id"] != "sf-classify-time"]
     j["measures"] = {k: v for k, v in j["measures"].items() if "classify" not in k}
     # the counts include that row's verdict, which a busy machine can flip
-    for count in ("all", "held_out", "calibrated", "headline"):
+    for count in ("all", "values", "evidence", "standings", "headline"):
         j.pop(count, None)
     return j
 merged, single = (load(p) for p in sys.argv[1:3])
