@@ -67,6 +67,16 @@ pub enum Basis {
     Replicates(Vec<f64>),
 }
 
+impl Basis {
+    /// The per-trial values of a mean over trials (none for any other basis).
+    fn samples(&self) -> &[f64] {
+        match self {
+            Basis::Samples(v) => v,
+            _ => &[],
+        }
+    }
+}
+
 /// One of our measurements: a value, with its 95 % interval when there is one.
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Measure {
@@ -153,14 +163,21 @@ impl Measure {
     /// The mean of per-trial values, with a bootstrap interval seeded by `name`; `None`
     /// for no values.
     pub fn mean_of(name: &str, values: Vec<f64>) -> Option<Self> {
+        let mut m = Self::mean_without_interval(values)?;
+        m.interval = Some(bootstrap_mean(m.basis.samples(), seed_of(name)));
+        Some(m)
+    }
+
+    /// The mean of per-trial values with no interval yet (it is drawn where the metric's
+    /// name is known, so the resamples are drawn once); `None` for no values.
+    pub fn mean_without_interval(values: Vec<f64>) -> Option<Self> {
         if values.is_empty() {
             return None;
         }
         let value = mean(&values);
-        let interval = bootstrap_mean(&values, seed_of(name));
         Some(Self {
             value,
-            interval: Some(interval),
+            interval: None,
             n: Some(values.len() as u64),
             trials: None,
             replicates: 1,

@@ -61,9 +61,7 @@ pub fn rate<T>(rows: &[&T], keep: impl Fn(&T) -> bool) -> Option<Measure> {
 /// A mean over trials with a bootstrap 95 % interval (seeded by the metric's name when
 /// `put` stores it).
 pub fn mean(values: &[f64]) -> Option<Measure> {
-    let mut m = Measure::mean_of("", values.to_vec())?;
-    m.interval = None;
-    Some(m)
+    Measure::mean_without_interval(values.to_vec())
 }
 
 /// The difference of two rates, `a - b`, with its Newcombe interval.
