@@ -273,11 +273,15 @@ fn a_replay_of_nothing_readable_is_an_error_not_a_skip() {
     let d = dir.path();
     std::fs::write(
         d.join("m.json"),
-        serde_json::to_string(&tmo::slip::model::ModelFile::threshold_model(
-            30,
-            vec![0, 1, 2],
-            0.3,
-        ))
+        serde_json::to_string(&{
+            let mut m = tmo::slip::model::ModelFile::threshold_model(30, vec![0, 1, 2], 0.3);
+            m.training_trials = vec![tmo::slip::model::TrialRef {
+                trial_id: "t0".into(),
+                path: "t0.mcap".into(),
+                sha256: "0".repeat(64),
+            }];
+            m
+        })
         .unwrap(),
     )
     .unwrap();

@@ -87,6 +87,23 @@ fn export_train_evaluate_and_a_model_from_the_future() {
         );
     }
 
+    // M-c: a model met again on its own training trials says so; on held-out ones it does not
+    let stderr = |o: &std::process::Output| String::from_utf8_lossy(&o.stderr).into_owned();
+    let on_train = tmo(d, &["evaluate", "logreg.json", "train"]);
+    ok(&on_train);
+    assert!(
+        stderr(&on_train).contains("among its training trials"),
+        "{}",
+        stderr(&on_train)
+    );
+    let on_test = tmo(d, &["evaluate", "logreg.json", "test"]);
+    ok(&on_test);
+    assert!(
+        !stderr(&on_test).contains("training trials"),
+        "{}",
+        stderr(&on_test)
+    );
+
     // --json prints the evaluation file's contents alone, so a pipe can read it
     let stdout = ok(&tmo(
         d,

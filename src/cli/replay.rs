@@ -221,6 +221,15 @@ pub fn replay_with(
             .map(PathBuf::as_path)
             .zip(read.iter().map(|(hash, _)| hash.as_str())),
     )?;
+    for (mpath, _, m) in &models {
+        let seen = read.iter().filter(|(h, _)| m.trained_on_log(h)).count();
+        if seen > 0 {
+            eprintln!(
+                "warning: {mpath}: {seen} of these {} trial log(s) are among its training trials: its replays of them are not held out",
+                read.len()
+            );
+        }
+    }
     // A damaged log is named and skipped; the rest of the set is still evaluated.
     let mut trials: Vec<(String, Trial)> = Vec::new();
     let mut skipped = 0;

@@ -574,6 +574,26 @@ pub fn evaluate(args: EvaluateArgs) -> Result<()> {
         eprintln!("warning: {}: {why}", args.model.display());
     }
     let (overall, per_sensor) = model.evaluate(&ds)?;
+    let trained_on = model.trained_on(&refs);
+    if !trained_on.is_empty() {
+        let names: Vec<&str> = trained_on.iter().map(|t| t.trial_id.as_str()).collect();
+        eprintln!(
+            "warning: {}: {} of these {} trials are among its training trials ({}): their scores are on training data, not held out",
+            args.model.display(),
+            trained_on.len(),
+            refs.len(),
+            shortened(&names, 5)
+        );
+    }
+    let unseen = model.unseen_sensors(&ds.sensors());
+    if !unseen.is_empty() {
+        super::output::note(format!(
+            "note: {}: a global model trained on sensors {:?} also scores sensor(s) {:?}, which it never saw: their scores measure how it generalises",
+            args.model.display(),
+            model.sensors,
+            unseen
+        ));
+    }
     if !json {
         outln!(
             "{} ({} scope) on {} rows",
@@ -613,4 +633,13 @@ pub fn evaluate(args: EvaluateArgs) -> Result<()> {
         }
     }
     Ok(())
+}
+
+/// `names` joined by commas, the first `at_most` of them and how many more.
+fn shortened(names: &[&str], at_most: usize) -> String {
+    let shown = names[..names.len().min(at_most)].join(", ");
+    match names.len().saturating_sub(at_most) {
+        0 => shown,
+        more => format!("{shown} and {more} more"),
+    }
 }

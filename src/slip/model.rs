@@ -533,6 +533,37 @@ impl ModelFile {
         if self.models.is_empty() {
             return bad("models".into(), "expected at least one classifier".into());
         }
+        // The training trials are the model's provenance, and what `evaluate` checks its
+        // test trials against: a model that names none could be scored on its own
+        // training data with nothing said.
+        if self.training_trials.is_empty() {
+            return bad(
+                "training_trials".into(),
+                "expected the trials the model was trained on (trial_id, path, sha256), got none"
+                    .into(),
+            );
+        }
+        let mut hashes = std::collections::HashSet::new();
+        for (i, t) in self.training_trials.iter().enumerate() {
+            if t.sha256.len() != 64 || !t.sha256.bytes().all(|b| b.is_ascii_hexdigit()) {
+                return bad(
+                    format!("training_trials.{i}.sha256"),
+                    format!(
+                        "expected the trial log's SHA-256 as 64 hex digits, got {:?}",
+                        t.sha256
+                    ),
+                );
+            }
+            if !hashes.insert(t.sha256.to_ascii_lowercase()) {
+                return bad(
+                    format!("training_trials.{i}"),
+                    format!(
+                        "the log {} ({}) is listed twice: a model is trained on each trial once",
+                        t.trial_id, t.path
+                    ),
+                );
+            }
+        }
         match self.scope {
             Scope::Global if self.models.len() != 1 || self.models[0].sensor.is_some() => {
                 return bad(
@@ -699,6 +730,36 @@ impl ModelFile {
                 _ => None,
             })
             .collect()
+    }
+
+    /// The trials of `refs` this model was trained on (matched by their logs' SHA-256):
+    /// scores on them are not held out.
+    pub fn trained_on<'a>(&self, refs: &'a [TrialRef]) -> Vec<&'a TrialRef> {
+        refs.iter()
+            .filter(|r| self.trained_on_log(&r.sha256))
+            .collect()
+    }
+
+    /// Whether the trial log whose SHA-256 is `sha256` is one of this model's training
+    /// trials.
+    pub fn trained_on_log(&self, sha256: &str) -> bool {
+        self.training_trials
+            .iter()
+            .any(|t| t.sha256.eq_ignore_ascii_case(sha256))
+    }
+
+    /// The sensors of `sensors` a global model never saw in training. A global model
+    /// classifies any sensor's frames, so these are scored, but as generalisation to a
+    /// fingertip it was not fitted on (the paper's global-vs-local question).
+    pub fn unseen_sensors(&self, sensors: &[u8]) -> Vec<u8> {
+        match self.scope {
+            Scope::Global => sensors
+                .iter()
+                .copied()
+                .filter(|s| !self.sensors.contains(s))
+                .collect(),
+            Scope::Local => Vec::new(),
+        }
     }
 
     /// The classifier that handles `sensor`'s frames.
@@ -979,7 +1040,7 @@ mod tests {
 
     /// A trained model of `kind` as JSON.
     fn trained(kind: ClassifierKind) -> serde_json::Value {
-        let m = ModelFile::train(&data(), &spec(kind), Vec::new(), None).unwrap();
+        let m = ModelFile::train(&data(), &spec(kind), refs(), None).unwrap();
         serde_json::to_value(&m).unwrap()
     }
 
@@ -1013,7 +1074,7 @@ mod tests {
             (ClassifierKind::Logreg, &["c"][..]),
             (ClassifierKind::Threshold, &[][..]),
         ] {
-            let m = ModelFile::train(&data(), &spec(kind), Vec::new(), None).unwrap();
+            let m = ModelFile::train(&data(), &spec(kind), refs(), None).unwrap();
             m.save(&path).unwrap();
             let v: serde_json::Value =
                 serde_json::from_str(&std::fs::read_to_string(&path).unwrap()).unwrap();
@@ -1038,6 +1099,45 @@ mod tests {
                 assert_eq!(back.hyperparameters.c, 1.0);
             }
         }
+    }
+
+    /// The two trials of [`data`], as a model file names them.
+    fn refs() -> Vec<TrialRef> {
+        (0..2)
+            .map(|i| TrialRef {
+                trial_id: format!("t{i}"),
+                path: format!("t{i}.mcap"),
+                sha256: format!("{i:064x}"),
+            })
+            .collect()
+    }
+
+    #[test]
+    fn a_model_names_the_trials_it_was_trained_on_each_once_and_says_which_it_meets_again() {
+        let v = trained(ClassifierKind::Logreg);
+        let model = load(&v).unwrap();
+        let mut none = v.clone();
+        none["training_trials"] = serde_json::json!([]);
+        refused(&none, "training_trials");
+        let mut twice = v.clone();
+        twice["training_trials"][1] = twice["training_trials"][0].clone();
+        refused(&twice, "training_trials.1");
+        let mut not_a_hash = v.clone();
+        not_a_hash["training_trials"][0]["sha256"] = "abc".into();
+        refused(&not_a_hash, "training_trials.0.sha256");
+        // the test trials it was trained on are named, by their logs' hashes
+        let mut test = refs();
+        test[1].sha256 = "f".repeat(64);
+        let seen = model.trained_on(&test);
+        assert_eq!(seen.len(), 1);
+        assert_eq!(seen[0].trial_id, "t0");
+        assert!(model.trained_on_log(&refs()[1].sha256.to_uppercase()));
+        // a global model trained on sensor 0 meets sensors 1 and 2 as generalisation
+        assert_eq!(model.sensors, vec![0]);
+        assert_eq!(model.unseen_sensors(&[0, 1, 2]), vec![1, 2]);
+        let mut local = model.clone();
+        local.scope = Scope::Local;
+        assert!(local.unseen_sensors(&[0, 1, 2]).is_empty());
     }
 
     fn load(v: &serde_json::Value) -> Result<ModelFile, ModelFileError> {
@@ -1079,7 +1179,7 @@ mod tests {
         let data = data();
         let spec = spec(ClassifierKind::SvmRbf);
         let hyper = spec.hyper;
-        let file = ModelFile::train(&data, &spec, Vec::new(), None).unwrap();
+        let file = ModelFile::train(&data, &spec, refs(), None).unwrap();
         let kept = &file.models[0].training_scores;
         assert_eq!(
             kept.confusion.true_slip
@@ -1106,7 +1206,7 @@ mod tests {
             ClassifierKind::Logreg,
             ClassifierKind::Threshold,
         ] {
-            let file = ModelFile::train(&data, &spec(kind), Vec::new(), None).unwrap();
+            let file = ModelFile::train(&data, &spec(kind), refs(), None).unwrap();
             let model = &file.models[0];
             let mut scratch = Vec::new();
             let one_at_a_time: Vec<Class> = rows
