@@ -9,6 +9,7 @@ pub mod outcome;
 pub mod output;
 pub mod plots;
 pub mod protocol;
+pub mod quote;
 pub mod replay;
 pub mod report;
 pub mod reproduce;

@@ -178,7 +178,7 @@ fn sim_trace(args: TraceArgs) -> Result<()> {
     anyhow::ensure!(
         args.duration > 0.0 && args.duration <= 600.0,
         "--duration must be in (0, 600] s, got {}",
-        args.duration
+        tmo::quote::number(args.duration)
     );
     let mut base = match &args.config {
         Some(p) => load_sim_config(p)?,
@@ -264,7 +264,8 @@ fn sim_collect(args: CollectArgs) -> Result<u8> {
     for g in &args.grasps {
         anyhow::ensure!(
             (-360.0..=360.0).contains(g),
-            "--grasps: expected angles in -360..=360 degrees, got {g}"
+            "--grasps: expected angles in -360..=360 degrees, got {}",
+            tmo::quote::number(*g)
         );
     }
     let objects = if !args.objects.is_empty() {

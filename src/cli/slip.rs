@@ -193,7 +193,8 @@ pub fn label_spec(args: &LabelArgs, trials: &[PathBuf]) -> Result<LabelSpec> {
         Some(seconds) => {
             anyhow::ensure!(
                 seconds.is_finite() && seconds > 0.0,
-                "--n-slip-s must be a positive number of seconds, got {seconds}"
+                "--n-slip-s must be a positive number of seconds, got {}",
+                tmo::quote::number(seconds)
             );
             let rate = first_trial_rate(trials)?;
             let n = tmo::slip::labels::frames_in(seconds, rate);
@@ -211,7 +212,8 @@ pub fn label_spec(args: &LabelArgs, trials: &[PathBuf]) -> Result<LabelSpec> {
     if let Some(d) = args.downsample {
         anyhow::ensure!(
             d > 0.0 && d <= 1.0,
-            "--downsample must be in (0, 1], got {d}"
+            "--downsample must be in (0, 1], got {}",
+            tmo::quote::number(d)
         );
     }
     anyhow::ensure!(

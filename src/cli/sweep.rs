@@ -172,7 +172,7 @@ pub fn sweep(args: SweepArgs) -> Result<()> {
     anyhow::ensure!(
         args.test_fraction > 0.0 && args.test_fraction < 1.0,
         "--test-fraction must be in (0, 1), got {}",
-        args.test_fraction
+        tmo::quote::number(args.test_fraction)
     );
     anyhow::ensure!(
         args.onset_threshold_mm > 0.0,

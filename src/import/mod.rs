@@ -295,7 +295,7 @@ pub(crate) fn build_trial(
         if !within {
             return Err(format!(
                 "trial `{name}`: its frames are {} s apart (median), a rate of {rate:.3e} Hz; expected {slowest} to {fastest} Hz (is t_s in seconds?)",
-                1.0 / rate
+                crate::quote::number(1.0 / rate)
             ));
         }
     }

@@ -258,7 +258,8 @@ pub fn read_interchange(path: &Path, opts: &ImportOptions) -> Result<ImportSumma
         let t = number(&record, c_t, "t_s").map_err(row_err)?;
         if t.abs() > crate::import::MAX_TIME_S {
             return Err(row_err(format!(
-                "column `t_s`: {t} is beyond +-{:e} s; times are in seconds",
+                "column `t_s`: {} is beyond +-{:e} s; times are in seconds",
+                crate::quote::number(t),
                 crate::import::MAX_TIME_S
             )));
         }
@@ -279,7 +280,8 @@ pub fn read_interchange(path: &Path, opts: &ImportOptions) -> Result<ImportSumma
             let value = number(&record, c, n).map_err(row_err)?;
             if value.abs() > MAX_VALUE {
                 return Err(row_err(format!(
-                    "column `{n}`: {value} is beyond +-{MAX_VALUE:e}; subtract each element's baseline (e.g. its first frame) first"
+                    "column `{n}`: {} is beyond +-{MAX_VALUE:e}; subtract each element's baseline (e.g. its first frame) first",
+                    crate::quote::number(value)
                 )));
             }
             *v = value as f32;
@@ -291,7 +293,8 @@ pub fn read_interchange(path: &Path, opts: &ImportOptions) -> Result<ImportSumma
                 let value = number(&record, c, "z").map_err(row_err)?;
                 if value.abs() > MAX_VALUE {
                     return Err(row_err(format!(
-                        "column `z`: {value} is beyond +-{MAX_VALUE:e}; subtract each element's baseline (e.g. its first frame) first"
+                        "column `z`: {} is beyond +-{MAX_VALUE:e}; subtract each element's baseline (e.g. its first frame) first",
+                        crate::quote::number(value)
                     )));
                 }
                 Some(value as f32)
@@ -417,10 +420,23 @@ pub fn read_interchange(path: &Path, opts: &ImportOptions) -> Result<ImportSumma
     if order.is_empty() {
         return Err(file_err("no rows after the header".into()));
     }
-    if lowest_element == 1 {
-        return Err(file_err(
-            "no row has element 0: the element indices look 1-based; pass --one-based".into(),
-        ));
+    // Indices as the file numbers them: with --one-based, the file's 1 is element 0.
+    let base = u64::from(opts.one_based);
+    match lowest_element {
+        0 => {}
+        1 if !opts.one_based => {
+            return Err(file_err(
+                "no row has element 0: the element indices look 1-based; pass --one-based"
+                    .into(),
+            ))
+        }
+        lowest => {
+            return Err(file_err(format!(
+                "no row has element {base}: the lowest element index is {}; expected indices from {base}{}",
+                lowest + base,
+                if opts.one_based { " (--one-based)" } else { " (or from 1 with --one-based)" }
+            )))
+        }
     }
     if sensor_names.len() > usize::from(u8::MAX) {
         return Err(file_err(format!(
@@ -753,5 +769,30 @@ mod tests {
         };
         let e = message(read(text, &unknown).unwrap_err());
         assert!(e.contains("`taxel` is not an interchange column"), "{e}");
+        // T4-12: indices from 2 are not 1-based, with --one-based or without
+        let from_two = text
+            .replace(",1,1,1,", ",2,1,1,")
+            .replace(",1,2,1,", ",2,2,1,")
+            .replace(",1,3,1,", ",2,3,1,");
+        let e = message(read(&from_two, &mapped).unwrap_err());
+        assert!(
+            e.contains("the lowest element index is 2; expected indices from 0 (or from 1 with --one-based)"),
+            "{e}"
+        );
+        let e = message(read(&from_two, &one_based).unwrap_err());
+        assert!(
+            e.contains("no row has element 1: the lowest element index is 2; expected indices from 1 (--one-based)"),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn numbers_beyond_any_sensor_are_quoted_short() {
+        let text = "trial,sensor,frame,t_s,element,x,y,slip\na,s,0,0.5,0,1e300,1,0\n";
+        let e = message(read(text, &opts()).unwrap_err());
+        assert!(e.contains("column `x`: 1e300 is beyond"), "{e}");
+        let text = "trial,sensor,frame,t_s,element,x,y,slip\na,s,0,-1e300,0,1,1,0\n";
+        let e = message(read(text, &opts()).unwrap_err());
+        assert!(e.contains("column `t_s`: -1e300 is beyond"), "{e}");
     }
 }

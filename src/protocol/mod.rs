@@ -469,7 +469,10 @@ pub fn validate(
         if !(-360.0..=360.0).contains(g) {
             return Err(err(
                 &format!("grasps_deg.{i}"),
-                format!("expected an angle in -360..=360 degrees, got {g}"),
+                format!(
+                    "expected an angle in -360..=360 degrees, got {}",
+                    crate::quote::number(*g)
+                ),
             ));
         }
     }
@@ -613,7 +616,10 @@ pub fn validate(
         if value > limit {
             return Err(err(
                 field,
-                format!("expected at most {limit_field} ({limit}), got {value}"),
+                format!(
+                    "expected at most {limit_field} ({limit}), got {}",
+                    crate::quote::number(value)
+                ),
             ));
         }
     }
@@ -660,7 +666,7 @@ pub fn validate(
                 "hand_release.lift_mm",
                 format!(
                     "expected at least 100 mm in collect mode, so that a released object slides for the 15 frames the labels may use before it lands, got {}",
-                    p.lift_mm
+                    crate::quote::number(p.lift_mm)
                 ),
             ));
         }
@@ -671,7 +677,8 @@ pub fn validate(
                 "hand_release.lift_mm",
                 format!(
                     "expected more than outcome.drop_limit_mm ({} mm) so that a drop shows in the marker track, got {}",
-                    file.outcome.drop_limit_mm, p.lift_mm
+                    file.outcome.drop_limit_mm,
+                    crate::quote::number(p.lift_mm)
                 ),
             ));
         }

@@ -14,7 +14,10 @@ fn in_range(section: &'static str, field: &'static str, v: f64, lo: f64, hi: f64
         Err((
             section,
             field,
-            format!("expected a value in {lo}..={hi}, got {v}"),
+            format!(
+                "expected a value in {lo}..={hi}, got {}",
+                crate::quote::number(v)
+            ),
         ))
     }
 }
@@ -54,7 +57,8 @@ impl Outcome {
                 "drop_limit_mm",
                 format!(
                     "expected more than onset_threshold_mm ({}), got {}",
-                    self.onset_threshold_mm, self.drop_limit_mm
+                    self.onset_threshold_mm,
+                    crate::quote::number(self.drop_limit_mm)
                 ),
             ));
         }

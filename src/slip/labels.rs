@@ -58,7 +58,10 @@ impl OnsetSpec {
             if v.is_finite() && v > 0.0 {
                 Ok(())
             } else {
-                Err(format!("`{name}` = {v}: expected a positive number"))
+                Err(format!(
+                    "`{name}` = {}: expected a positive number",
+                    crate::quote::number(v)
+                ))
             }
         };
         positive("drop_threshold_mm", self.drop_threshold_mm)?;

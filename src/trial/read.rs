@@ -140,6 +140,16 @@ fn parse(path: &Path, buf: &[u8], channels: Channels) -> Result<Trial, TrialErro
                 index,
                 message,
             })?;
+            // The channel names the sensor; a frame filed under another sensor's channel
+            // is a damaged or hand-edited log (viewers and features would disagree on it).
+            if topic["/tactile/".len()..] != f.sensor.to_string() {
+                return Err(TrialError::BadMessage {
+                    path: path.into(),
+                    topic: topic.to_string(),
+                    index,
+                    message: format!("a frame of sensor {} on this channel", f.sensor),
+                });
+            }
             frames.push((message_time_s(message.log_time, base), f));
         } else {
             let mut e: TrialEvent = serde_json::from_slice(&message.data).map_err(bad)?;
@@ -171,6 +181,27 @@ fn parse(path: &Path, buf: &[u8], channels: Channels) -> Result<Trial, TrialErro
                 meta.pins
             ),
         });
+    }
+    // The metadata's sensor count is what strategies and local models are checked
+    // against: every sensor it names must have sent frames (a log with none at all is
+    // unusable, said by `Trial::unusable`, not an error).
+    if !frames.is_empty() {
+        let silent: Vec<String> = (0..meta.sensors)
+            .filter(|s| !frames.iter().any(|f| f.sensor == *s))
+            .map(|s| s.to_string())
+            .collect();
+        if !silent.is_empty() {
+            return Err(TrialError::BadMessage {
+                path: path.into(),
+                topic: "tmo.trial metadata".into(),
+                index: 0,
+                message: format!(
+                    "sensors = {}, but sensor(s) {} sent no frame: expected frames from every sensor the metadata names",
+                    meta.sensors,
+                    silent.join(", ")
+                ),
+            });
+        }
     }
     // A tracker reports positions in its image; a coordinate beyond any camera's image is
     // a damaged log, not a pin (features and figures would take it as a number).
@@ -393,6 +424,71 @@ mod tests {
         write_trial(&path, &five).unwrap();
         let err = read_trial(&path).unwrap_err().to_string();
         assert!(err.contains("3 pins") && err.contains("of 2 pins"), "{err}");
+    }
+
+    #[test]
+    fn a_sensor_the_metadata_names_that_sent_no_frame_is_refused() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("t.mcap");
+        let mut three = sample_trial();
+        three.meta.sensors = 3;
+        write_trial(&path, &three).unwrap();
+        let err = read_trial(&path).unwrap_err().to_string();
+        assert!(
+            err.contains("sensors = 3") && err.contains("sensor(s) 2 sent no frame"),
+            "{err}"
+        );
+        // a log with no frames at all is read, and called unusable where it is used
+        let mut none = sample_trial();
+        none.frames.clear();
+        none.arrivals_s.clear();
+        write_trial(&path, &none).unwrap();
+        assert!(read_trial(&path).unwrap().unusable().is_some());
+    }
+
+    #[test]
+    fn a_frame_on_another_sensors_channel_is_refused() {
+        // the writer files each frame under its own sensor's channel, so the log is built
+        // by hand: sensor 1's frame on /tactile/0
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("t.mcap");
+        let trial = sample_trial();
+        let mut w =
+            mcap::Writer::new(std::io::BufWriter::new(fs::File::create(&path).unwrap())).unwrap();
+        let schema = w
+            .add_schema(
+                schema::PIN_FRAME.0,
+                "jsonschema",
+                schema::PIN_FRAME.1.as_bytes(),
+            )
+            .unwrap();
+        let none = std::collections::BTreeMap::new();
+        let channel = w.add_channel(schema, "/tactile/0", "json", &none).unwrap();
+        for (sequence, f) in trial.frames.iter().enumerate() {
+            let data = serde_json::to_vec(&schema::PinFrameOut::from(f)).unwrap();
+            let header = mcap::records::MessageHeader {
+                channel_id: channel,
+                sequence: sequence as u32,
+                log_time: time_base_ns(&trial.meta) + (f.time_s * 1e9) as u64,
+                publish_time: time_base_ns(&trial.meta) + (f.time_s * 1e9) as u64,
+            };
+            w.write_to_known_channel(&header, &data).unwrap();
+        }
+        w.write_metadata(&mcap::records::Metadata {
+            name: "tmo.trial".into(),
+            metadata: std::collections::BTreeMap::from([(
+                "json".to_string(),
+                serde_json::to_string(&trial.meta).unwrap(),
+            )]),
+        })
+        .unwrap();
+        w.finish().unwrap();
+        drop(w);
+        let err = read_trial(&path).unwrap_err().to_string();
+        assert!(
+            err.contains("/tactile/0") && err.contains("a frame of sensor 1 on this channel"),
+            "{err}"
+        );
     }
 
     #[test]
