@@ -132,7 +132,7 @@ fn parse(path: &Path, buf: &[u8], channels: Channels) -> Result<Trial, TrialErro
         }
         if topic == "/marker" {
             markers.push(serde_json::from_slice::<MarkerSample>(&message.data).map_err(bad)?);
-        } else if topic.starts_with("/tactile/") {
+        } else if let Some(channel_sensor) = topic.strip_prefix("/tactile/") {
             let wire = serde_json::from_slice::<schema::PinFrameIn>(&message.data).map_err(bad)?;
             let f = PinFrame::try_from(wire).map_err(|message| TrialError::BadMessage {
                 path: path.into(),
@@ -142,7 +142,7 @@ fn parse(path: &Path, buf: &[u8], channels: Channels) -> Result<Trial, TrialErro
             })?;
             // The channel names the sensor; a frame filed under another sensor's channel
             // is a damaged or hand-edited log (viewers and features would disagree on it).
-            if topic["/tactile/".len()..] != f.sensor.to_string() {
+            if channel_sensor != f.sensor.to_string() {
                 return Err(TrialError::BadMessage {
                     path: path.into(),
                     topic: topic.to_string(),
