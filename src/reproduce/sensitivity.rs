@@ -71,13 +71,40 @@ impl Variant {
         out.join("sensitivity").join(self.dir_name())
     }
 
-    /// The simulator parameters the variant sets.
+    /// The parameters the variant sets: the simulator's, and protocol values
+    /// ([`PROTOCOL_PREFIX`]) that the steps write into their protocols instead.
     pub fn sim(&self) -> BTreeMap<String, f64> {
         if self.reseeded {
             return BTreeMap::new();
         }
         [(self.parameter.clone(), self.value)].into()
     }
+}
+
+/// Records of protocol values the reproduction's protocols use (the lifts' closing and
+/// lifting speeds): procedure, not physics, but unsourced choices all the same, so a study
+/// varies them. Each names a field of the lifts' protocol sections.
+pub const PROTOCOL_PREFIX: &str = "protocol.";
+
+/// The protocol values a study can vary, with the defaults the protocols take.
+pub fn protocol_parameters() -> Vec<(String, f64)> {
+    let lift = crate::protocol::FirstTimeLift::default();
+    vec![
+        (
+            "protocol.lift.approach_speed_of_max".into(),
+            lift.approach_speed_of_max,
+        ),
+        ("protocol.lift.lift_speed_mm_s".into(), lift.lift_speed_mm_s),
+    ]
+}
+
+/// Every name a study can set: the simulator's parameters and the protocol values.
+fn settable() -> Vec<String> {
+    SimConfig::parameters()
+        .into_iter()
+        .chain(protocol_parameters())
+        .map(|(n, _)| n)
+        .collect()
 }
 
 /// Whether a record is a physical parameter with a range to vary, which the protocols can
@@ -92,10 +119,7 @@ fn varied(r: &ParameterRecord, settable: &[String]) -> bool {
 
 /// The names of the records a study can vary (see [`variants`]).
 pub fn variable(records: &[ParameterRecord]) -> Vec<String> {
-    let settable: Vec<String> = SimConfig::parameters()
-        .into_iter()
-        .map(|(n, _)| n)
-        .collect();
+    let settable = settable();
     records
         .iter()
         .filter(|r| varied(r, &settable))
@@ -106,10 +130,7 @@ pub fn variable(records: &[ParameterRecord]) -> Vec<String> {
 /// The variants to run: both ends of every varied parameter, or of the parameters named
 /// in `only` (an unknown or unvaried name is an error naming it).
 pub fn variants(records: &[ParameterRecord], only: &[String]) -> Result<Vec<Variant>, String> {
-    let settable: Vec<String> = SimConfig::parameters()
-        .into_iter()
-        .map(|(n, _)| n)
-        .collect();
+    let settable = settable();
     for name in only {
         match records.iter().find(|r| &r.name == name) {
             None => {
@@ -394,6 +415,45 @@ mod tests {
         assert!(variants(&records, &["nonsense".to_string()])
             .unwrap_err()
             .contains("`nonsense`"));
+    }
+
+    #[test]
+    fn the_lifts_protocol_values_have_records_at_the_protocols_defaults_and_are_varied() {
+        let records = tmo_sim::parameters::built_in();
+        let calibration = crate::protocol::Calibration::default();
+        let known = protocol_parameters();
+        assert_eq!(
+            known,
+            [
+                (
+                    "protocol.lift.approach_speed_of_max".to_string(),
+                    calibration.approach_speed_of_max
+                ),
+                (
+                    "protocol.lift.lift_speed_mm_s".to_string(),
+                    calibration.lift_speed_mm_s
+                )
+            ]
+        );
+        for (name, default) in &known {
+            let r = records
+                .iter()
+                .find(|r| &r.name == name)
+                .unwrap_or_else(|| panic!("no record for `{name}`"));
+            assert_eq!(r.value, Some(*default), "{name}");
+        }
+        // and every protocol record is one the protocols take
+        for r in records
+            .iter()
+            .filter(|r| r.name.starts_with(PROTOCOL_PREFIX))
+        {
+            assert!(known.iter().any(|(n, _)| n == &r.name), "`{}`", r.name);
+        }
+        let speed = variants(&records, &["protocol.lift.lift_speed_mm_s".to_string()]).unwrap();
+        assert_eq!(
+            speed.iter().map(|v| v.value).collect::<Vec<_>>(),
+            [8.0, 40.0]
+        );
     }
 
     /// Every finding judged on a reproduction that measured only the rail's catches with

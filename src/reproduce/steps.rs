@@ -268,6 +268,7 @@ impl Step {
     fn sim_table(self, sim: &std::collections::BTreeMap<String, f64>) -> String {
         let mine: Vec<String> = sim
             .iter()
+            .filter(|(k, _)| !k.starts_with(super::sensitivity::PROTOCOL_PREFIX))
             .filter(|(k, _)| self.on_the_rail() || !k.starts_with("rail."))
             .map(|(k, v)| format!("\"{k}\" = {v:?}\n"))
             .collect();
@@ -287,9 +288,22 @@ impl Step {
         sim: &std::collections::BTreeMap<String, f64>,
     ) -> Vec<(&'static str, String)> {
         let table = self.sim_table(sim);
+        let lines = self.protocol_lines(sim);
         self.base_protocols(c, r)
             .into_iter()
-            .map(|(sub, text)| (sub, text + &table))
+            .map(|(sub, text)| (sub, text + &lines + &table))
+            .collect()
+    }
+
+    /// The protocol values of `sim` that this step's protocols take (`protocol.lift.*` in
+    /// the lifts' own section, which each of their protocols ends with), as TOML lines.
+    fn protocol_lines(self, sim: &std::collections::BTreeMap<String, f64>) -> String {
+        let prefix = match self {
+            Step::Calibrate | Step::FirstTimeLift => "protocol.lift.",
+            _ => return String::new(),
+        };
+        sim.iter()
+            .filter_map(|(k, v)| Some(format!("{} = {v:?}\n", k.strip_prefix(prefix)?)))
             .collect()
     }
 
@@ -848,9 +862,19 @@ mod tests {
                 let sim = [
                     ("physics.finger_stiffness_n_per_mm".to_string(), 1.2),
                     ("rail.rail_mu".to_string(), 0.1),
+                    ("protocol.lift.lift_speed_mm_s".to_string(), 30.0),
                 ]
                 .into();
                 for (sub, text) in step.protocols(&preset.counts(), 2, &sim) {
+                    // a protocol value goes to the lifts' own section, never to [sim]
+                    let lifts = matches!(step, Step::Calibrate | Step::FirstTimeLift);
+                    assert_eq!(
+                        text.contains("\nlift_speed_mm_s = 30.0\n"),
+                        lifts,
+                        "{}",
+                        step.name()
+                    );
+                    assert!(!text.contains("protocol."), "{text}");
                     let d = dir.path().join(step.dir()).join(sub);
                     std::fs::create_dir_all(&d).unwrap();
                     let p = d.join("protocol.toml");
