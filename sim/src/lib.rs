@@ -7,6 +7,7 @@
 
 pub mod actuators;
 pub mod config;
+pub mod curl;
 pub mod grasp;
 pub mod objects;
 pub mod parameters;

@@ -11,6 +11,7 @@ use rand_distr::{Distribution, Normal, StandardNormal};
 
 use super::actuators::{ArmState, Servos};
 use super::config::{ObjectStart, PhysicsParams, RigSetup, SimConfig};
+use super::curl::{CurlContact, CurlLimits};
 use super::grasp::{
     pinch_normal_forces, share_stuck_load, Contact, ContactLaw, StuckShare, MAX_CONTACTS,
 };
@@ -60,6 +61,8 @@ pub struct TruthState {
     /// How far the object has turned about the pinch axis since it was grasped, degrees
     /// (signed as the turn about the hand frame's pinch axis).
     pub turn_deg: f64,
+    /// How far each fingertip's patch has slid along the object in all, mm.
+    pub contact_slid_mm: Vec<f64>,
 }
 
 /// Events the simulation knows for certain, for diagnostics and tests only.
@@ -75,6 +78,10 @@ pub struct TruthEvents {
     pub measurable_slip_s: Option<f64>,
     /// Furthest the object fell below where the grasp last held it, relative to the hand, mm.
     pub max_fall_mm: f64,
+    /// Per fingertip: when its patch first broke free along the object while the grasp
+    /// held, and how many times it did ([`crate::curl`]).
+    pub contact_first_slip_s: Vec<Option<f64>>,
+    pub contact_slips: Vec<u32>,
 }
 
 /// The fall (mm, relative to the hand) below which a slip counts as not measurable: the
@@ -184,8 +191,12 @@ pub(crate) struct World {
     across_target_mm: [f64; 3],
     /// Radius of each patch's region carried with the object, mm.
     carried_mm: [f64; 3],
-    /// Normal force each fingertip's roll was last worked out for, N.
+    /// Normal force each fingertip's full-slip shear was last worked out for, N, and that
+    /// shear, mm.
     rolled_at_n: [f64; 3],
+    full_slip_mm: [f64; 3],
+    /// Each fingertip's own slip along the object as its finger curls ([`crate::curl`]).
+    curls: [CurlContact; 3],
     /// Tangential, normal and across-slip load each stuck patch's shear was last worked
     /// out for.
     stuck_load: [Option<(f64, f64, f64)>; 3],
@@ -412,9 +423,15 @@ impl World {
             stuck_load: [None; 3],
             statics_solved: Cell::new(None),
             rolled_at_n: [f64::NAN; 3],
+            full_slip_mm: [0.0; 3],
+            curls: [CurlContact::default(); 3],
             sensors,
             markers,
-            events: TruthEvents::default(),
+            events: TruthEvents {
+                contact_first_slip_s: vec![None; sensor_count],
+                contact_slips: vec![0; sensor_count],
+                ..TruthEvents::default()
+            },
             held_relative_mm: None,
             turn_rad: 0.0,
             turn_rate_rad_s: 0.0,
@@ -422,6 +439,8 @@ impl World {
             cfg,
         };
         world.update_normal_forces();
+        // A grasp set before the start has slid its patches already.
+        world.update_curls(false);
         // A grip too weak for the object starts slipping at once, and that is not an onset
         // the experiment caused: only hand-held starts can slip at t = 0.
         Ok(world)
@@ -796,7 +815,7 @@ impl World {
         }
         self.tangential_n.copy_from_slice(&tangential[..3]);
         self.local_slip.copy_from_slice(&local_slip[..3]);
-        self.update_rolls();
+        self.update_curls(true);
         self.update_skins(dt);
         self.capture_frames(now);
         self.capture_markers(now);
@@ -871,22 +890,43 @@ impl World {
     }
 
     /// The under-actuated fingers curl as they press past first touch, so each fingertip
-    /// rolls along the object and drags its skin sideways, as far as friction lets it.
-    fn update_rolls(&mut self) {
+    /// moves along the object and shears its skin, and slips along the object on its own
+    /// where friction, after the load it carries for the grasp, cannot hold that shear
+    /// ([`crate::curl`]). `record`: note each patch that breaks free while the grasp holds
+    /// (false when the grasp is set before the simulation starts).
+    fn update_curls(&mut self, record: bool) {
         let ratio = self.cfg.physics.finger_roll_ratio;
-        let mu_s = self.object.mu_static;
+        let (mu_s, mu_k) = (self.object.mu_static, self.object.mu_kinetic);
+        let now = self.now_s();
         for i in 0..self.sensors.len() {
             let n = self.normal_n[i];
-            // Only a change of normal force rolls the fingertip further.
-            if self.rolled_at_n[i] == n {
+            if n <= 0.0 || !self.in_grasp {
+                self.curls[i].lift_off();
+                self.roll_target_mm[i] = 0.0;
                 continue;
             }
-            self.rolled_at_n[i] = n;
-            self.roll_target_mm[i] = if n > 0.0 {
-                (ratio * self.pressed_mm[i]).min(self.sensors[i].skin.full_slip_shear_mm(n, mu_s))
-            } else {
-                0.0
+            // The power law of the patch's stiffness costs most of this: only a change of
+            // normal force changes the full-slip shear.
+            if self.rolled_at_n[i] != n {
+                self.rolled_at_n[i] = n;
+                self.full_slip_mm[i] = self.sensors[i].skin.full_slip_shear_mm(n, mu_s);
+            }
+            let limits = CurlLimits {
+                full_slip_mm: self.full_slip_mm[i],
+                load_share: self.tangential_n[i].abs() / (mu_s * n),
+                kinetic_ratio: mu_k / mu_s,
             };
+            let demand = ratio * self.pressed_mm[i];
+            if !record {
+                self.curls[i].settle(demand, &limits);
+            }
+            let (shear, slide) = self.curls[i].step(demand, &limits);
+            self.roll_target_mm[i] = shear;
+            if slide.is_some() && self.stuck {
+                let e = &mut self.events;
+                e.contact_slips[i] += 1;
+                e.contact_first_slip_s[i].get_or_insert(now);
+            }
         }
     }
 
@@ -1142,6 +1182,7 @@ impl World {
             dropped: self.events.drop_s.is_some(),
             finger_positions: self.present_positions(),
             turn_deg: self.turn_rad.to_degrees(),
+            contact_slid_mm: self.curls[..n].iter().map(|c| c.travelled_mm()).collect(),
         }
     }
 }

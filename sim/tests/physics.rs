@@ -462,3 +462,83 @@ fn a_rail_catch_waits_for_the_arm_then_takes_tens_of_ms() {
     assert!(!probe.state().dropped);
     assert!(events.max_fall_mm > 1.0, "fell {} mm", events.max_fall_mm);
 }
+
+#[test]
+fn one_finger_opening_slips_one_fingertip_on_its_own_while_the_object_stays_put() {
+    // The crisps can held firmly; finger 1 alone opens at the paper's release speed while
+    // the thumb and finger 2 hold their servos. Finger 1 sheds load, which the statics pass
+    // to finger 2 (and the can shifts towards finger 1): finger 2's fingertip presses and
+    // curls further under a larger share of the weight, so its patch is the first to
+    // break free along the can, while the can itself does not move.
+    let q0 = contact_closure("crisps_can") + 0.04;
+    let rig = SimRig::new(hand_config("crisps_can", q0, ObjectStart::InHand)).unwrap();
+    let (mut clock, mut hand, probe) = (rig.clock(), rig.hand(), rig.probe());
+    clock.sleep(0.5);
+    let start = probe.state();
+    let mut first = None;
+    while clock.now_s() < 30.0 {
+        let t = clock.now_s() - 0.5;
+        hand.set_targets([q0, (q0 - 0.01 * t).max(0.0), q0, 0.0])
+            .unwrap();
+        clock.sleep(0.01);
+        let e = probe.events();
+        if first.is_none() && e.contact_first_slip_s.iter().any(Option::is_some) {
+            first = Some((probe.state(), e.clone()));
+        }
+        if !e.slip_onsets_s.is_empty() {
+            break;
+        }
+    }
+    let (at, events) = first.expect("a fingertip slips on its own");
+    let slipped: Vec<usize> = (0..3)
+        .filter(|&i| events.contact_first_slip_s[i].is_some())
+        .collect();
+    assert_eq!(slipped, [2], "{events:?}");
+    assert!(at.contact_slid_mm[2] > 0.05, "{at:?}");
+    assert_eq!(at.contact_slid_mm[..2], [0.0, 0.0], "{at:?}");
+    // the can has not moved: no slip, held where it was
+    assert!(events.slip_onsets_s.is_empty() && !at.sliding, "{events:?}");
+    assert!((at.object_mm - start.object_mm).abs() < 1e-9);
+    // opening on, finger 1's own fingertip slips too, and only then does the can
+    let e = probe.events();
+    let onset = *e.slip_onsets_s.first().expect("the can slips in the end");
+    let finger_1 = e.contact_first_slip_s[1].expect("finger 1 slips before the can");
+    assert!(
+        events.contact_first_slip_s[2].unwrap() < finger_1 && finger_1 < onset,
+        "{e:?}"
+    );
+}
+
+#[test]
+fn a_relaxing_grasp_slips_each_fingertip_before_the_object_the_thumb_first() {
+    // All three fingers open at the paper's release speed. As the grasp nears its limit the
+    // friction circle leaves the curl's shear less and less: each fingertip's patch breaks
+    // free along the can before the can slips, the thumb (twice a finger's normal force,
+    // so twice its curl) first, at 0 and 180 deg alike.
+    for grasp in [0.0, 180.0] {
+        let q0 = contact_closure("crisps_can") + 0.04;
+        let mut cfg = hand_config("crisps_can", q0, ObjectStart::InHand);
+        if let RigSetup::Hand(h) = &mut cfg.rig {
+            h.grasp_deg = grasp;
+        }
+        let rig = SimRig::new(cfg).unwrap();
+        let (mut clock, mut hand, probe) = (rig.clock(), rig.hand(), rig.probe());
+        while clock.now_s() < 10.0 && probe.events().slip_onsets_s.is_empty() {
+            let q = (q0 - 0.01 * clock.now_s()).max(0.0);
+            hand.set_targets([q, q, q, 0.0]).unwrap();
+            clock.sleep(0.001);
+        }
+        let e = probe.events();
+        let onset = e.slip_onsets_s[0];
+        let first: Vec<f64> = e
+            .contact_first_slip_s
+            .iter()
+            .map(|t| t.expect("every fingertip slips first"))
+            .collect();
+        assert!(first.iter().all(|&t| t < onset - 0.1), "{grasp}: {e:?}");
+        assert!(
+            first[0] < first[1] - 0.1 && first[0] < first[2] - 0.1,
+            "{e:?}"
+        );
+    }
+}

@@ -276,6 +276,25 @@ pub(crate) fn put_truth(put: &mut impl FnMut(&str, String), events: &tmo_sim::Tr
         "sim_truth_max_fall_mm",
         format!("{:.2}", events.max_fall_mm),
     );
+    // each fingertip's own slip along the object while the grasp held (tmo_sim::curl)
+    put(
+        "sim_truth_contact_first_slip_s",
+        events
+            .contact_first_slip_s
+            .iter()
+            .map(|t| time(*t))
+            .collect::<Vec<_>>()
+            .join(","),
+    );
+    put(
+        "sim_truth_contact_slips",
+        events
+            .contact_slips
+            .iter()
+            .map(u32::to_string)
+            .collect::<Vec<_>>()
+            .join(","),
+    );
 }
 
 /// The built-in object library, read once.
