@@ -254,6 +254,12 @@ impl SimConfig {
             RigSetup::Rail(r) => fields.extend([
                 ("rig.preload_mm", r.preload_mm, zero, 100.0),
                 ("rig.rail_mu", r.rail_mu, zero, 10.0),
+                (
+                    "rig.rail_static_factor",
+                    r.rail_static_factor,
+                    Low(1.0, false),
+                    100.0,
+                ),
                 ("rig.end_stop_mm", r.end_stop_mm, positive, 1e4),
                 ("rig.finger_closure", r.finger_closure, zero, 1.0),
                 ("rig.press_in_mm", r.press_in_mm, zero, 100.0),
@@ -464,8 +470,13 @@ pub struct RailSetup {
     pub object: String,
     /// How far (mm) the arm starts past the point where the fingertip touches the object.
     pub preload_mm: f64,
-    /// Friction coefficient of the rail's guides (acts with the finger's normal force).
+    /// Sliding friction coefficient of the rail's guides (acts with the finger's normal
+    /// force).
     pub rail_mu: f64,
+    /// Their friction at rest as a multiple of `rail_mu` (1 or more): the guides' share
+    /// of the grasp's static capacity is `rail_static_factor * rail_mu * N`. A factor, so
+    /// that either can be varied alone.
+    pub rail_static_factor: f64,
     /// The rail's end stop, mm below the start height.
     pub end_stop_mm: f64,
     /// Finger position, 0..1 (the finger holds still; the arm sets the normal force).
@@ -485,6 +496,7 @@ impl Default for RailSetup {
             object: "rail_object".into(),
             preload_mm: 0.0,
             rail_mu: 0.05,
+            rail_static_factor: 1.0,
             end_stop_mm: 150.0,
             finger_closure: 0.5,
             press_in_mm: 7.5,

@@ -137,6 +137,7 @@ enum Geometry {
         arm_touch_x_mm: f64,
         finger_touch: f64,
         rail_mu: f64,
+        rail_mu_static: f64,
     },
 }
 
@@ -286,6 +287,7 @@ impl World {
                     arm_touch_x_mm: cfg.arm.start_mm[0] - r.preload_mm,
                     finger_touch: r.finger_closure,
                     rail_mu: r.rail_mu,
+                    rail_mu_static: r.rail_mu * r.rail_static_factor,
                 },
                 [r.finger_closure, 0.0, 0.0, 0.0],
                 Some(hand_z - r.end_stop_mm),
@@ -574,19 +576,23 @@ impl World {
                 }
                 (c, 3)
             }
-            Geometry::Rail { rail_mu, .. } => {
+            Geometry::Rail {
+                rail_mu,
+                rail_mu_static,
+                ..
+            } => {
                 c[0] = Contact {
                     normal_n: self.normal_n[0],
                     weight: 1.0,
                     mu_static: o.mu_static,
                     mu_kinetic: o.mu_kinetic,
                 };
-                // The rail's guides press back with the same normal force; their friction is
-                // low and nearly the same static and sliding.
+                // The rail's guides press back with the same normal force; their polymer
+                // sliders' friction is low, and higher at rest than sliding.
                 c[1] = Contact {
                     normal_n: self.normal_n[0],
                     weight: 0.2,
-                    mu_static: rail_mu,
+                    mu_static: rail_mu_static,
                     mu_kinetic: rail_mu,
                 };
                 (c, 2)
