@@ -202,11 +202,13 @@ fn hand_release_and_rice_pour_run_on_the_real_backend_against_the_served_simulat
         assert!(r["fault"].is_null(), "{rows:?}");
         assert!(
             // in wall-clock time a reaction can also come before the object ever moved
-            // (held, no slip): a verdict of the trial, not a fault of the backend
+            // (held, no slip; or to a fingertip's own slip before the object's): a
+            // verdict of the trial, not a fault of the backend
             [
                 "true_positive",
                 "false_positive",
                 "false_negative",
+                "held_no_slip",
                 "no_slip"
             ]
             .contains(&r["verdict"].as_str().unwrap()),

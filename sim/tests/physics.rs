@@ -258,8 +258,10 @@ fn a_held_centred_object_loads_thumb_and_fingers_alike_at_0_and_180_degrees() {
         rig.probe().state()
     };
     let mut thumb_shares = Vec::new();
+    let mut normals = Vec::new();
     for grasp_deg in [0.0, 180.0] {
         let s = held(grasp_deg);
+        normals.push(s.normal_n.clone());
         let total: f64 = s.tangential_n.iter().sum();
         assert!(
             (total - s.weight_n).abs() < 1e-6 * s.weight_n,
@@ -271,6 +273,12 @@ fn a_held_centred_object_loads_thumb_and_fingers_alike_at_0_and_180_degrees() {
     // Each unit's skin differs a little, so the fingers press a little unequally and their
     // moments move a little load between thumb and fingers, one way at 0 deg and the
     // other way at 180 deg.
+    // The hand's own weight (issue 54, mechanism 2): at 0 and 180 deg gravity lies along
+    // the pinch grasp's finger joints' axes (the fingers flex in the pinch and approach
+    // axes' plane; gravity is along the third), so the fingers' and fingertips' weight puts
+    // no torque on any joint and changes no normal force, whatever their masses: the
+    // statics' prediction is no change, and the normal forces are the same.
+    assert_eq!(normals[0], normals[1]);
     let (at0, at180) = (thumb_shares[0], thumb_shares[1]);
     assert!((at0 - 0.5).abs() < 0.01, "thumb carries {at0} at 0 deg");
     assert!(

@@ -32,16 +32,7 @@ pub fn receive(
     topics: &[(&str, &str)],
     n: usize,
 ) -> BTreeMap<String, Vec<serde_json::Value>> {
-    let mut said = String::new();
-    BufReader::new(child.stderr.as_mut().unwrap())
-        .read_line(&mut said)
-        .unwrap();
-    let url = said
-        .split_whitespace()
-        .find(|w| w.starts_with("ws://"))
-        .unwrap_or_else(|| panic!("no address in {said:?}"))
-        .trim_end_matches(':')
-        .to_string();
+    let url = address(child);
     let mut request = url.as_str().into_client_request().unwrap();
     request
         .headers_mut()
@@ -72,7 +63,7 @@ pub fn receive(
                 let _ = child.kill();
                 let mut rest = String::new();
                 let _ = std::io::Read::read_to_string(child.stderr.as_mut().unwrap(), &mut rest);
-                panic!("{e} after {received:?}; tmo said: {said}{rest}");
+                panic!("{e} after {received:?}; tmo said, after its address: {rest}");
             }
         };
         match message {
@@ -128,17 +119,21 @@ pub fn receive(
     received
 }
 
-/// The live view's address from the first line `child` (its stderr piped) says.
+/// The live view's address from the first line `child` (its stderr piped) says that has
+/// one (warnings may come before it).
 pub fn address(child: &mut Child) -> String {
     let mut said = String::new();
-    BufReader::new(child.stderr.as_mut().unwrap())
-        .read_line(&mut said)
-        .unwrap();
-    said.split_whitespace()
-        .find(|w| w.starts_with("ws://"))
-        .unwrap_or_else(|| panic!("no address in {said:?}"))
-        .trim_end_matches(':')
-        .to_string()
+    let mut stderr = BufReader::new(child.stderr.as_mut().unwrap());
+    loop {
+        let mut line = String::new();
+        if stderr.read_line(&mut line).unwrap() == 0 {
+            panic!("no address in {said:?}");
+        }
+        said.push_str(&line);
+        if let Some(w) = line.split_whitespace().find(|w| w.starts_with("ws://")) {
+            return w.trim_end_matches(':').to_string();
+        }
+    }
 }
 
 /// Connects to `url` asking for `subprotocol` only.
