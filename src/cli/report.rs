@@ -111,7 +111,7 @@ fn html_report(
         Some(dir) => tmo::plots::draw_all(inputs, dir)?,
         None => Vec::new(),
     };
-    let page = report::html::tables_page("tmo report", tables, &figures);
+    let page = report::html::tables_page("tmo report", tables, &figures, &tmo::plots::caption);
     match &args.out {
         Some(dir) => {
             std::fs::create_dir_all(dir)

@@ -5,7 +5,7 @@ use std::path::{Path, PathBuf};
 use anyhow::{Context, Result};
 use tmo::protocol::{self, Kind};
 use tmo::report::inputs::{Batch, Inputs};
-use tmo::runner::batch::run::{run_batch, BatchEnd, BatchRequest, BatchRig, BatchSummary};
+use tmo::runner::batch_run::{run_batch, BatchEnd, BatchRequest, BatchRig, BatchSummary};
 use tmo::runner::real_trial::{check_real_plan, open_real};
 use tmo::runner::staging::Staging;
 

@@ -6,7 +6,7 @@ use tmo_hal::{HandPositions, MarkerSample, PinFrame, Pose};
 use tmo_sim::serve::ServeTap;
 
 use super::LiveView;
-use crate::runner::state::state_events;
+use crate::trial::state::state_events;
 
 /// A [`ServeTap`] that publishes to a [`LiveView`], log times on the wall clock from when
 /// serving began.

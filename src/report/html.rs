@@ -70,7 +70,9 @@ pub fn table(t: &Table) -> String {
 }
 
 /// The SVG figures among `paths`, inline, each with its file name as caption.
-pub fn figures(paths: &[PathBuf]) -> String {
+/// `caption` says what a figure of a file stem shows (`None`: its file name alone; the
+/// plots module's captions, passed in so that the page does not depend on the plots).
+pub fn figures(paths: &[PathBuf], caption: &dyn Fn(&str) -> Option<String>) -> String {
     let mut out = String::new();
     for p in paths
         .iter()
@@ -86,7 +88,7 @@ pub fn figures(paths: &[PathBuf]) -> String {
         let stem = p
             .file_stem()
             .map_or(String::new(), |n| n.to_string_lossy().into_owned());
-        let caption = match crate::plots::caption(&stem) {
+        let caption = match caption(&stem) {
             Some(c) => format!(
                 "{} <span class=\"details\">({})</span>",
                 escape(&c),
@@ -112,11 +114,16 @@ pub fn page(title: &str, body: &str) -> String {
 }
 
 /// Tables (and figures, if any) as one page.
-pub fn tables_page(title: &str, tables: &[Table], figure_paths: &[PathBuf]) -> String {
+pub fn tables_page(
+    title: &str,
+    tables: &[Table],
+    figure_paths: &[PathBuf],
+    caption: &dyn Fn(&str) -> Option<String>,
+) -> String {
     let mut body: String = tables.iter().map(table).collect();
     if !figure_paths.is_empty() {
         body += "<h2>Figures</h2>\n";
-        body += &figures(figure_paths);
+        body += &figures(figure_paths, caption);
     }
     page(title, &body)
 }
@@ -155,7 +162,7 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let svg = dir.path().join("f.svg");
         std::fs::write(&svg, "<?xml version=\"1.0\"?>\n<svg xmlns=\"http://www.w3.org/2000/svg\"><text>x</text></svg>").unwrap();
-        let html = tables_page("Report", &[t], &[svg, dir.path().join("f.png")]);
+        let html = tables_page("Report", &[t], &[svg, dir.path().join("f.png")], &|_| None);
         assert!(html.starts_with("<!DOCTYPE html>"));
         assert!(html.contains("<h3>A &lt;table&gt;</h3>"));
         assert!(html.contains("<td>a&amp;b</td><td>8/10 (80 %; 49–94)</td>"));

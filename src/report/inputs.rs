@@ -13,14 +13,7 @@ use crate::slip::model::{ModelFile, MODEL_FORMAT};
 use crate::slip::sweep::SweepRow;
 
 pub use super::checks::InputError;
-
-/// The scored trials of a batch, one row type per protocol kind.
-#[derive(Debug, Clone, PartialEq)]
-pub enum BatchRows {
-    Catch(Vec<OutcomeRow>),
-    Lift(Vec<LiftRow>),
-    Calibration(Vec<CalibrationRow>),
-}
+pub use crate::runner::batch::rows::BatchRows;
 
 #[derive(Debug, Clone, PartialEq)]
 pub struct Batch {

@@ -307,7 +307,7 @@ pub fn render(tables: &[Table], format: Format) -> Result<String, ReportError> {
             .map(|t| t.latex())
             .collect::<Vec<_>>()
             .join("\n"),
-        Format::Html => html::tables_page("tmo report", tables, &[]),
+        Format::Html => html::tables_page("tmo report", tables, &[], &|_| None),
     })
 }
 

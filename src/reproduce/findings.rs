@@ -521,6 +521,14 @@ pub fn evidence(judged: &[Judged]) -> (Tally, Tally) {
 
 /// Gives each finding its standing from `records` and the parameters calibrated against
 /// it ([`mark_calibrated`] first), and the verdict a prediction expected of it.
+/// The shipped standing records (`docs/standings.toml`), checked against the shipped
+/// findings.
+pub fn shipped_standings() -> super::standing::Records {
+    let findings = paper();
+    let ids: Vec<&str> = findings.iter().map(|f| f.id.as_str()).collect();
+    super::standing::shipped(&ids)
+}
+
 pub fn mark_standings(judged: &mut [Judged], records: &super::standing::Records) {
     for j in judged.iter_mut() {
         let (standing, why) = super::standing::of(&j.finding.id, &j.calibrated_by, records);
@@ -890,6 +898,14 @@ mod tests {
             parse(&good, "f.toml").unwrap()[0].paper_counts["a"],
             vec![(1.0, 1, 2)]
         );
+    }
+
+    #[test]
+    fn the_shipped_standing_records_name_only_findings_that_exist() {
+        let r = shipped_standings();
+        assert!(r.pipeline_check.len() >= 5);
+        assert!(!r.in_view.is_empty());
+        assert!(!r.prediction.is_empty());
     }
 
     #[test]

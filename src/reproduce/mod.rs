@@ -658,7 +658,7 @@ fn run_replicate(
         stop,
         bar,
         job: &job,
-        sweep_from,
+        sweep_from: sweep_from.map(|p| p as &dyn steps::SweptElsewhere),
     };
     // A pruned replicate with a step to run again starts again from its pruned steps: a
     // later step may read their logs.

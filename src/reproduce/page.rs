@@ -548,7 +548,7 @@ fn html_page(
     body += &tables.iter().map(html::table).collect::<String>();
     if !w.figures.is_empty() {
         body += "<h2>Figures</h2>\n";
-        body += &html::figures(&w.figures);
+        body += &html::figures(&w.figures, &crate::plots::caption);
     }
     html::page("tmo reproduce: findings against the paper", &body)
 }
@@ -618,7 +618,7 @@ pub fn judge_replicates(out: &Path, replicates: u32) -> (Vec<Judged>, Measures, 
             .iter()
             .map(|r| (r.name.as_str(), r.calibrated_against.as_slice())),
     );
-    mark_standings(&mut judged, &super::standing::shipped());
+    mark_standings(&mut judged, &super::findings::shipped_standings());
     (judged, measures, loaded)
 }
 

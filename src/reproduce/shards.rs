@@ -15,6 +15,10 @@ use crate::output::shard::Shard;
 /// The record a finished shard leaves in its directory.
 pub const RECORD: &str = "shard.json";
 
+/// The record a finished sweep part leaves in its directory (kept here, where a merge
+/// looks for both kinds of record; `sweep_parts::RECORD` names it too).
+pub const SWEEP_PART_RECORD: &str = "sweep-part.json";
+
 /// What every part of one reproduction shares.
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct ShardPlan {
@@ -105,7 +109,7 @@ pub enum MergeError {
     NotAShard { dir: PathBuf },
     #[error("{dir} is a part of a sweep stage (`tmo reproduce --sweep-only`): give it to `tmo reproduce --sweep-from`, and merge the shards that ran with it")]
     SweepPartGiven { dir: PathBuf },
-    #[error("{dir}: no finished sweep part here (no {file}): run `tmo reproduce --sweep-only --shard K/N --out {dir}`, or finish it with --resume", file = super::sweep_parts::RECORD)]
+    #[error("{dir}: no finished sweep part here (no {file}): run `tmo reproduce --sweep-only --shard K/N --out {dir}`, or finish it with --resume", file = SWEEP_PART_RECORD)]
     NotASweepPart { dir: PathBuf },
     #[error("{path}: not a shard record ({message})")]
     BadRecord { path: PathBuf, message: String },
@@ -179,7 +183,7 @@ impl PartRecord for ShardRecord {
         &self.plan
     }
     fn missing(dir: &Path) -> MergeError {
-        if dir.join(super::sweep_parts::RECORD).exists() {
+        if dir.join(SWEEP_PART_RECORD).exists() {
             return MergeError::SweepPartGiven {
                 dir: dir.to_path_buf(),
             };

@@ -12,7 +12,7 @@ use super::measure::{NOVEL_OBJECTS, TRAINING_OBJECTS};
 use super::{io, read_record, Backend, ReproduceError};
 use crate::protocol::collect::{CollectPreset, CollectRig};
 use crate::protocol::Kind;
-use crate::runner::batch::run::{run_batch, BatchEnd, BatchRequest, BatchRig};
+use crate::runner::batch_run::{run_batch, BatchEnd, BatchRequest, BatchRig};
 use crate::slip::dataset::{load_labelled, LabelSpec, Scope};
 use crate::slip::evaluation::Evaluation;
 use crate::slip::labels::OnsetSpec;
@@ -141,7 +141,29 @@ pub struct Context<'a> {
     pub job: &'a str,
     /// Where the rail sweep was run (`--sweep-from`): its rows are joined from these
     /// parts instead of computed here.
-    pub sweep_from: Option<&'a super::sweep_parts::SweepParts>,
+    pub sweep_from: Option<&'a dyn SweptElsewhere>,
+}
+
+/// A rail sweep run elsewhere (`--sweep-only` parts, [`super::sweep_parts`]), whose rows a
+/// job joins instead of sweeping. A trait, so that the steps need not know how parts are
+/// kept (the parts module builds on the steps).
+pub trait SweptElsewhere: Sync {
+    /// The rows of the job of `ctx`, swept with `spec` on the data whose digest is `data`
+    /// ([`sweep_data_digest`]); an error names what does not fit.
+    fn rows_for(
+        &self,
+        ctx: &Context,
+        spec: &SweepSpec,
+        data: &str,
+    ) -> Result<Vec<SweepRow>, ReproduceError>;
+}
+
+/// What a sweep was computed from: the digest of its training and test rows.
+pub fn sweep_data_digest(
+    train: &crate::slip::dataset::Dataset,
+    test: &crate::slip::dataset::Dataset,
+) -> String {
+    crate::trial::sha256_hex(format!("{} {}", train.digest(), test.digest()).as_bytes())
 }
 
 impl Context<'_> {
@@ -633,7 +655,7 @@ fn rail_sweep(ctx: &Context, c: &Counts, dir: &Path) -> Result<bool, ReproduceEr
     let rows = if let Some(parts) = ctx.sweep_from {
         // Swept elsewhere (`--sweep-only`): joined from the parts, as a single run writes it.
         let (train, test) = sweep_data(ctx, c)?;
-        let data = super::sweep_parts::data_digest(&train, &test);
+        let data = sweep_data_digest(&train, &test);
         let rows = parts.rows_for(ctx, &spec, &data)?;
         crate::slip::sweep_file::write_finished(&out, &identity, &rows)
             .map_err(|e| ReproduceError::step(step, e))?;

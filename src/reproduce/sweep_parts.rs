@@ -23,12 +23,11 @@ use super::shards::{check_records, MergeError, PartRecord, ShardPlan};
 use super::steps::{self, Context};
 use super::{io, Options, ReproduceError, Step};
 use crate::output::shard::Shard;
-use crate::slip::dataset::Dataset;
 use crate::slip::sweep::{SweepRow, SweepSpec};
 use crate::slip::sweep_file::{SweepPart, SweepTarget};
 
 /// The record a finished sweep part leaves in its directory.
-pub const RECORD: &str = "sweep-part.json";
+pub const RECORD: &str = super::shards::SWEEP_PART_RECORD;
 
 /// Where a job's part of its sweep goes, under the job's directory in the part's.
 pub fn part_csv(job_dir: &Path) -> PathBuf {
@@ -70,7 +69,7 @@ pub struct PartJob {
     pub dir: String,
     /// Its sweep's chains this part ran, by their position in [`SweepSpec::chains`].
     pub chains: Vec<usize>,
-    /// The digest of the training and test sets it swept ([`Dataset::digest`]; a trial
+    /// The digest of the training and test sets it swept ([`crate::slip::dataset::Dataset::digest`]; a trial
     /// log also records when it was made, so the logs' own digests differ run to run).
     pub data_sha256: String,
     /// The SHA-256 of its rows' file.
@@ -218,7 +217,7 @@ fn run_job_part(
     }
     let spec = steps::sweep_spec(&ctx);
     let (train, test) = steps::sweep_data(&ctx, c)?;
-    let data = data_digest(&train, &test);
+    let data = steps::sweep_data_digest(&train, &test);
     let out = part_csv(&dir);
     let target = SweepTarget {
         out: &out,
@@ -281,6 +280,17 @@ pub enum SweepPartError {
     Altered { path: PathBuf },
     #[error("{0}")]
     Rows(String),
+}
+
+impl steps::SweptElsewhere for SweepParts {
+    fn rows_for(
+        &self,
+        ctx: &Context,
+        spec: &SweepSpec,
+        data: &str,
+    ) -> Result<Vec<SweepRow>, ReproduceError> {
+        SweepParts::rows_for(self, ctx, spec, data)
+    }
 }
 
 impl SweepParts {
@@ -371,11 +381,6 @@ fn check_rows_file(dir: &Path, job: &PartJob) -> Result<PathBuf, SweepPartError>
         return Err(SweepPartError::Altered { path });
     }
     Ok(path)
-}
-
-/// The digest of a sweep's training and test sets together.
-pub fn data_digest(train: &Dataset, test: &Dataset) -> String {
-    crate::trial::sha256_hex(format!("{} {}", train.digest(), test.digest()).as_bytes())
 }
 
 fn preset_of(plan: &ShardPlan) -> Result<super::Preset, SweepPartError> {

@@ -33,13 +33,20 @@ pub struct Devices<C, H, A, M, S> {
     pub sensors: Vec<S>,
     /// Where each tick's new frames, markers and events are also sent as they arrive.
     pub live: Option<crate::live::LivePublisher>,
-    /// How often the runners record the hand's and arm's state (see `runner::state`);
+    /// How often the runners record the hand's and arm's state (see `trial::state`);
     /// `None` where the devices have no state of their own to report (replay).
     pub state_period_s: Option<f64>,
     /// Where a trial that a device error cut short leaves what it had recorded (see
-    /// [`super::trial_run::InFlight`]); `None` where nobody keeps it.
-    pub in_flight: Option<super::trial_run::InFlight>,
+    /// [`InFlight`]); `None` where nobody keeps it.
+    pub in_flight: Option<InFlight>,
 }
+
+/// Where a trial that ends without `TrialRun::finish` (a device error taken up with `?`
+/// anywhere in a runner) leaves what it recorded: the frames, markers and events up to the
+/// fault. The real backend keeps it as `*.faulted.mcap`. The trial's run fills it as a
+/// drop guard (`super::trial_run`) rather than a wrapper around every runner's body, so
+/// that no error path of any runner can miss it.
+pub type InFlight = std::sync::Arc<std::sync::Mutex<Option<super::RunRecord>>>;
 
 /// The simulated rig's devices.
 pub type SimDevices = Devices<

@@ -3,6 +3,7 @@
 
 pub mod approach;
 pub mod batch;
+pub mod batch_run;
 pub mod calibrate;
 pub mod devices;
 pub mod hand_release;
@@ -21,7 +22,6 @@ pub mod score;
 pub mod sim_presets;
 pub mod sim_trial;
 pub mod staging;
-pub mod state;
 mod trial_run;
 
 use serde_json::json;
@@ -29,10 +29,12 @@ use tmo_hal::{Arm, Clock, Hand, MarkerTracker, TactileSensor};
 
 use crate::online::strategy::Strategy;
 use crate::slip::model::ModelFile;
+pub use crate::trial::state::event;
 use crate::trial::TrialEvent;
 use devices::{device, Devices, Recording, ScenarioError};
-pub use state::event;
-pub use trial_run::InFlight;
+// The trial log's state events (`trial::state`), as the runners record them.
+use crate::trial::state;
+pub use devices::InFlight;
 
 /// Why a trial was aborted; the hand held its position and the arm stopped.
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]

@@ -160,7 +160,7 @@ pub fn run_real_trial(
     };
     let RealRig { hw, devices } = rig;
     devices.live = live.map(|l| l.trial(started_unix_s.saturating_mul(1_000_000_000), false));
-    let in_flight = super::trial_run::InFlight::default();
+    let in_flight = super::devices::InFlight::default();
     devices.in_flight = Some(in_flight.clone());
     let max_speed = hw.hand.max_speed_per_s;
     let watch = watch(hw);

@@ -6,7 +6,7 @@ use std::sync::atomic::AtomicBool;
 
 use tmo_hal::{Arm, Clock, Hand, MarkerTracker, TactileSensor};
 
-use super::devices::{Devices, Recording, ScenarioError};
+use super::devices::{Devices, InFlight, Recording, ScenarioError};
 use super::monitor::{FrameMonitor, Verdict, WatchLimits};
 use super::{event, Fault, Online, RunRecord};
 use crate::online::classify::Reaction;
@@ -21,12 +21,6 @@ pub(super) struct TrialRun<'m> {
     in_flight: Option<InFlight>,
     finished: bool,
 }
-
-/// Where a trial that ends without `TrialRun::finish` (a device error taken up with `?`
-/// anywhere in a runner) leaves what it recorded: the frames, markers and events up to the
-/// fault. The real backend keeps it as `*.faulted.mcap`. A drop guard rather than a
-/// wrapper around every runner's body, so that no error path of any runner can miss it.
-pub type InFlight = std::sync::Arc<std::sync::Mutex<Option<RunRecord>>>;
 
 impl Drop for TrialRun<'_> {
     fn drop(&mut self) {

@@ -18,6 +18,7 @@ use tmo_hal::{MarkerSample, PinFrame};
 
 mod read;
 pub mod schema;
+pub mod state;
 
 pub use read::{read_trial, read_trial_bytes, read_trial_for_scoring, MAX_PIN_COORDINATE_PX};
 

@@ -6,7 +6,6 @@
 //! uninterrupted run would have. A log is written under its name only when complete.
 
 pub mod rows;
-pub mod run;
 
 use std::path::{Path, PathBuf};
 

@@ -4,8 +4,16 @@ use std::path::Path;
 
 use super::BatchError;
 use crate::protocol::Kind;
-use crate::report::inputs::BatchRows;
 use crate::runner::score::{CalibrationRow, LiftRow, OutcomeRow};
+
+/// The scored trials of a batch, one row type per protocol kind (as `tmo report` reads
+/// them back).
+#[derive(Debug, Clone, PartialEq)]
+pub enum BatchRows {
+    Catch(Vec<OutcomeRow>),
+    Lift(Vec<LiftRow>),
+    Calibration(Vec<CalibrationRow>),
+}
 
 /// One kind of row per protocol kind; a batch fills one of them.
 #[derive(Debug, Default, Clone, PartialEq)]

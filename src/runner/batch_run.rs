@@ -14,8 +14,8 @@ use std::sync::atomic::{AtomicBool, Ordering};
 
 use rayon::prelude::*;
 
-use super::rows::{write_atomic, ScoredRows};
-use super::{
+use super::batch::rows::{write_atomic, ScoredRows};
+use super::batch::{
     aborted_trial_path, catch_spec, expand, faulted_trial_path, trial_path, BatchError, Manifest,
     PlannedTrial,
 };
@@ -199,7 +199,7 @@ struct Tally {
 /// Checks the plan against the rig and loads what its trials need.
 fn prepare(req: &BatchRequest, rig: &BatchRig) -> Result<Prepared, BatchError> {
     let plan = req.plan;
-    super::check_size(plan)?;
+    super::batch::check_size(plan)?;
     let g_min = match &plan.params {
         KindParams::FirstTimeLift(p) => {
             p.calibration.as_deref().map(GMinTable::load).transpose()?
