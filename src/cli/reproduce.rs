@@ -31,7 +31,7 @@ pub struct ReproduceArgs {
     #[command(subcommand)]
     command: Option<ReproduceCommand>,
     /// How much to run: `quick` (a few trials a cell, one replicate, about 20 s) or `paper`
-    /// (the paper's counts, five replicates, about half an hour on 2 cores).
+    /// (the paper's counts, five replicates, about 20 minutes on 2 cores).
     #[arg(long, value_enum, default_value = "quick")]
     preset: PresetArg,
     /// Independent replicates of every step, each with its own trial and learner seeds
