@@ -495,7 +495,7 @@ impl Default for RailSetup {
         Self {
             object: "rail_object".into(),
             preload_mm: 0.0,
-            rail_mu: 0.05,
+            rail_mu: 0.11,
             rail_static_factor: 1.0,
             end_stop_mm: 150.0,
             finger_closure: 0.5,

@@ -323,6 +323,47 @@ fn rail_object_slips_when_the_arm_retracts() {
     assert!(onset > 1.0 && onset < 6.0, "onset at {onset}");
 }
 
+/// The finger's normal force when the rail object starts to slip, with the guides' sliding
+/// friction at `rail_mu` (no static peak): the arm retracts at 2 mm/s.
+fn rail_onset_normal_n(rail_mu: f64) -> f64 {
+    let rig = SimRig::new(SimConfig {
+        seed: 3,
+        rig: RigSetup::Rail(RailSetup {
+            rail_mu,
+            ..Default::default()
+        }),
+        faults: FaultRates::none(),
+        ..Default::default()
+    })
+    .unwrap();
+    let (mut clock, mut arm, probe) = (rig.clock(), rig.arm(), rig.probe());
+    clock.sleep(1.0);
+    arm.move_linear([-20.0, 0.0, 0.0], 2.0).unwrap();
+    while probe.events().slip_onsets_s.is_empty() {
+        assert!(clock.now_s() < 20.0, "the object never slipped");
+        clock.sleep(0.001);
+    }
+    probe.state().normal_n[0]
+}
+
+#[test]
+fn the_rail_object_slips_when_finger_and_guides_together_no_longer_hold_its_weight() {
+    // At rest the finger holds mu_s N and the guides rail_mu N (rail_static_factor 1), so
+    // the onset comes at N = m g / (mu_s + rail_mu): the guides' datasheet friction (0.11)
+    // lets the finger's force fall further than the earlier estimate (0.05) did.
+    let library = ObjectLibrary::built_in();
+    let object = library.get("rail_object").unwrap();
+    let weight_n = object.mass_g * 1e-3 * SimConfig::default().physics.gravity_m_s2;
+    for rail_mu in [0.05, RailSetup::default().rail_mu] {
+        let expected = weight_n / (object.mu_static + rail_mu);
+        let onset = rail_onset_normal_n(rail_mu);
+        assert!(
+            (onset - expected).abs() < 0.02 * expected,
+            "rail_mu {rail_mu}: slipped at {onset:.3} N, expected {expected:.3} N"
+        );
+    }
+}
+
 #[test]
 fn each_rail_trial_starts_with_the_finger_making_contact_then_the_support_letting_go() {
     let rig = rail_rig();
