@@ -11,3 +11,6 @@ pub mod serve;
 pub mod sim;
 pub mod slip;
 pub mod sweep;
+
+#[cfg(test)]
+mod documented_commands;
