@@ -124,6 +124,18 @@ pub struct Prediction {
     pub expect: BTreeMap<String, String>,
 }
 
+/// Expectations a prediction gave of the verdict a row already had in the run before it:
+/// they check how far the change reaches, not the row, so they leave its standing as it
+/// was (a row in view stays in view). Added beside its prediction, which is never edited.
+#[derive(Debug, Clone, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct UnchangedExpectation {
+    /// Which `[[prediction]]`, counting from 1 in the file's order.
+    pub prediction: usize,
+    pub findings: Vec<String>,
+    pub why: String,
+}
+
 /// Everything `docs/standings.toml` records.
 #[derive(Debug, Clone, Default, serde::Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -136,6 +148,27 @@ pub struct Records {
     pub in_view: Vec<InView>,
     #[serde(default)]
     pub prediction: Vec<Prediction>,
+    #[serde(default)]
+    pub unchanged_expectation: Vec<UnchangedExpectation>,
+}
+
+impl Records {
+    /// The predictions that pre-register `id`, the latest first: those that expect a
+    /// verdict of it, leaving out an expectation of the verdict it already had.
+    fn pre_registering<'a>(&'a self, id: &'a str) -> impl Iterator<Item = &'a Prediction> + 'a {
+        self.prediction
+            .iter()
+            .enumerate()
+            .rev()
+            .filter(move |(i, p)| {
+                p.expect.contains_key(id)
+                    && !self
+                        .unchanged_expectation
+                        .iter()
+                        .any(|u| u.prediction == i + 1 && u.findings.iter().any(|f| f == id))
+            })
+            .map(|(_, p)| p)
+    }
 }
 
 #[derive(Debug, thiserror::Error)]
@@ -195,6 +228,23 @@ pub fn parse(text: &str, origin: &str, ids: &[&str]) -> Result<Records, RecordsE
             }
         }
     }
+    for u in &r.unchanged_expectation {
+        let Some(p) = u.prediction.checked_sub(1).and_then(|i| r.prediction.get(i)) else {
+            return Err(bad(format!(
+                "an unchanged-expectation record names prediction {}: expected 1 to {}",
+                u.prediction,
+                r.prediction.len()
+            )));
+        };
+        for id in &u.findings {
+            if !p.expect.contains_key(id) {
+                return Err(bad(format!(
+                    "an unchanged-expectation record names `{id}`, which prediction {} does not expect",
+                    u.prediction
+                )));
+            }
+        }
+    }
     Ok(r)
 }
 
@@ -227,11 +277,7 @@ pub fn of(id: &str, parameters: &[String], records: &Records) -> (Standing, Stri
             format!("chosen to move it: {}", by.join("; ")),
         );
     }
-    if let Some(p) = records
-        .prediction
-        .iter()
-        .find(|p| p.expect.contains_key(id))
-    {
+    if let Some(p) = records.pre_registering(id).next() {
         return (
             Standing::PreRegistered,
             format!("expected `{}` under: {}", p.expect[id], p.change),
@@ -261,11 +307,12 @@ pub fn of(id: &str, parameters: &[String], records: &Records) -> (Standing, Stri
     (Standing::NeverSeen, String::new())
 }
 
-/// The expected verdict a prediction committed for `id`, if any.
+/// The expected verdict the latest prediction committed for `id`, if any.
 pub fn predicted<'a>(id: &str, records: &'a Records) -> Option<&'a str> {
     records
         .prediction
         .iter()
+        .rev()
         .find_map(|p| p.expect.get(id).map(String::as_str))
 }
 
@@ -331,6 +378,54 @@ expect = { "c" = "yes" }
         let all =
             records("[[in_view]]\ncommits = []\nchose = \"everything\"\nfindings = \"all\"\n");
         assert_eq!(of("d", &[], &all).0, Standing::InView);
+    }
+
+    #[test]
+    fn an_expectation_of_the_verdict_a_row_already_had_leaves_its_standing() {
+        let r = records(
+            r#"
+[[in_view]]
+commits = ["y"]
+chose = "z"
+findings = ["b", "c"]
+
+[[prediction]]
+change = "first"
+values = "v"
+reasoning = "r"
+expect = { "b" = "yes" }
+
+[[prediction]]
+change = "second"
+values = "v"
+reasoning = "r"
+expect = { "b" = "no", "c" = "no" }
+
+[[unchanged_expectation]]
+prediction = 2
+findings = ["b", "c"]
+why = "both verdicts as in the run before"
+"#,
+        );
+        // c: only an unchanged expectation names it, so it stays in view
+        assert_eq!(of("c", &[], &r).0, Standing::InView);
+        // b: the first prediction still pre-registers it; the page shows the latest
+        // expectation
+        let (standing, said) = of("b", &[], &r);
+        assert_eq!(standing, Standing::PreRegistered);
+        assert!(said.contains("first"), "{said}");
+        assert_eq!(predicted("b", &r), Some("no"));
+        let wrong = |u: &str| {
+            parse(
+                &format!("[[prediction]]\nchange = \"c\"\nvalues = \"v\"\nreasoning = \"r\"\nexpect = {{ a = \"yes\" }}\n\n[[unchanged_expectation]]\n{u}why = \"w\"\n"),
+                "f",
+                &IDS,
+            )
+            .unwrap_err()
+            .to_string()
+        };
+        assert!(wrong("prediction = 2\nfindings = [\"a\"]\n").contains("expected 1 to 1"));
+        assert!(wrong("prediction = 1\nfindings = [\"b\"]\n").contains("does not expect"));
     }
 
     #[test]
