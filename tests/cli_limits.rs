@@ -883,7 +883,7 @@ fn a_second_stage_without_a_screen_or_its_noise_reference_is_refused() {
     std::fs::create_dir(d.join("s")).unwrap();
     std::fs::write(
         d.join("s/sensitivity.json"),
-        r#"[{"variant": {"parameter": "rail.rail_mu", "end": "low", "value": 0.02, "default": 0.05}, "changed": {}}]"#,
+        r#"[{"variant": {"parameter": "rail.rail_mu", "end": "low", "value": 0.05, "default": 0.11}, "changed": {}}]"#,
     )
     .unwrap();
     let e = fails(&tmo(d, &["reproduce", "--screen", "s", "--out", "r"]));
