@@ -164,6 +164,90 @@ fn a_live_viewer_receives_pin_frames_while_the_batch_runs() {
     child.wait().unwrap();
 }
 
+/// `--live-wait`: the batch waits for a viewer before its first trial, so the viewer sees
+/// that trial from its first frame; with no viewer it starts anyway when the wait is over.
+#[test]
+fn a_batch_can_wait_for_its_first_viewer() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    setup(d);
+    let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_tmo"))
+        .current_dir(d)
+        .args([
+            "run",
+            "release.toml",
+            "--repeat",
+            "1",
+            "--out",
+            "waited",
+            "--live",
+            "127.0.0.1:0",
+            "--live-wait",
+            "60",
+        ])
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let frames = common::live::pin_frames(&mut child, 5);
+    // a fingertip camera's first frame is number 1
+    assert_eq!(
+        frames[0], 1,
+        "the viewer missed the first frames: {frames:?}"
+    );
+    child.kill().unwrap();
+    child.wait().unwrap();
+
+    // no viewer: the batch says so and starts (its trials then run at wall-clock speed,
+    // so the test stops it there)
+    let mut alone = std::process::Command::new(env!("CARGO_BIN_EXE_tmo"))
+        .current_dir(d)
+        .args([
+            "run",
+            "release.toml",
+            "--out",
+            "alone",
+            "--live",
+            "127.0.0.1:0",
+            "--live-wait",
+            "0.2",
+        ])
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut said = String::new();
+    let mut stderr = std::io::BufReader::new(alone.stderr.take().unwrap());
+    while !said.contains("starting without one") {
+        let mut line = String::new();
+        let read = std::io::BufRead::read_line(&mut stderr, &mut line).unwrap();
+        assert!(read > 0, "tmo ended without saying it started: {said}");
+        said.push_str(&line);
+    }
+    alone.kill().unwrap();
+    alone.wait().unwrap();
+    assert!(
+        said.contains("no viewer subscribed within 0.2 s; starting without one"),
+        "{said}"
+    );
+    assert!(said.contains("foxglove.sdk.v1"), "{said}");
+    let e = fails(&tmo(
+        d,
+        &[
+            "run",
+            "release.toml",
+            "--live",
+            "127.0.0.1:0",
+            "--live-wait",
+            "0",
+        ],
+    ));
+    assert!(
+        e.contains("--live-wait") && e.contains("more than 0"),
+        "{e}"
+    );
+}
+
 #[test]
 fn a_batch_run_in_shards_reports_as_the_whole_batch() {
     let dir = tempfile::tempdir().unwrap();

@@ -121,7 +121,8 @@ fn names_exist(root: &clap::Command, words: &[String]) -> Result<(), String> {
         .iter()
         .skip(1)
         .map(|w| w.trim_matches(['[', ']']).to_string())
-        .filter(|w| !w.is_empty())
+        // `tmo ...`: "any command"
+        .filter(|w| !w.is_empty() && !w.contains("..."))
         .collect();
     let mut i = 0;
     while i < bare.len() {

@@ -2,6 +2,7 @@
 
 pub mod hardware;
 pub mod import;
+pub mod live;
 pub mod output;
 pub mod replay;
 pub mod report;

@@ -43,6 +43,10 @@ pub struct ReplayArgs {
     /// Foxglove WebSocket protocol. Ctrl-C skips to the replay's table.
     #[arg(long, value_name = "ADDR", num_args = 0..=1, default_missing_value = "127.0.0.1:8765")]
     live: Option<std::net::SocketAddr>,
+    /// With --live: before the first trial, wait up to SECONDS for a viewer to subscribe
+    /// (without one by then, the trials play anyway, saying so).
+    #[arg(long, requires = "live", value_name = "SECONDS", value_parser = super::live::parse_wait)]
+    live_wait: Option<f64>,
 }
 
 fn percentile(sorted: &[f64], q: f64) -> Option<f64> {
@@ -152,29 +156,28 @@ pub fn replay(args: ReplayArgs) -> Result<bool> {
         &strategies,
         args.out.as_deref(),
         args.json,
-        args.live,
+        args.live.map(|addr| super::live::LiveArgs {
+            addr,
+            wait_s: args.live_wait,
+        }),
     )
 }
 
-/// Plays every trial to a live view at `addr`, one after another at wall-clock speed, until
+/// Plays every trial to a live view at `live.addr`, one after another at wall-clock speed, until
 /// the last one ends or Ctrl-C.
-fn play_live(addr: std::net::SocketAddr, trials: &[(String, Trial)]) -> Result<()> {
+fn play_live(live: super::live::LiveArgs, trials: &[(String, Trial)]) -> Result<()> {
     use std::sync::atomic::{AtomicBool, Ordering};
     let sensors = trials
         .iter()
         .map(|(_, t)| t.meta.sensors)
         .max()
         .unwrap_or(0);
-    let view = tmo::live::LiveView::start(addr, sensors)?;
-    eprintln!(
-        "live view at {}: in Foxglove, Open connection > Foxglove WebSocket > {} (each trial plays at wall-clock speed; Ctrl-C skips to the replay)",
-        view.url(),
-        view.url()
-    );
     let stop = std::sync::Arc::new(AtomicBool::new(false));
     let flag = stop.clone();
     ctrlc::set_handler(move || flag.store(true, Ordering::Relaxed))
         .context("cannot install the Ctrl-C handler")?;
+    let how = "each trial plays at wall-clock speed; Ctrl-C skips to the replay";
+    let view = super::live::serve(live, sensors, how, &stop)?;
     for (i, (path, trial)) in trials.iter().enumerate() {
         super::output::note(format!("playing {path} ({}/{})", i + 1, trials.len()));
         if !view.play(trial, &stop) {
@@ -192,7 +195,7 @@ pub fn replay_with(
     strategies: &[Strategy],
     out: Option<&std::path::Path>,
     json: bool,
-    live: Option<std::net::SocketAddr>,
+    live: Option<super::live::LiveArgs>,
 ) -> Result<bool> {
     let models: Vec<(String, String, ModelFile)> = model_paths
         .iter()
@@ -270,8 +273,8 @@ pub fn replay_with(
             }
         }
     }
-    if let Some(addr) = live {
-        play_live(addr, &trials)?;
+    if let Some(live) = live {
+        play_live(live, &trials)?;
         if models.is_empty() {
             super::output::note(format!(
                 "played {} trial(s); no --model, so nothing was replayed",

@@ -69,6 +69,11 @@ pub struct RunArgs {
     /// which can still scrub it) until Ctrl-C.
     #[arg(long, requires = "live")]
     live_linger: bool,
+    /// With --live: before the first trial, wait up to SECONDS for a viewer to subscribe,
+    /// so it sees the first trial from its start (without one by then, the batch starts
+    /// anyway, saying so).
+    #[arg(long, requires = "live", value_name = "SECONDS", value_parser = super::live::parse_wait)]
+    live_wait: Option<f64>,
     /// Print the batch's summary as JSON (counts, the report's tables, the files written)
     /// instead of as text; progress and notes go to standard error.
     #[arg(long)]
@@ -92,6 +97,7 @@ pub fn run_on_sim(protocol: PathBuf, out: PathBuf, resume: bool) -> Result<u8> {
         from: Vec::new(),
         live: None,
         live_linger: false,
+        live_wait: None,
         json: false,
     })
 }
@@ -136,7 +142,10 @@ pub fn run(args: RunArgs) -> Result<u8> {
             args.out.as_deref(),
             args.json,
             // the recorded trials play to the viewer first, as `tmo replay --live` does
-            args.live,
+            args.live.map(|addr| super::live::LiveArgs {
+                addr,
+                wait_s: args.live_wait,
+            }),
         )?;
         return Ok(if skipped {
             super::replay::EXIT_SKIPPED
@@ -182,13 +191,12 @@ pub fn run(args: RunArgs) -> Result<u8> {
         Some(addr) => {
             // the hand's three fingertips, or the rail's one
             let sensors = if plan.kind == Kind::RailCatch { 1 } else { 3 };
-            let view = tmo::live::LiveView::start(addr, sensors)?;
-            eprintln!(
-                "live view at {}: in Foxglove, Open connection > Foxglove WebSocket > {} (simulated trials run one at a time, at wall-clock speed)",
-                view.url(),
-                view.url()
-            );
-            Some(view)
+            let live = super::live::LiveArgs {
+                addr,
+                wait_s: args.live_wait,
+            };
+            let how = "simulated trials run one at a time, at wall-clock speed";
+            Some(super::live::serve(live, sensors, how, &stop)?)
         }
         None => None,
     };

@@ -63,7 +63,35 @@ struct Inner {
     last_sent_ns: AtomicU64,
     // kept for as long as the view; stopped gracefully when it goes (see Drop)
     server: Mutex<Option<foxglove::WebSocketServerHandle>>,
+    /// When a viewer first subscribed to a channel.
+    viewers: Arc<ViewerWatch>,
 }
+
+/// Notes when a viewer first subscribes to one of the view's channels (the SDK calls it
+/// from a client's poll loop, so it only records).
+#[derive(Default)]
+struct ViewerWatch {
+    first_subscribed: Mutex<Option<Instant>>,
+}
+
+impl foxglove::websocket::ServerListener for ViewerWatch {
+    fn on_subscribe(
+        &self,
+        _client: foxglove::websocket::Client,
+        _channel: foxglove::websocket::ChannelView,
+    ) {
+        let mut first = self
+            .first_subscribed
+            .lock()
+            .unwrap_or_else(|e| e.into_inner());
+        first.get_or_insert_with(Instant::now);
+    }
+}
+
+/// How long after a viewer's first subscription [`LiveView::wait_for_viewer`] waits for its
+/// others: a viewer subscribes to each of its panels' topics in turn, within a few
+/// milliseconds.
+const SUBSCRIPTIONS_SETTLE: Duration = Duration::from_millis(500);
 
 /// How long a closing view waits for its clients to take the close frame.
 const CLOSE_WAIT: Duration = Duration::from_secs(2);
@@ -93,9 +121,11 @@ impl LiveView {
     /// add a name (docs/commands.md, "Live view").
     pub fn start(addr: SocketAddr, sensors: u8) -> Result<Self, LiveError> {
         let ctx = foxglove::Context::new();
+        let viewers = Arc::new(ViewerWatch::default());
         let server = foxglove::WebSocketServer::new()
             .name("tmo")
             .context(&ctx)
+            .listener(viewers.clone())
             .bind(addr.ip().to_string(), addr.port())
             .start_blocking()
             .map_err(|e| LiveError::Serve {
@@ -114,6 +144,7 @@ impl LiveView {
                 channels: Mutex::new(HashMap::new()),
                 last_sent_ns: AtomicU64::new(0),
                 server: Mutex::new(Some(server)),
+                viewers,
             }),
         };
         // Every channel the rig writes exists before a viewer can connect: a viewer sees
@@ -127,6 +158,30 @@ impl LiveView {
             view.channel(topic);
         }
         Ok(view)
+    }
+
+    /// Waits until a viewer has subscribed to the view's channels (and half a second more,
+    /// for its other subscriptions), at most `timeout`; `false` if none came in time or
+    /// `stop` was set. Before the first trial, so a viewer sees it from its start.
+    pub fn wait_for_viewer(&self, timeout: Duration, stop: &AtomicBool) -> bool {
+        let deadline = Instant::now() + timeout;
+        loop {
+            let first = *self
+                .inner
+                .viewers
+                .first_subscribed
+                .lock()
+                .unwrap_or_else(|e| e.into_inner());
+            if let Some(first) = first {
+                let settled = first + SUBSCRIPTIONS_SETTLE;
+                std::thread::sleep(settled.saturating_duration_since(Instant::now()));
+                return true;
+            }
+            if stop.load(Ordering::Relaxed) || Instant::now() >= deadline {
+                return false;
+            }
+            std::thread::sleep(Duration::from_millis(20));
+        }
     }
 
     /// The address a Foxglove WebSocket client connects to.
@@ -269,13 +324,17 @@ impl LiveView {
 /// The topic of the live view's `foxglove.Log` lines.
 pub const LOG_TOPIC: &str = "/log";
 
-/// An event as a `foxglove.Log` line: phases and commands as info, detections as warnings,
-/// faults as errors; the per-frame classifier outputs and state samples are left to the
-/// plots (a line per frame would bury the rest).
+/// An event as a `foxglove.Log` line: phases, commands and the detector being armed or
+/// disarmed as info, a detection (the detector's reaction) as a warning, faults as errors;
+/// the per-frame classifier outputs and state samples are left to the plots (a line per
+/// frame would bury the rest).
 pub fn log_line(e: &TrialEvent, log_time_ns: u64) -> Option<foxglove::messages::Log> {
     use foxglove::messages::log::Level;
     let level = match e.topic.as_str() {
         "/fault" => Level::Error,
+        "/detector" if matches!(e.data["event"].as_str(), Some("armed" | "disarmed")) => {
+            Level::Info
+        }
         "/detector" => Level::Warning,
         "/phase" | "/command/hand" | "/command/arm" => Level::Info,
         _ => return None,
@@ -394,10 +453,21 @@ mod tests {
             log_line(&event("/fault"), 0).unwrap().level,
             Level::Error as i32
         );
+        let detector = |what: &str| TrialEvent {
+            time_s: 1.0,
+            topic: "/detector".into(),
+            data: serde_json::json!({ "event": what }),
+        };
         assert_eq!(
-            log_line(&event("/detector"), 0).unwrap().level,
+            log_line(&detector("reaction"), 0).unwrap().level,
             Level::Warning as i32
         );
+        for what in ["armed", "disarmed"] {
+            assert_eq!(
+                log_line(&detector(what), 0).unwrap().level,
+                Level::Info as i32
+            );
+        }
         assert!(log_line(&event("/classifier"), 0).is_none());
         assert!(log_line(&event("/state/hand"), 0).is_none());
     }

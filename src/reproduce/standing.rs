@@ -229,7 +229,11 @@ pub fn parse(text: &str, origin: &str, ids: &[&str]) -> Result<Records, RecordsE
         }
     }
     for u in &r.unchanged_expectation {
-        let Some(p) = u.prediction.checked_sub(1).and_then(|i| r.prediction.get(i)) else {
+        let Some(p) = u
+            .prediction
+            .checked_sub(1)
+            .and_then(|i| r.prediction.get(i))
+        else {
             return Err(bad(format!(
                 "an unchanged-expectation record names prediction {}: expected 1 to {}",
                 u.prediction,
