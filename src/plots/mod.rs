@@ -112,7 +112,6 @@ pub const TP_COLOUR: RGBColor = RGBColor(46, 139, 87);
 pub const FP_COLOUR: RGBColor = RGBColor(230, 145, 56);
 pub const FN_COLOUR: RGBColor = RGBColor(200, 40, 40);
 
-/// A safe file name part.
 /// What a figure shows, as a caption: the paper's figure it stands for and the findings
 /// (docs/paper_findings.toml ids) it bears on; `None` for a file name this module does not
 /// make.
@@ -122,18 +121,19 @@ pub fn caption(file_stem: &str) -> Option<String> {
     };
     Some(match file_stem {
         "fig4a_pin_speed" => "Fig. 4a: how the magnitude of the mean pin velocity is spread over the static and the slip frames of the rail's training trials, with the threshold classifier's T. In the paper the static class has a long tail reaching into the slip class, so no threshold separates them. Findings sf-pin-speed-tail, sf-threshold-misses-slip.".to_string(),
-        "fig4b_pin_velocities" => "Fig. 4b: example pin velocity fields either side of T: slip above it (i) and below it (ii, late slip frames whose velocities have shrunk), static above it (iii, a grip change with a mean component) and below it (iv). Finding sf-threshold-misses-slip.".to_string(),
+        "fig4b_pin_velocities" => "Fig. 4b: pin velocity fields of two frames of one rail training trial and sensor, on one arrow scale: a typical static frame (the median speed of its static frames) and its fastest slip frame. The paper shows four, static and slip frames each above and below the threshold T; these two are the ends of that range. Finding sf-threshold-misses-slip.".to_string(),
         "fig5_f1_svm_rbf" => fig5("SVM with an RBF kernel"),
         "fig5_f1_logreg" => fig5("logistic regression"),
         "fig5_f1_threshold" => fig5("threshold on the mean pin speed"),
-        "fig7_hand_outcomes" => "Fig. 7: TP, FP and FN of the global and the local classifiers over the strategies, with the hand at 0 and at 180 deg (the paper: the local classifier loses TPs at 180 deg, the global hardly). Findings wh-global-beats-local, wh-global-generalises, wh-fn-local-rotated, wh-fp-sensitive-strategy.".to_string(),
-        "fig8_hand_slip_distance" => "Fig. 8: slip distance D before the regrasp caught the object, by strategy, scope and grasp (the paper: 16-45 mm, smallest for 1Fr2Sen). Findings wh-distance, wh-distance-sensitive-smallest, wh-distance-local-rotated.".to_string(),
+        "fig7_hand_outcomes" => "Fig. 7: TP, FP and FN over the strategies, one panel per model (global, local) and grasp (the hand at 0 and at 180 deg); grey, trials that did not slip or were held with no measurable slip. The paper: the local classifier loses TPs at 180 deg, the global hardly. Findings wh-global-beats-local, wh-global-generalises, wh-fn-local-rotated, wh-fp-sensitive-strategy.".to_string(),
+        "fig8_hand_slip_distance" => "Fig. 8: slip distance D before the regrasp caught the object, by strategy, pooled over both models and both grasps (boxes: quartiles and median; n: caught trials). The paper: 16-45 mm, smallest for 1Fr2Sen. Findings wh-distance, wh-distance-sensitive-smallest, wh-distance-local-rotated.".to_string(),
         "fig12_lift_heights" => "Fig. 12: object and hand heights through a first-time lift (a lift succeeds when the object rises with the hand, after the hand has risen alone while it tightened). Findings lift-all-lifted, lift-cat.".to_string(),
         stem if stem.starts_with("fig13_lift_by_mass") => "Fig. 13: first-time lift by mass: slips per lift and overgrasp (how far past the least lifting grasp the hand closed; the paper: 39 % at 100-300 g, 105 % above). Findings lift-slips-rise-with-mass, lift-overgrasp-light, lift-overgrasp-heavy.".to_string(),
         _ => return None,
     })
 }
 
+/// A safe file name part.
 pub fn slug(s: &str) -> String {
     s.chars()
         .map(|c| if c.is_ascii_alphanumeric() { c } else { '_' })

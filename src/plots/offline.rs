@@ -97,9 +97,9 @@ fn heatmap<DB: DrawingBackend>(
     let title = match g.best() {
         Some((f1, d, n)) => format!(
             "{}: test macro F1 (best {f1:.3} at d = {d:.1}, n_slip = {n})",
-            g.classifier
+            crate::report::build::classifier_label(&g.classifier)
         ),
-        None => g.classifier.clone(),
+        None => crate::report::build::classifier_label(&g.classifier),
     };
     // Cells sit on the grid's indices, not its values, so lists with gaps (odd n_slip
     // only, uneven d steps) draw as a solid block; the axis labels give the values.
@@ -575,6 +575,43 @@ pub fn trial_figures(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Fig. 4b draws two frames, a static one and a slip one, and its caption says so.
+    #[test]
+    fn the_caption_of_figure_4b_says_what_it_draws() {
+        crate::plots::register_font();
+        let field = |what: &str, step: f64| PinField {
+            title: format!("{what}: t = 1.00 s, |v| = {step:.2} px/frame"),
+            trial_id: "trial-00000".into(),
+            sensor: 0,
+            pins: vec![(0.0, 0.0), (10.0, 0.0), (0.0, 10.0)],
+            moves: vec![(step, 0.0); 3],
+        };
+        let mut svg = String::new();
+        {
+            let root = SVGBackend::with_string(&mut svg, (1100, 560)).into_drawing_area();
+            quiver(
+                &root,
+                &[field("static", 0.1), field("slip", 2.0)],
+                Units::Px,
+            )
+            .unwrap();
+        }
+        let panels: Vec<&str> = svg
+            .split("</text>")
+            .filter_map(|t| t.rsplit('>').next())
+            .filter_map(|t| t.trim().split(':').next())
+            .filter(|t| ["static", "slip"].contains(t))
+            .collect();
+        assert_eq!(panels, ["static", "slip"]);
+        let caption = crate::plots::caption("fig4b_pin_velocities").unwrap();
+        assert!(
+            caption.contains("two frames")
+                && caption.contains("a typical static frame")
+                && caption.contains("its fastest slip frame"),
+            "{caption}"
+        );
+    }
 
     fn row(classifier: &str, n: usize, d: &str, f1: f64) -> SweepRow {
         SweepRow {

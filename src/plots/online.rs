@@ -39,26 +39,53 @@ pub struct Bar {
     pub other: usize,
 }
 
-/// Bars per scope, one per strategy and grasp, from completed trials.
-pub fn outcome_bars(rows: &[&OutcomeRow]) -> BTreeMap<String, Vec<Bar>> {
-    let mut cells: BTreeMap<String, BTreeMap<(String, u64), Vec<&OutcomeRow>>> = BTreeMap::new();
+/// One panel of Fig. 7: a model's scope and the hand's grasp (deg).
+#[derive(Debug, Clone, PartialEq, Eq, PartialOrd, Ord)]
+pub struct Panel {
+    pub scope: String,
+    /// The grasp in degrees, as f64 bits (non-negative angles sort as numbers).
+    grasp_bits: u64,
+}
+
+impl Panel {
+    pub fn new(scope: &str, grasp_deg: f64) -> Self {
+        Self {
+            scope: scope.to_string(),
+            grasp_bits: grasp_deg.abs().to_bits(),
+        }
+    }
+
+    pub fn grasp_deg(&self) -> f64 {
+        f64::from_bits(self.grasp_bits)
+    }
+
+    /// The panel's title: "global model, hand at 180 deg" (no degree sign: some viewers'
+    /// fonts space it oddly at the labels' size).
+    pub fn title(&self) -> String {
+        format!("{} model, hand at {} deg", self.scope, self.grasp_deg())
+    }
+}
+
+/// Bars per panel (scope and grasp), one per strategy, from completed trials.
+pub fn outcome_bars(rows: &[&OutcomeRow]) -> BTreeMap<Panel, Vec<Bar>> {
+    let mut cells: BTreeMap<Panel, BTreeMap<String, Vec<&OutcomeRow>>> = BTreeMap::new();
     for r in rows.iter().filter(|r| r.fault.is_none()) {
         cells
-            .entry(r.scope.clone())
+            .entry(Panel::new(&r.scope, r.grasp_deg))
             .or_default()
-            .entry((r.strategy.clone(), r.grasp_deg.to_bits()))
+            .entry(r.strategy.clone())
             .or_default()
             .push(r);
     }
     cells
         .into_iter()
-        .map(|(scope, by)| {
+        .map(|(panel, by)| {
             let bars = by
                 .into_iter()
-                .map(|((strategy, grasp), rs)| {
+                .map(|(strategy, rs)| {
                     let n = |v: Verdict| rs.iter().filter(|r| r.verdict == v).count();
                     Bar {
-                        label: format!("{strategy} {}°", f64::from_bits(grasp)),
+                        label: strategy,
                         tp: n(Verdict::TruePositive),
                         fp: n(Verdict::FalsePositive),
                         fn_: n(Verdict::FalseNegative),
@@ -66,26 +93,43 @@ pub fn outcome_bars(rows: &[&OutcomeRow]) -> BTreeMap<String, Vec<Bar>> {
                     }
                 })
                 .collect();
-            (scope, bars)
+            (panel, bars)
         })
         .collect()
 }
 
+/// The grid Fig. 7's panels sit in: a row per scope, a column per grasp.
+fn panel_grid(panels: &BTreeMap<Panel, Vec<Bar>>) -> (Vec<String>, Vec<u64>) {
+    let mut scopes: Vec<String> = panels.keys().map(|p| p.scope.clone()).collect();
+    let mut grasps: Vec<u64> = panels.keys().map(|p| p.grasp_bits).collect();
+    scopes.dedup();
+    grasps.sort_unstable();
+    grasps.dedup();
+    (scopes, grasps)
+}
+
 fn bars<DB: DrawingBackend>(
     root: &DrawingArea<DB, Shift>,
-    panels: &BTreeMap<String, Vec<Bar>>,
+    panels: &BTreeMap<Panel, Vec<Bar>>,
 ) -> DrawResult<DB> {
     clear(root)?;
     let root = root.titled(
-        "Online release: outcomes per strategy and grasp",
+        "Online release: outcomes per strategy, by model and grasp",
         (FONT, 20),
     )?;
     // the legend has its own strip on the right, so the axis can fit the bars
     let width = root.dim_in_pixel().0 as i32;
     let (plots, legend) = root.split_horizontally(width - 200);
     draw_legend(&legend)?;
-    let areas = plots.split_evenly((panels.len().max(1), 1));
-    for (area, (scope, bars)) in areas.iter().zip(panels) {
+    let (scopes, grasps) = panel_grid(panels);
+    let areas = plots.split_evenly((scopes.len().max(1), grasps.len().max(1)));
+    for (panel, bars) in panels {
+        let row = scopes.iter().position(|s| *s == panel.scope).unwrap_or(0);
+        let col = grasps
+            .iter()
+            .position(|g| *g == panel.grasp_bits)
+            .unwrap_or(0);
+        let area = &areas[row * grasps.len().max(1) + col];
         let tallest = bars
             .iter()
             .map(|b| b.tp + b.fp + b.fn_ + b.other)
@@ -94,7 +138,7 @@ fn bars<DB: DrawingBackend>(
         let top = count_axis_top(tallest);
         let labels: Vec<String> = bars.iter().map(|b| b.label.clone()).collect();
         let mut chart = ChartBuilder::on(area)
-            .caption(format!("{scope} model"), (FONT, 17))
+            .caption(panel.title(), (FONT, 17))
             .margin(8)
             .x_label_area_size(34)
             .y_label_area_size(50)
@@ -270,7 +314,7 @@ pub fn hand_figures(inputs: &Inputs, dir: &Path) -> Result<Vec<PathBuf>, PlotErr
         return Ok(Vec::new());
     }
     let panels = outcome_bars(&rows);
-    let height = (330 * panels.len() as u32 + 40).max(520);
+    let height = (330 * panel_grid(&panels).0.len() as u32 + 40).max(520);
     let mut out = crate::figure_files!(dir.join("fig7_hand_outcomes"), (1200, height), |root| {
         bars(&root, &panels)
     });
@@ -335,24 +379,111 @@ mod tests {
         ];
         let refs: Vec<&OutcomeRow> = rows.iter().collect();
         let b = outcome_bars(&refs);
-        assert_eq!(b.len(), 2);
+        assert_eq!(b.len(), 3);
+        let global_0 = &b[&Panel::new("global", 0.0)];
         assert_eq!(
-            b["global"][0],
+            global_0[0],
             Bar {
-                label: "2Fr2Sen 0°".into(),
+                label: "2Fr2Sen".into(),
                 tp: 1,
                 fp: 1,
                 fn_: 0,
                 other: 0
             }
         );
-        assert_eq!(b["global"][1].fn_, 1);
+        assert_eq!(b[&Panel::new("global", 180.0)][0].fn_, 1);
         // every trial is in its bar: those without a slip too
-        assert_eq!((b["local"][1].tp, b["local"][1].other), (0, 2));
+        let local_0 = &b[&Panel::new("local", 0.0)];
+        assert_eq!((local_0[1].tp, local_0[1].other), (0, 2));
+        assert_eq!(
+            panel_grid(&b),
+            (
+                vec!["global".into(), "local".into()],
+                vec![0f64.to_bits(), 180f64.to_bits()]
+            )
+        );
+        assert_eq!(
+            Panel::new("local", 180.0).title(),
+            "local model, hand at 180 deg"
+        );
         let d = distances_by_strategy(&refs);
         assert_eq!(
             d,
             vec![("1Fr1Sen".into(), vec![1.0]), ("2Fr2Sen".into(), vec![3.0])]
+        );
+    }
+
+    /// The texts of an SVG, in drawing order.
+    fn texts(svg: &str) -> Vec<String> {
+        svg.split("</text>")
+            .filter_map(|t| t.rsplit('>').next())
+            .map(|t| t.trim().to_string())
+            .filter(|t| !t.is_empty())
+            .collect()
+    }
+
+    /// Figs. 7 and 8 as drawn and as captioned: Fig. 7 has a panel per model and grasp
+    /// (its caption says so), Fig. 8 one box per strategy, pooled over models and grasps.
+    #[test]
+    fn the_captions_of_figures_seven_and_eight_say_what_they_draw() {
+        crate::plots::register_font();
+        let mut rows = Vec::new();
+        for scope in ["global", "local"] {
+            for grasp in [0.0, 180.0] {
+                for strategy in ["1Fr2Sen", "2Fr2Sen"] {
+                    rows.push(row(
+                        scope,
+                        strategy,
+                        grasp,
+                        Verdict::TruePositive,
+                        Some(5.0),
+                    ));
+                }
+            }
+        }
+        let refs: Vec<&OutcomeRow> = rows.iter().collect();
+        let panels = outcome_bars(&refs);
+        let mut svg = String::new();
+        {
+            let root = SVGBackend::with_string(&mut svg, (1200, 700)).into_drawing_area();
+            bars(&root, &panels).unwrap();
+        }
+        let drawn: Vec<String> = texts(&svg)
+            .into_iter()
+            .filter(|t| t.contains(" model, hand at "))
+            .collect();
+        assert_eq!(
+            drawn,
+            [
+                "global model, hand at 0 deg",
+                "global model, hand at 180 deg",
+                "local model, hand at 0 deg",
+                "local model, hand at 180 deg"
+            ]
+        );
+        let fig7 = crate::plots::caption("fig7_hand_outcomes").unwrap();
+        assert!(
+            fig7.contains("one panel per model (global, local) and grasp"),
+            "{fig7}"
+        );
+        // the x labels are the strategies alone
+        assert!(texts(&svg).iter().any(|t| t == "1Fr2Sen"), "{svg}");
+
+        let groups = distances_by_strategy(&refs);
+        let mut svg = String::new();
+        {
+            let root = SVGBackend::with_string(&mut svg, (900, 600)).into_drawing_area();
+            boxes(&root, &groups).unwrap();
+        }
+        let boxes_drawn: Vec<String> = texts(&svg)
+            .into_iter()
+            .filter(|t| t.contains("(n="))
+            .collect();
+        assert_eq!(boxes_drawn, ["1Fr2Sen (n=4)", "2Fr2Sen (n=4)"]);
+        let fig8 = crate::plots::caption("fig8_hand_slip_distance").unwrap();
+        assert!(
+            fig8.contains("by strategy, pooled over both models and both grasps"),
+            "{fig8}"
         );
     }
 
@@ -361,14 +492,15 @@ mod tests {
     /// 60 for bars of 39, to leave room for a legend drawn over the plot).
     #[test]
     fn count_axes_tick_whole_numbers_and_fit_the_bars() {
+        crate::plots::register_font();
         for tallest in [1, 2, 3, 5, 7, 12, 39, 40, 99, 250] {
             let top = count_axis_top(tallest);
             assert!(top >= tallest && (top as f64) <= (tallest as f64 * 1.08).ceil() + 0.5);
             let mut panels = BTreeMap::new();
             panels.insert(
-                "global".to_string(),
+                Panel::new("global", 0.0),
                 vec![Bar {
-                    label: "2Fr2Sen 0°".into(),
+                    label: "2Fr2Sen".into(),
                     tp: tallest,
                     fp: 0,
                     fn_: 0,

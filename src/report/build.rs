@@ -111,7 +111,7 @@ pub fn offline_sweep(inputs: &Inputs) -> Option<Table> {
             let mean = rows.iter().map(|r| r.macro_f1).sum::<f64>() / rows.len() as f64;
             t.push(vec![
                 Cell::text(short_label(&s.path)),
-                Cell::text(classifier),
+                Cell::text(classifier_label(classifier)),
                 Cell::Count(rows.len() as u64),
                 Cell::number(Some(best.macro_f1), 3),
                 Cell::text(best.downsample.clone()),
@@ -123,10 +123,58 @@ pub fn offline_sweep(inputs: &Inputs) -> Option<Table> {
     Some(t)
 }
 
-/// A file's name for a table's row label: relative to the working directory when it lies
-/// under it, else its last two parts (`06_hand_models/global.json`): an absolute path
-/// breaks, and says too much, when a report is shared.
+/// A classifier's name as people write it (`svm-rbf` is the file format's).
+pub fn classifier_label(name: &str) -> String {
+    match name {
+        "svm-rbf" => "SVM (RBF)",
+        "svm-linear" => "SVM (linear)",
+        "logreg" => "LogReg",
+        other => other,
+    }
+    .to_string()
+}
+
+/// A step's output of `tmo reproduce` by what it is: `.../replicate-01/02_rail_sweep/sweep.csv`
+/// is "rail sweep (replicate 1)", `.../replicate-02/06_hand_models/global.json` "hand
+/// models: global (replicate 2)"; `None` for a path outside that layout.
+fn reproduce_label(path: &std::path::Path) -> Option<String> {
+    let parts: Vec<String> = path
+        .components()
+        .map(|c| c.as_os_str().to_string_lossy().into_owned())
+        .collect();
+    let at = parts.iter().rposition(|p| p.starts_with("replicate-"))?;
+    let replicate: u32 = parts[at].strip_prefix("replicate-")?.parse().ok()?;
+    let step = parts.get(at + 1)?;
+    let (number, name) = step.split_once('_')?;
+    if number.len() != 2 || !number.bytes().all(|b| b.is_ascii_digit()) {
+        return None;
+    }
+    let step = name.replace('_', " ");
+    let what = match parts.get(at + 2).map(std::path::Path::new) {
+        Some(file) if parts.len() == at + 3 => {
+            let stem = file.file_stem()?.to_string_lossy().into_owned();
+            if step
+                .split(' ')
+                .any(|w| w == stem || format!("{stem}s") == w)
+            {
+                step
+            } else {
+                format!("{step}: {stem}")
+            }
+        }
+        _ => step,
+    };
+    Some(format!("{what} (replicate {replicate})"))
+}
+
+/// A file's name for a table's row label: what a reproduction's step made it as (see
+/// [`reproduce_label`]); else relative to the working directory when it lies under it,
+/// else its last two parts (`06_hand_models/global.json`): an absolute path breaks, and
+/// says too much, when a report is shared.
 fn short_label(path: &std::path::Path) -> String {
+    if let Some(label) = reproduce_label(path) {
+        return label;
+    }
     if path.is_relative() {
         return path.display().to_string();
     }
@@ -169,7 +217,7 @@ pub fn offline_evaluations(inputs: &Inputs) -> Option<Table> {
         let row = |sensor: String, s: &crate::slip::metrics::Scores| {
             vec![
                 Cell::text(short_label(std::path::Path::new(&e.model))),
-                Cell::text(e.classifier.clone()),
+                Cell::text(classifier_label(&e.classifier)),
                 Cell::text(scope.clone()),
                 Cell::text(sensor),
                 Cell::number(Some(s.macro_f1), 3),
@@ -459,7 +507,7 @@ pub fn first_time_lift(inputs: &Inputs) -> Option<Table> {
 
 #[cfg(test)]
 mod tests {
-    use super::{hand_online_table, short_label};
+    use super::{classifier_label, hand_online_table, short_label};
     use crate::outcome::Verdict;
     use crate::runner::score::OutcomeRow;
     use std::path::Path;
@@ -518,11 +566,35 @@ mod tests {
             "results/sweep.csv"
         );
         assert_eq!(
-            short_label(Path::new(
-                "/elsewhere/r/replicate-01/06_hand_models/global.json"
-            )),
-            "06_hand_models/global.json"
+            short_label(Path::new("/elsewhere/hand_models/global.json")),
+            "hand_models/global.json"
         );
+        // a reproduction's outputs by what they are
+        let labels = [
+            (
+                "/elsewhere/r/replicate-01/06_hand_models/global.json",
+                "hand models: global (replicate 1)",
+            ),
+            (
+                "results/paper/replicate-03/02_rail_sweep/sweep.csv",
+                "rail sweep (replicate 3)",
+            ),
+            (
+                "r/replicate-02/03_rail_model/rail.json",
+                "rail model (replicate 2)",
+            ),
+            ("r/replicate-01/07_hand_online", "hand online (replicate 1)"),
+            (
+                "r/replicate-01/notastep/x.csv",
+                "r/replicate-01/notastep/x.csv",
+            ),
+        ];
+        for (path, label) in labels {
+            assert_eq!(short_label(Path::new(path)), label, "{path}");
+        }
+        assert_eq!(classifier_label("svm-rbf"), "SVM (RBF)");
+        assert_eq!(classifier_label("logreg"), "LogReg");
+        assert_eq!(classifier_label("threshold"), "threshold");
         let here = std::env::current_dir().unwrap().join("a/b.json");
         assert_eq!(short_label(&here), "a/b.json");
     }
