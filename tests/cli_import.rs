@@ -52,6 +52,84 @@ fn macro_f1(evaluate_output: &str) -> f64 {
         .unwrap()
 }
 
+/// `tmo train --search grid` on another lab's taxel data picks the point scikit-learn's
+/// GridSearchCV picks over the same grid and folds (one training trial per fold, by
+/// trial), and its model scores the test trial as scikit-learn's does, within 0.01 macro
+/// F1. The reference is committed (`scripts/sklearn_grid_reference.py`, on these rows).
+#[test]
+fn a_grid_search_on_a_new_sensors_data_agrees_with_scikit_learns() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    import(d);
+    let reference: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(
+            Path::new(env!("CARGO_MANIFEST_DIR"))
+                .join("tests/fixtures/xela/sklearn_grid_reference.json"),
+        )
+        .unwrap(),
+    )
+    .unwrap();
+    let list = |axis: &str| {
+        reference["points"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|p| p[axis].as_f64().unwrap())
+            .fold(Vec::<f64>::new(), |mut v, x| {
+                if !v.contains(&x) {
+                    v.push(x);
+                }
+                v
+            })
+            .iter()
+            .map(|x| x.to_string())
+            .collect::<Vec<_>>()
+            .join(",")
+    };
+    let (cs, gammas) = (list("C"), list("gamma"));
+    let said = ok(&tmo(
+        d,
+        &[
+            "train",
+            "xela/train",
+            "--n-slip",
+            "30",
+            "--downsample",
+            "1",
+            "--search",
+            "grid",
+            "--c-grid",
+            &cs,
+            "--gamma-grid",
+            &gammas,
+            "--folds",
+            &reference["folds"].to_string(),
+            "--out",
+            "grid.json",
+        ],
+    ));
+    let best = &reference["best"];
+    let picked = said
+        .lines()
+        .find(|l| l.starts_with("grid:"))
+        .unwrap_or_else(|| panic!("{said}"));
+    let expected = format!(
+        "C = {:.4}, gamma = {:.5}",
+        best["C"].as_f64().unwrap(),
+        best["gamma"].as_f64().unwrap()
+    );
+    assert!(
+        picked.contains(&expected),
+        "{picked}: scikit-learn picked {best}"
+    );
+    let tmo_f1 = macro_f1(&ok(&tmo(d, &["evaluate", "grid.json", "xela/test"])));
+    let sklearn_f1 = reference["test_macro_f1"].as_f64().unwrap();
+    assert!(
+        (tmo_f1 - sklearn_f1).abs() <= 0.01,
+        "test macro F1: tmo {tmo_f1}, scikit-learn {sklearn_f1}"
+    );
+}
+
 #[test]
 fn imported_taxel_recordings_train_evaluate_sweep_and_replay() {
     let dir = tempfile::tempdir().unwrap();

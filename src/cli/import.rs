@@ -176,5 +176,15 @@ pub fn run(command: ImportCommand) -> Result<()> {
         };
         outln!("  {n} trial log(s) in {}", dir.display());
     }
+    // The paper's C and gamma were chosen for TacTip pins; another sensor's are its own.
+    let train_dir = if splits.contains_key("train") {
+        args.out.join("train")
+    } else {
+        args.out.clone()
+    };
+    super::output::note(format!(
+        "next: search this sensor's classifier settings, e.g. `tmo train {} --search grid --out model.json` (cross-validated by trial)",
+        train_dir.display()
+    ));
     Ok(())
 }

@@ -14,7 +14,15 @@ use tmo::slip::sweep::{parse_f64_grid, parse_usize_grid, HyperChoice, Shard, Swe
 use tmo::slip::sweep_file::{merge, read_rows, run_to_file, write_rows, SweepPart, SweepTarget};
 use tmo::trial::{expand_trial_paths, TrialMeta};
 
-use super::slip::{load_dataset, SearchMethod};
+use super::slip::load_dataset;
+
+/// How a sweep chooses each cell's C and gamma (a grid per cell would multiply the
+/// sweep's fits by the grid's size: `tmo train --search grid` searches one cell).
+#[derive(Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum CellSearch {
+    None,
+    Bayes,
+}
 
 #[derive(clap::Args)]
 #[command(args_conflicts_with_subcommands = true, subcommand_negates_reqs = true)]
@@ -61,7 +69,7 @@ pub struct SweepArgs {
     gamma: Option<f64>,
     /// Search C (and gamma) by Bayesian optimisation in every cell, on training trials only.
     #[arg(long, value_enum, default_value = "none")]
-    search: SearchMethod,
+    search: CellSearch,
     /// Evaluations of each cell's search.
     #[arg(long, default_value_t = 12)]
     iters: usize,
@@ -179,12 +187,12 @@ pub fn sweep(args: SweepArgs) -> Result<()> {
         "--onset-threshold-mm must be positive"
     );
     let hyper = match args.search {
-        SearchMethod::None => HyperChoice::Fixed(Hyperparameters {
+        CellSearch::None => HyperChoice::Fixed(Hyperparameters {
             c: args.c,
             gamma: super::slip::gamma_or_scale(args.gamma, &args.trials)?,
             max_iterations: None,
         }),
-        SearchMethod::Bayes => HyperChoice::Search {
+        CellSearch::Bayes => HyperChoice::Search {
             iterations: args.iters,
             folds: args.folds,
             ranges: tmo::slip::tuning::SearchRanges {

@@ -69,6 +69,8 @@ pub enum TuneError {
     Folds(usize),
     #[error("the {0} classifier has no hyperparameters to search")]
     NothingToSearch(&'static str),
+    #[error("a grid search needs at least one C and, for the RBF SVM, one gamma")]
+    EmptyGrid,
 }
 
 /// A cross-validation's folds, ready to be scored at any point.

@@ -105,6 +105,94 @@ pub fn search_reporting(
     Ok((to_hyper(&b.params), record))
 }
 
+/// Every point of a grid of C (and gamma for the RBF SVM) scored by the same
+/// cross-validation as [`search`] (folds of whole trials, split once); the best is the
+/// first point with the highest mean macro F1, in the grid's order (C outer, gamma inner),
+/// as scikit-learn's `GridSearchCV` picks it. A fit that fails scores 0.
+pub fn grid_search_reporting(
+    data: &Dataset,
+    spec: &TuneSpec,
+    cs: &[f64],
+    gammas: &[f64],
+    mut on_evaluation: impl FnMut(usize, &Hyperparameters, f64),
+) -> Result<(Hyperparameters, SearchRecord), TuneError> {
+    if spec.kind == ClassifierKind::Threshold {
+        return Err(TuneError::NothingToSearch("threshold"));
+    }
+    let uses_gamma = spec.kind.uses_gamma();
+    let gammas: &[f64] = if uses_gamma { gammas } else { &[0.0] };
+    if cs.is_empty() || gammas.is_empty() {
+        return Err(TuneError::EmptyGrid);
+    }
+    let folds = Folds::new(data, spec)?;
+    let mut first_error = None;
+    let mut history = Vec::new();
+    for &c in cs {
+        for &gamma in gammas {
+            let hyper = Hyperparameters {
+                c,
+                gamma,
+                max_iterations: None,
+            };
+            let f1 = match folds.score(spec, hyper) {
+                Ok(scores) => mean_f1(&scores),
+                Err(e) => {
+                    first_error.get_or_insert(e);
+                    0.0
+                }
+            };
+            on_evaluation(history.len() + 1, &hyper, f1);
+            let params = if uses_gamma { vec![c, gamma] } else { vec![c] };
+            history.push(Evaluation { params, score: f1 });
+        }
+    }
+    if history.iter().all(|e| e.score == 0.0) {
+        if let Some(e) = first_error {
+            return Err(e);
+        }
+    }
+    // the first of the highest, as GridSearchCV ranks ties
+    let top = history
+        .iter()
+        .map(|e| e.score)
+        .fold(f64::NEG_INFINITY, f64::max);
+    let b = history
+        .iter()
+        .find(|e| e.score == top)
+        .expect("a grid point");
+    let span = |v: &[f64]| {
+        [
+            v.iter().copied().fold(f64::INFINITY, f64::min),
+            v.iter().copied().fold(f64::NEG_INFINITY, f64::max),
+        ]
+    };
+    let mut parameters = vec!["C".to_string()];
+    let mut ranges = vec![span(cs)];
+    if uses_gamma {
+        parameters.push("gamma".to_string());
+        ranges.push(span(gammas));
+    }
+    let record = SearchRecord {
+        method: format!(
+            "grid ({} points){}, {}",
+            history.len(),
+            spec.max_fit_rows
+                .map_or(String::new(), |cap| format!(", fits on at most {cap} rows")),
+            spec.held_out.describe()
+        ),
+        folds: spec.folds,
+        parameters,
+        ranges,
+        evaluations: history.clone(),
+    };
+    let hyper = Hyperparameters {
+        c: b.params[0],
+        gamma: b.params.get(1).copied().unwrap_or(0.0),
+        max_iterations: None,
+    };
+    Ok((hyper, record))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -140,6 +228,62 @@ mod tests {
             }
         }
         ds
+    }
+
+    #[test]
+    fn a_grid_scores_every_point_and_keeps_the_first_best() {
+        let data = blobs();
+        let s = spec(ClassifierKind::SvmRbf, 0, 3);
+        let mut seen = Vec::new();
+        let (hyper, record) =
+            grid_search_reporting(&data, &s, &[0.01, 1.0, 10.0], &[0.1, 1.0], |k, h, f1| {
+                seen.push((k, h.c, h.gamma, f1))
+            })
+            .unwrap();
+        assert_eq!(seen.len(), 6);
+        assert_eq!(
+            seen.iter().map(|p| (p.1, p.2)).collect::<Vec<_>>(),
+            [
+                (0.01, 0.1),
+                (0.01, 1.0),
+                (1.0, 0.1),
+                (1.0, 1.0),
+                (10.0, 0.1),
+                (10.0, 1.0)
+            ]
+        );
+        // each point scored as the search's own cross-validation scores it
+        for &(_, c, gamma, f1) in &seen {
+            let h = Hyperparameters {
+                c,
+                gamma,
+                max_iterations: None,
+            };
+            assert_eq!(f1, cross_validated_f1(&data, &s, h).unwrap());
+        }
+        let top = seen.iter().map(|p| p.3).fold(f64::NEG_INFINITY, f64::max);
+        let first = seen.iter().find(|p| p.3 == top).unwrap();
+        assert_eq!((hyper.c, hyper.gamma), (first.1, first.2));
+        assert_eq!(record.ranges, vec![[0.01, 10.0], [0.1, 1.0]]);
+        assert!(
+            record.method.starts_with("grid (6 points)"),
+            "{}",
+            record.method
+        );
+        // a linear model has no gamma: the grid is C alone
+        let (_, linear) = grid_search_reporting(
+            &data,
+            &spec(ClassifierKind::Logreg, 0, 3),
+            &[0.1, 1.0],
+            &[0.1, 1.0],
+            |_, _, _| {},
+        )
+        .unwrap();
+        assert_eq!(linear.evaluations.len(), 2);
+        assert!(matches!(
+            grid_search_reporting(&data, &s, &[], &[1.0], |_, _, _| {}),
+            Err(TuneError::EmptyGrid)
+        ));
     }
 
     #[test]
