@@ -449,9 +449,11 @@ fn another_labs_file_imports_with_flags_only() {
         tmo(d, &args)
     };
     // each step of the way, the message names the flag that reads the file as it is
+    // every missing column at once, with the one flag that maps them all
     let e = fails(&import(&[]));
     assert!(
-        e.contains("no `trial` column") && e.contains("--columns trial="),
+        e.contains("no `trial` or `element` column")
+            && e.contains("--columns trial=<its name>,element=<its name>"),
         "{e}"
     );
     let e = fails(&import(&[
@@ -466,11 +468,26 @@ fn another_labs_file_imports_with_flags_only() {
     assert!(e.contains("--columns element=tax: no `tax` column"), "{e}");
 
     let flags = ["--columns", "trial=run,element=taxel", "--one-based"];
-    let first = import(&flags);
+    // repeated readings are found before anything is written, with the commands to run
+    let e = fails(&import(&flags));
+    assert!(
+        e.contains("repeat the previous frame's readings") && e.contains("nothing was written"),
+        "{e}"
+    );
+    assert!(
+        e.contains("tmo import csv theirs.csv --out theirs --units counts --split-column split --columns trial=run,element=taxel --one-based --dedupe"),
+        "{e}"
+    );
+    assert!(e.contains("--one-based --keep-repeats"), "{e}");
+    assert!(!d.join("theirs").exists());
+    let mut keeping = flags.to_vec();
+    keeping.push("--keep-repeats");
+    let first = import(&keeping);
     let (stdout, stderr) = (ok(&first), String::from_utf8_lossy(&first.stderr));
     assert!(stdout.contains("4 trial(s)"), "{stdout}");
     assert!(
-        stderr.contains("repeat the previous frame's readings") && stderr.contains("--dedupe"),
+        stderr.contains("repeat the previous frame's readings")
+            && stderr.contains("kept as they are (--keep-repeats)"),
         "{stderr}"
     );
     assert!(

@@ -43,8 +43,32 @@ pub struct CsvArgs {
     one_based: bool,
     /// Drop frames whose readings repeat the previous frame's exactly (a sensor slower than
     /// the log that recorded it) and number the rest anew; the count is said.
-    #[arg(long)]
+    #[arg(long, conflicts_with = "keep_repeats")]
     dedupe: bool,
+    /// Import frames that repeat the previous frame's readings as they are (without it, an
+    /// import in which more than a tenth of the frames repeat is refused before anything is
+    /// written, naming --dedupe and this flag).
+    #[arg(long)]
+    keep_repeats: bool,
+}
+
+/// This command as the user gave it, with `flag` added: what to run instead.
+fn command_with(flag: &str) -> String {
+    let quote = |a: String| {
+        if !a.is_empty()
+            && a.chars()
+                .all(|c| c.is_ascii_alphanumeric() || "-_./=,:@+".contains(c))
+        {
+            a
+        } else {
+            format!("'{}'", a.replace('\'', "'\\''"))
+        }
+    };
+    std::iter::once("tmo".to_string())
+        .chain(std::env::args().skip(1).map(quote))
+        .chain(std::iter::once(flag.to_string()))
+        .collect::<Vec<_>>()
+        .join(" ")
 }
 
 /// `--columns element=taxel,trial=run` as interchange name -> the file's name.
@@ -117,6 +141,15 @@ pub fn run(command: ImportCommand) -> Result<()> {
         bail!("no trials in the given files");
     };
     let imported: Vec<_> = trials.iter().map(|(_, t)| t.clone()).collect();
+    if !opts.dedupe && !args.keep_repeats {
+        if let Some(why) = tmo::import::too_many_repeats(&imported) {
+            bail!(
+                "{why}; nothing was written. Drop them and number the rest anew:\n  {}\nor import them as they are:\n  {}",
+                command_with("--dedupe"),
+                command_with("--keep-repeats")
+            );
+        }
+    }
     let (warnings, notes) = tmo::import::import_notes(&imported, opts.dedupe);
     for w in warnings {
         eprintln!("warning: {w}");

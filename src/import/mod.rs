@@ -23,7 +23,7 @@ use tmo_hal::{MarkerSample, PinFrame};
 
 use crate::trial::{Trial, TrialEvent, TrialMeta, TRIAL_FORMAT_VERSION};
 
-pub use notes::{import_notes, rate_summary};
+pub use notes::{import_notes, rate_summary, too_many_repeats};
 pub use parse::{read_interchange, INTERCHANGE_COLUMNS};
 pub use write::{export_interchange, write_interchange, z_by_frame, ExportError};
 

@@ -11,7 +11,22 @@ const REPEATS_WORTH_SAYING: f64 = 0.1;
 /// A share of uneven intervals above this makes per-frame velocities unreliable.
 const UNEVEN_WORTH_SAYING: f64 = 0.05;
 
-/// What the import tells its user: `(warnings, notes)`.
+/// Frames that repeat the previous frame's readings exactly, when there are so many that
+/// the sensor is slower than the log that recorded it: what to say, `None` when few.
+/// Said before anything is written, so that the import can be run again as it should be.
+pub fn too_many_repeats(trials: &[ImportedTrial]) -> Option<String> {
+    let frames: usize = trials.iter().map(|t| t.trial.frames.len()).sum();
+    let repeated: u64 = trials.iter().map(|t| t.repeated_frames).sum();
+    (repeated as f64 > REPEATS_WORTH_SAYING * (frames as f64 + repeated as f64)).then(|| {
+        format!(
+            "{repeated} of {frames} frames repeat the previous frame's readings exactly: the sensor seems to update slower than the log, and velocities are per frame"
+        )
+    })
+}
+
+/// What the import tells its user: `(warnings, notes)`. Many repeated frames without
+/// `dedupe` are said as a warning (the importer refuses them first unless told to keep
+/// them: [`too_many_repeats`]).
 pub fn import_notes(trials: &[ImportedTrial], dedupe: bool) -> (Vec<String>, Vec<String>) {
     let (mut warnings, mut notes) = (Vec::new(), Vec::new());
     let renamed: Vec<String> = trials
@@ -26,8 +41,6 @@ pub fn import_notes(trials: &[ImportedTrial], dedupe: bool) -> (Vec<String>, Vec
             examples(&renamed)
         ));
     }
-    let frames: usize = trials.iter().map(|t| t.trial.frames.len()).sum();
-    let repeated: u64 = trials.iter().map(|t| t.repeated_frames).sum();
     if dedupe {
         let dropped: u64 = trials.iter().map(|t| t.dropped_repeats).sum();
         let hit = trials.iter().filter(|t| t.dropped_repeats > 0).count();
@@ -35,10 +48,8 @@ pub fn import_notes(trials: &[ImportedTrial], dedupe: bool) -> (Vec<String>, Vec
             "--dedupe dropped {dropped} frame(s) that repeated the previous frame's readings, in {hit} of {} trial(s); the rest are numbered anew",
             trials.len()
         ));
-    } else if repeated as f64 > REPEATS_WORTH_SAYING * (frames as f64 + repeated as f64) {
-        warnings.push(format!(
-            "{repeated} of {frames} frames repeat the previous frame's readings exactly: the sensor seems to update slower than the log, and velocities are per frame; --dedupe drops them"
-        ));
+    } else if let Some(why) = too_many_repeats(trials) {
+        warnings.push(format!("{why}; kept as they are (--keep-repeats)"));
     }
     let uneven: Vec<String> = trials
         .iter()

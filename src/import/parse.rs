@@ -94,16 +94,38 @@ fn columns(
         None if opts.columns.values().any(|v| v == name) => None,
         None => header.iter().position(|h| h.trim() == name),
     };
-    let mut required = [0; 7];
-    for (slot, name) in required.iter_mut().zip(REQUIRED) {
-        *slot = find(name).ok_or_else(|| {
-            format!(
-                "no `{name}` column; the interchange CSV needs {} (found: {}); a column of another name is mapped with --columns {name}=<its name>",
-                REQUIRED.join(", "),
-                header.iter().collect::<Vec<_>>().join(", ")
-            )
-        })?;
+    // Every missing column is named at once, with the one --columns that maps them all.
+    let missing: Vec<&str> = REQUIRED
+        .iter()
+        .copied()
+        .filter(|n| find(n).is_none())
+        .collect();
+    let mut problems = Vec::new();
+    if !missing.is_empty() {
+        let quoted: Vec<String> = missing.iter().map(|n| format!("`{n}`")).collect();
+        let mapping: Vec<String> = missing.iter().map(|n| format!("{n}=<its name>")).collect();
+        problems.push(format!(
+            "no {} column; the interchange CSV needs {} (found: {}); {} mapped with --columns {}",
+            quoted.join(" or "),
+            REQUIRED.join(", "),
+            header.iter().collect::<Vec<_>>().join(", "),
+            if missing.len() == 1 {
+                "a column of another name is"
+            } else {
+                "columns of other names are"
+            },
+            mapping.join(",")
+        ));
     }
+    if let Some(name) = &opts.split_column {
+        if find(name).is_none() {
+            problems.push(format!("no `{name}` column (--split-column)"));
+        }
+    }
+    if !problems.is_empty() {
+        return Err(problems.join("; "));
+    }
+    let required: [usize; 7] = REQUIRED.map(|n| find(n).expect("checked above"));
     let slip = find("slip");
     let onset = find("onset_s");
     let heights = match (find("object_mm"), find("hand_mm")) {
@@ -731,7 +753,21 @@ mod tests {
     fn mapped_columns_one_based_elements_and_repeated_readings_are_read_as_asked() {
         let text = "run,sensor,frame,t_s,taxel,x,y,slip\na,s,0,0.0,1,1,1,0\na,s,1,0.01,1,1,1,0\na,s,2,0.02,1,2,1,0\na,s,3,0.03,1,2,1,1\na,s,4,0.04,1,3,1,1\n";
         let e = message(read(text, &opts()).unwrap_err());
-        assert!(e.contains("--columns trial=<its name>"), "{e}");
+        assert!(
+            e.contains("no `trial` or `element` column")
+                && e.contains("--columns trial=<its name>,element=<its name>"),
+            "{e}"
+        );
+        // a missing split column is named in the same message
+        let with_split = ImportOptions {
+            split_column: Some("part".into()),
+            ..opts()
+        };
+        let e = message(read(text, &with_split).unwrap_err());
+        assert!(
+            e.contains("element=<its name>; no `part` column (--split-column)"),
+            "{e}"
+        );
         let mapped = ImportOptions {
             columns: [("trial", "run"), ("element", "taxel")]
                 .map(|(a, b)| (a.to_string(), b.to_string()))
