@@ -34,7 +34,9 @@ fn import(d: &Path) {
         &["--units", "counts", "--sensor-name", "xela-uskin-4x4"],
     ));
     assert!(
-        out.contains("4 trial(s): 2 sensor(s) (xela1,xela2) of 16 elements, counts"),
+        out.contains(
+            "4 trial(s): 2 sensor(s) (as tmo numbers them: 0 = xela1, 1 = xela2) of 16 elements, counts"
+        ),
         "{out}"
     );
     assert!(out.contains("3 trial log(s) in xela/train"), "{out}");

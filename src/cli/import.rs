@@ -181,11 +181,19 @@ pub fn run(command: ImportCommand) -> Result<()> {
     bar.finish_and_clear();
     let p = &first.trial.meta.parameters;
     let get = |k: &str| p.get(k).map_or("", String::as_str);
+    // tmo numbers sensors from 0 (train, evaluate and replay say "sensor 0"); the file's
+    // own names are mapped to those numbers here, once.
+    let numbered: Vec<String> = get("sensor_names")
+        .split(',')
+        .filter(|n| !n.is_empty())
+        .enumerate()
+        .map(|(k, name)| format!("{k} = {name}"))
+        .collect();
     outln!(
-        "{} trial(s): {} sensor(s) ({}) of {} elements, {}, {}, labels from the {}",
+        "{} trial(s): {} sensor(s) (as tmo numbers them: {}) of {} elements, {}, {}, labels from the {}",
         trials.len(),
         first.trial.meta.sensors,
-        get("sensor_names"),
+        numbered.join(", "),
         first.trial.meta.pins,
         get("units"),
         tmo::import::rate_summary(&imported),
