@@ -142,9 +142,9 @@ fn a_live_viewer_receives_pin_frames_while_the_batch_runs() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     setup(d);
-    let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_tmo"))
-        .current_dir(d)
-        .args([
+    let mut child = spawn_tmo(
+        d,
+        &[
             "run",
             "release.toml",
             "--repeat",
@@ -153,11 +153,8 @@ fn a_live_viewer_receives_pin_frames_while_the_batch_runs() {
             "live",
             "--live",
             "127.0.0.1:0",
-        ])
-        .stdout(std::process::Stdio::null())
-        .stderr(std::process::Stdio::piped())
-        .spawn()
-        .unwrap();
+        ],
+    );
     let frames = common::live::pin_frames(&mut child, 10);
     assert!(frames.windows(2).all(|w| w[0] < w[1]), "{frames:?}");
     child.kill().unwrap();
@@ -171,9 +168,9 @@ fn a_batch_can_wait_for_its_first_viewer() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     setup(d);
-    let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_tmo"))
-        .current_dir(d)
-        .args([
+    let mut child = spawn_tmo(
+        d,
+        &[
             "run",
             "release.toml",
             "--repeat",
@@ -184,11 +181,8 @@ fn a_batch_can_wait_for_its_first_viewer() {
             "127.0.0.1:0",
             "--live-wait",
             "60",
-        ])
-        .stdout(std::process::Stdio::null())
-        .stderr(std::process::Stdio::piped())
-        .spawn()
-        .unwrap();
+        ],
+    );
     let frames = common::live::pin_frames(&mut child, 5);
     // a fingertip camera's first frame is number 1
     assert_eq!(
@@ -200,9 +194,9 @@ fn a_batch_can_wait_for_its_first_viewer() {
 
     // no viewer: the batch says so and starts (its trials then run at wall-clock speed,
     // so the test stops it there)
-    let mut alone = std::process::Command::new(env!("CARGO_BIN_EXE_tmo"))
-        .current_dir(d)
-        .args([
+    let mut alone = spawn_tmo(
+        d,
+        &[
             "run",
             "release.toml",
             "--out",
@@ -211,11 +205,8 @@ fn a_batch_can_wait_for_its_first_viewer() {
             "127.0.0.1:0",
             "--live-wait",
             "0.2",
-        ])
-        .stdout(std::process::Stdio::null())
-        .stderr(std::process::Stdio::piped())
-        .spawn()
-        .unwrap();
+        ],
+    );
     let mut said = String::new();
     let mut stderr = std::io::BufReader::new(alone.stderr.take().unwrap());
     while !said.contains("starting without one") {

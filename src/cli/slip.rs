@@ -405,22 +405,19 @@ pub fn train(args: TrainArgs) -> Result<()> {
             },
             None,
         ),
-        SearchMethod::Grid => {
+        SearchMethod::Grid | SearchMethod::Bayes => {
+            let grid = args.search == SearchMethod::Grid;
             anyhow::ensure!(
                 args.classifier != ClassifierKind::Threshold,
-                "--search grid: the threshold classifier has no hyperparameters"
-            );
-            let scale = tmo::slip::model::scale_gamma(features.len());
-            let gammas = args.gamma_grid.clone().map_or_else(
-                || [0.1, 0.3, 1.0, 3.0, 10.0].map(|k| k * scale).to_vec(),
-                |g| g.0,
+                "--search {}: the threshold classifier has no hyperparameters",
+                if grid { "grid" } else { "bayes" }
             );
             let spec = TuneSpec {
                 kind: args.classifier,
                 scope: args.scope,
                 downsample: args.labels.downsample_or(TRAIN_DOWNSAMPLE),
                 seed: args.labels.seed,
-                iterations: 0,
+                iterations: if grid { 0 } else { args.iters },
                 folds: args.folds,
                 ranges: tuning::SearchRanges {
                     c: args.c_range,
@@ -429,119 +426,83 @@ pub fn train(args: TrainArgs) -> Result<()> {
                 max_fit_rows: args.search_rows,
                 held_out: args.held_out_rows,
             };
-            let points = args.c_grid.0.len()
-                * if args.classifier.uses_gamma() {
+            let point = |h: &Hyperparameters| {
+                let gamma = if args.classifier.uses_gamma() {
+                    format!(" gamma {:.5}", h.gamma)
+                } else {
+                    String::new()
+                };
+                format!("C {:.4}{gamma}", h.c)
+            };
+            // A search takes minutes: each evaluation shows as it finishes.
+            let searched = if grid {
+                let scale = tmo::slip::model::scale_gamma(features.len());
+                let gammas = args.gamma_grid.clone().map_or_else(
+                    || [0.1, 0.3, 1.0, 3.0, 10.0].map(|k| k * scale).to_vec(),
+                    |g| g.0,
+                );
+                let bar = super::output::counting_bar("grid", "points");
+                let per_c = if args.classifier.uses_gamma() {
                     gammas.len()
                 } else {
                     1
                 };
-            let bar = super::output::counting_bar("grid", "points");
-            bar.set_length(points as u64);
-            let searched = tuning::grid_search_reporting(
-                &ds,
-                &spec,
-                &args.c_grid.0,
-                &gammas,
-                |done, h, f1| {
-                    let gamma = if args.classifier.uses_gamma() {
-                        format!(" gamma {:.5}", h.gamma)
-                    } else {
-                        String::new()
-                    };
+                bar.set_length((args.c_grid.0.len() * per_c) as u64);
+                let searched = tuning::grid_search_reporting(
+                    &ds,
+                    &spec,
+                    &args.c_grid.0,
+                    &gammas,
+                    |done, h, f1| {
+                        let at = point(h);
+                        super::output::detail(
+                            &bar,
+                            format!("point {done}: {at}: cross-validated macro F1 {f1:.3}"),
+                        );
+                        bar.set_position(done as u64);
+                    },
+                );
+                bar.finish_and_clear();
+                searched
+            } else {
+                let bar = super::output::counting_bar("search", "evaluations");
+                bar.set_length(spec.iterations as u64);
+                let mut best_so_far = f64::NEG_INFINITY;
+                let searched = tuning::search_reporting(&ds, &spec, |done, h, f1| {
+                    best_so_far = best_so_far.max(f1);
+                    let at = point(h);
                     super::output::detail(
                         &bar,
-                        format!(
-                            "point {done}: C {:.4}{gamma}: cross-validated macro F1 {f1:.3}",
-                            h.c
-                        ),
+                        format!("evaluation {done}: {at}: cross-validated macro F1 {f1:.3}"),
                     );
+                    bar.set_message(format!("last: {at} F1 {f1:.3}; best F1 {best_so_far:.3}"));
                     bar.set_position(done as u64);
-                },
-            );
-            bar.finish_and_clear();
+                });
+                bar.finish_and_clear();
+                searched
+            };
             let (hyper, record) = searched?;
             let best = record
                 .evaluations
                 .iter()
                 .map(|e| e.score)
                 .fold(f64::NEG_INFINITY, f64::max);
-            let gamma = if args.classifier.uses_gamma() {
-                format!(", gamma = {:.5}", hyper.gamma)
+            let at = point(&hyper)
+                .replacen("C ", "C = ", 1)
+                .replace(" gamma ", ", gamma = ");
+            let n = record.evaluations.len();
+            if grid {
+                outln!("grid: {n} points, best cross-validated macro F1 {best:.3} at {at}");
             } else {
-                String::new()
-            };
-            outln!(
-                "grid: {} points, best cross-validated macro F1 {best:.3} at C = {:.4}{gamma}",
-                record.evaluations.len(),
-                hyper.c
-            );
-            for (name, value, end) in record.best_on_range_ends() {
-                eprintln!("warning: the grid's best {name} ({value:.4}) is its {end} value; the optimum may lie beyond it (extend --{}-grid)", name.to_lowercase());
+                outln!("search: {n} evaluations, best cross-validated macro F1 {best:.3} at {at}");
             }
-            (hyper, Some(record))
-        }
-        SearchMethod::Bayes => {
-            anyhow::ensure!(
-                args.classifier != ClassifierKind::Threshold,
-                "--search bayes: the threshold classifier has no hyperparameters"
-            );
-            let spec = TuneSpec {
-                kind: args.classifier,
-                scope: args.scope,
-                downsample: args.labels.downsample_or(TRAIN_DOWNSAMPLE),
-                seed: args.labels.seed,
-                iterations: args.iters,
-                folds: args.folds,
-                ranges: tuning::SearchRanges {
-                    c: args.c_range,
-                    gamma: args.gamma_range,
-                },
-                max_fit_rows: args.search_rows,
-                held_out: args.held_out_rows,
-            };
-            // A search takes minutes: each evaluation shows as it finishes.
-            let bar = super::output::counting_bar("search", "evaluations");
-            bar.set_length(spec.iterations as u64);
-            let mut best_so_far = f64::NEG_INFINITY;
-            let searched = tuning::search_reporting(&ds, &spec, |done, h, f1| {
-                best_so_far = best_so_far.max(f1);
-                let point = format!(
-                    "C {:.4}{}",
-                    h.c,
-                    if args.classifier.uses_gamma() {
-                        format!(" gamma {:.5}", h.gamma)
-                    } else {
-                        String::new()
-                    }
-                );
-                super::output::detail(
-                    &bar,
-                    format!("evaluation {done}: {point}: cross-validated macro F1 {f1:.3}"),
-                );
-                bar.set_message(format!(
-                    "last: {point} F1 {f1:.3}; best F1 {best_so_far:.3}"
-                ));
-                bar.set_position(done as u64);
-            });
-            bar.finish_and_clear();
-            let (hyper, record) = searched?;
-            let best = record
-                .evaluations
-                .iter()
-                .map(|e| e.score)
-                .fold(f64::NEG_INFINITY, f64::max);
-            let gamma = if args.classifier.uses_gamma() {
-                format!(", gamma = {:.5}", hyper.gamma)
-            } else {
-                String::new()
-            };
-            outln!(
-                "search: {} evaluations, best cross-validated macro F1 {best:.3} at C = {:.4}{gamma}",
-                record.evaluations.len(),
-                hyper.c
-            );
             for (name, value, end) in record.best_on_range_ends() {
-                eprintln!("warning: the search's best {name} ({value:.4}) lies at the {end} end of its range; the optimum may lie beyond it (widen --{}-range)", name.to_lowercase());
+                let name_flag = name.to_lowercase();
+                if grid {
+                    eprintln!("warning: the grid's best {name} ({value:.4}) is its {end} value; the optimum may lie beyond it (extend --{name_flag}-grid)");
+                } else {
+                    eprintln!("warning: the search's best {name} ({value:.4}) lies at the {end} end of its range; the optimum may lie beyond it (widen --{name_flag}-range)");
+                }
             }
             (hyper, Some(record))
         }

@@ -18,6 +18,18 @@ pub fn tmo(dir: &Path, args: &[&str]) -> Output {
         .expect("tmo runs")
 }
 
+/// Starts `tmo args...` in `dir`, its stdout dropped and its stderr piped (where a live
+/// view says its address and notes go).
+pub fn spawn_tmo(dir: &Path, args: &[&str]) -> Child {
+    Command::new(env!("CARGO_BIN_EXE_tmo"))
+        .current_dir(dir)
+        .args(args)
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("tmo starts")
+}
+
 /// Stdout of a run that must succeed (both streams shown if it did not).
 pub fn ok(out: &Output) -> String {
     assert!(
