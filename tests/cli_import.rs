@@ -571,9 +571,30 @@ fn another_labs_file_imports_with_flags_only() {
         ],
     );
     ok(&trained);
+    // said at import: not again on every later command, only with -v
     assert!(
-        String::from_utf8_lossy(&trained.stderr).contains("frame rates differ"),
+        !String::from_utf8_lossy(&trained.stderr).contains("frame rates differ"),
         "{trained:?}"
+    );
+    let told = tmo(
+        d,
+        &[
+            "-v",
+            "train",
+            "theirs/train",
+            "--classifier",
+            "logreg",
+            "--n-slip",
+            "30",
+            "--out",
+            "m2.json",
+        ],
+    );
+    ok(&told);
+    assert!(
+        String::from_utf8_lossy(&told.stderr).contains("frame rates differ")
+            && String::from_utf8_lossy(&told.stderr).contains("(as the import said)"),
+        "{told:?}"
     );
 }
 

@@ -281,8 +281,13 @@ pub fn load_dataset(
             ds.trials_without_onset.join(", ")
         ));
     }
-    if let Some(spread) = &ds.rate_spread {
-        eprintln!("warning: {spread}");
+    // Imported trials' rates were said at import: again only when asked (-v).
+    match &ds.rate_spread {
+        Some(spread) if !ds.all_imported => eprintln!("warning: {spread}"),
+        Some(spread) if super::output::verbose() => {
+            eprintln!("warning: {spread} (as the import said)")
+        }
+        _ => {}
     }
     Ok((ds, refs, features))
 }

@@ -157,6 +157,9 @@ pub fn load_labelled(
     let trials: Vec<_> = loaded.into_iter().map(|(_, _, t)| t).collect();
     let mut dataset = Dataset::from_trials(&trials, &features, labels);
     dataset.rate_spread = rate_spread;
+    dataset.all_imported = trials
+        .iter()
+        .all(|t| t.meta.kind == crate::import::IMPORTED_KIND);
     Ok((dataset, refs, features))
 }
 
@@ -198,6 +201,9 @@ pub struct Dataset {
     pub trials_without_onset: Vec<String>,
     /// The trials' frame rates, where they differ by more than 15 % (said, not refused).
     pub rate_spread: Option<crate::slip::features::RateSpread>,
+    /// Every trial came from `tmo import`, which said its notes (the rates' spread) when
+    /// the data came in: a later command need not say them again.
+    pub all_imported: bool,
 }
 
 #[derive(
