@@ -32,9 +32,7 @@ pub use crate::trial::LABEL_TOPIC;
 /// sensor (`/element_z/0`, ...): one event per frame, `{"seq": N, "z": [...]}`. Carried
 /// along for the user; features use `x` and `y` only.
 pub const Z_TOPIC_PREFIX: &str = "/element_z/";
-/// Trial metadata `kind` of an imported trial.
-pub const IMPORTED_KIND: &str = "imported";
-pub use crate::trial::MAX_STEP_PARAMETER;
+pub use crate::trial::{IMPORTED_KIND, MAX_STEP_PARAMETER};
 
 pub use crate::slip::features::Units;
 

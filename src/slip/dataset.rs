@@ -159,7 +159,7 @@ pub fn load_labelled(
     dataset.rate_spread = rate_spread;
     dataset.all_imported = trials
         .iter()
-        .all(|t| t.meta.kind == crate::import::IMPORTED_KIND);
+        .all(|t| t.meta.kind == crate::trial::IMPORTED_KIND);
     Ok((dataset, refs, features))
 }
 

@@ -139,6 +139,10 @@ pub const MAX_STEP_PARAMETER: &str = "max_element_step";
 /// a marker track (`tmo import`).
 pub const LABEL_TOPIC: &str = "/label";
 
+/// Trial metadata `kind` of an imported trial (`tmo import`); here, below both the importer
+/// and the datasets that read its logs.
+pub const IMPORTED_KIND: &str = "imported";
+
 /// One runner message: `topic` is its channel (e.g. `/classifier`, `/detector`,
 /// `/command/hand`), `data` its JSON body.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
