@@ -477,7 +477,7 @@ fn another_labs_file_imports_with_flags_only() {
         "{e}"
     );
     assert!(
-        e.contains("tmo import csv theirs.csv --out theirs --units counts --split-column split --columns trial=run,element=taxel --one-based --dedupe"),
+        e.contains("tmo import csv theirs.csv --out theirs --units counts --split-column split --columns 'trial=run,element=taxel' --one-based --dedupe"),
         "{e}"
     );
     assert!(e.contains("--one-based --keep-repeats"), "{e}");

@@ -54,21 +54,12 @@ pub struct CsvArgs {
 
 /// This command as the user gave it, with `flag` added: what to run instead.
 fn command_with(flag: &str) -> String {
-    let quote = |a: String| {
-        if !a.is_empty()
-            && a.chars()
-                .all(|c| c.is_ascii_alphanumeric() || "-_./=,:@+".contains(c))
-        {
-            a
-        } else {
-            format!("'{}'", a.replace('\'', "'\\''"))
-        }
-    };
-    std::iter::once("tmo".to_string())
-        .chain(std::env::args().skip(1).map(quote))
+    let words: Vec<String> = std::iter::once("tmo".to_string())
+        .chain(std::env::args().skip(1))
         .chain(std::iter::once(flag.to_string()))
-        .collect::<Vec<_>>()
-        .join(" ")
+        .collect();
+    // arguments from the OS hold no NUL byte, the one thing a shell cannot quote
+    shlex::try_join(words.iter().map(String::as_str)).unwrap_or_else(|_| words.join(" "))
 }
 
 /// `--columns element=taxel,trial=run` as interchange name -> the file's name.

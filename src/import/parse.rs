@@ -142,12 +142,10 @@ fn columns(
         }
         _ => return Err("more than one label source (`slip`, `onset_s`, `object_mm`/`hand_mm`): keep one".into()),
     };
-    let split = match &opts.split_column {
-        Some(name) => {
-            Some(find(name).ok_or_else(|| format!("no `{name}` column (--split-column)"))?)
-        }
-        None => None,
-    };
+    let split = opts
+        .split_column
+        .as_ref()
+        .map(|name| find(name).expect("checked above"));
     let object = find("object");
     let z = find("z");
     let known: Vec<usize> = required

@@ -69,40 +69,85 @@ pub fn search_reporting(
         initial_points: (spec.iterations / 3).clamp(1, 10),
         seed: spec.seed,
     };
-    let mut first_error = None;
+    let mut scorer = Scorer::new(&folds, spec);
     let mut done = 0;
     let history: Vec<Evaluation> = search.maximise(|p| {
         let hyper = to_hyper(p);
-        let f1 = match folds.score(spec, hyper) {
-            Ok(scores) => mean_f1(&scores),
-            Err(e) => {
-                first_error.get_or_insert(e);
-                0.0
-            }
-        };
+        let f1 = scorer.score(hyper);
         done += 1;
         on_evaluation(done, &hyper, f1);
         f1
     })?;
-    if history.iter().all(|e| e.score == 0.0) {
-        if let Some(e) = first_error {
-            return Err(e);
+    scorer.refuse_if_every_fit_failed(&history)?;
+    let b = best(&history).expect("at least one evaluation");
+    let record = search_record(
+        "bayes (GP Matern 5/2, expected improvement)".into(),
+        spec,
+        ranges.iter().map(|r| r.name.to_string()).collect(),
+        ranges.iter().map(|r| [r.low, r.high]).collect(),
+        &history,
+    );
+    Ok((to_hyper(&b.params), record))
+}
+
+/// Scores points by the folds' mean macro F1; a fit that fails scores 0, and the first
+/// failure is kept so that a search whose every fit failed can say why.
+struct Scorer<'a> {
+    folds: &'a Folds,
+    spec: &'a TuneSpec,
+    first_error: Option<TuneError>,
+}
+
+impl<'a> Scorer<'a> {
+    fn new(folds: &'a Folds, spec: &'a TuneSpec) -> Self {
+        Self {
+            folds,
+            spec,
+            first_error: None,
         }
     }
-    let b = best(&history).expect("at least one evaluation");
-    let record = SearchRecord {
+
+    fn score(&mut self, hyper: Hyperparameters) -> f64 {
+        match self.folds.score(self.spec, hyper) {
+            Ok(scores) => mean_f1(&scores),
+            Err(e) => {
+                self.first_error.get_or_insert(e);
+                0.0
+            }
+        }
+    }
+
+    /// A search where every point scored 0 because its fits failed is an error, not a result.
+    fn refuse_if_every_fit_failed(&mut self, history: &[Evaluation]) -> Result<(), TuneError> {
+        if history.iter().all(|e| e.score == 0.0) {
+            if let Some(e) = self.first_error.take() {
+                return Err(e);
+            }
+        }
+        Ok(())
+    }
+}
+
+/// The record of a finished search, `method` naming how its points were chosen.
+fn search_record(
+    method: String,
+    spec: &TuneSpec,
+    parameters: Vec<String>,
+    ranges: Vec<[f64; 2]>,
+    history: &[Evaluation],
+) -> SearchRecord {
+    SearchRecord {
         method: format!(
-            "bayes (GP Matern 5/2, expected improvement){}, {}",
+            "{method}{}, {}",
             spec.max_fit_rows
                 .map_or(String::new(), |cap| format!(", fits on at most {cap} rows")),
             spec.held_out.describe()
         ),
         folds: spec.folds,
-        parameters: ranges.iter().map(|r| r.name.to_string()).collect(),
-        ranges: ranges.iter().map(|r| [r.low, r.high]).collect(),
-        evaluations: history.clone(),
-    };
-    Ok((to_hyper(&b.params), record))
+        parameters,
+        ranges,
+        evaluations: history.to_vec(),
+    }
 }
 
 /// Every point of a grid of C (and gamma for the RBF SVM) scored by the same
@@ -125,7 +170,7 @@ pub fn grid_search_reporting(
         return Err(TuneError::EmptyGrid);
     }
     let folds = Folds::new(data, spec)?;
-    let mut first_error = None;
+    let mut scorer = Scorer::new(&folds, spec);
     let mut history = Vec::new();
     for &c in cs {
         for &gamma in gammas {
@@ -134,23 +179,13 @@ pub fn grid_search_reporting(
                 gamma,
                 max_iterations: None,
             };
-            let f1 = match folds.score(spec, hyper) {
-                Ok(scores) => mean_f1(&scores),
-                Err(e) => {
-                    first_error.get_or_insert(e);
-                    0.0
-                }
-            };
+            let f1 = scorer.score(hyper);
             on_evaluation(history.len() + 1, &hyper, f1);
             let params = if uses_gamma { vec![c, gamma] } else { vec![c] };
             history.push(Evaluation { params, score: f1 });
         }
     }
-    if history.iter().all(|e| e.score == 0.0) {
-        if let Some(e) = first_error {
-            return Err(e);
-        }
-    }
+    scorer.refuse_if_every_fit_failed(&history)?;
     // the first of the highest, as GridSearchCV ranks ties
     let top = history
         .iter()
@@ -172,19 +207,13 @@ pub fn grid_search_reporting(
         parameters.push("gamma".to_string());
         ranges.push(span(gammas));
     }
-    let record = SearchRecord {
-        method: format!(
-            "grid ({} points){}, {}",
-            history.len(),
-            spec.max_fit_rows
-                .map_or(String::new(), |cap| format!(", fits on at most {cap} rows")),
-            spec.held_out.describe()
-        ),
-        folds: spec.folds,
+    let record = search_record(
+        format!("grid ({} points)", history.len()),
+        spec,
         parameters,
         ranges,
-        evaluations: history.clone(),
-    };
+        &history,
+    );
     let hyper = Hyperparameters {
         c: b.params[0],
         gamma: b.params.get(1).copied().unwrap_or(0.0),
