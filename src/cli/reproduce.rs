@@ -73,7 +73,8 @@ pub struct ReproduceArgs {
     #[arg(long, requires = "sensitivity")]
     keep_variant_logs: bool,
     /// With --sensitivity: vary only these parameters (comma-separated names; `reseeded`
-    /// alone runs only the noise reference).
+    /// alone runs only the noise reference). `NAME=VALUE` is a switch: the parameter at
+    /// that value, which may lie outside its range (to show a finding can fail).
     #[arg(long, value_delimiter = ',', requires = "sensitivity")]
     sensitivity_parameters: Vec<String>,
     /// The second stage of a sensitivity study (implies --sensitivity): vary, at this

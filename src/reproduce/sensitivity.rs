@@ -9,6 +9,10 @@
 //! there changes with the seeds alone: at this many replicates its verdict is not decided,
 //! and a parameter that changes it says no more than a new seed would. The table keeps
 //! such findings apart from the fragile and the robust ones.
+//!
+//! A study may also set a parameter to a value of its own, inside or outside its range
+//! (`NAME=VALUE`): a **switch**, the configuration under which a finding kept as evidence
+//! is shown able to fail (a row that no switch can fail is a pipeline check, not evidence).
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -37,6 +41,9 @@ pub struct Variant {
 /// The noise reference's directory name under `<out>/sensitivity/`.
 pub const RESEEDED: &str = "reseeded";
 
+/// The `end` of a switch: a value given with the parameter's name, not an end of its range.
+pub const SWITCH: &str = "switch";
+
 impl Variant {
     /// The noise reference: the baseline's parameters, other seeds.
     pub fn reseeded() -> Self {
@@ -54,6 +61,9 @@ impl Variant {
         if self.reseeded {
             return RESEEDED.into();
         }
+        if self.end == SWITCH {
+            return format!("{}={}", self.parameter, self.value);
+        }
         format!("{}@{}", self.parameter, self.end)
     }
 
@@ -65,6 +75,12 @@ impl Variant {
         } else {
             0
         }
+    }
+
+    /// An end of the parameter's plausible range (not the noise reference, not a switch):
+    /// what a finding's fragility is judged on.
+    pub fn in_range(&self) -> bool {
+        !self.reseeded && self.end != SWITCH
     }
 
     pub fn dir(&self, out: &Path) -> PathBuf {
@@ -167,12 +183,52 @@ pub fn variants(records: &[ParameterRecord], only: &[String]) -> Result<Vec<Vari
     Ok(out)
 }
 
+/// A switch, `NAME=VALUE`: the parameter (any the study could vary, or any setting the
+/// protocols take) at the given value, which may lie outside its plausible range.
+pub fn switch(records: &[ParameterRecord], given: &str) -> Result<Variant, String> {
+    let (name, value) = given
+        .split_once('=')
+        .ok_or_else(|| format!("`{given}`: expected NAME=VALUE"))?;
+    let (name, value) = (name.trim(), value.trim());
+    let value: f64 = value
+        .parse()
+        .ok()
+        .filter(|v: &f64| v.is_finite())
+        .ok_or_else(|| format!("`{given}`: the value `{value}` is not a finite number"))?;
+    let default = SimConfig::parameters()
+        .into_iter()
+        .chain(protocol_parameters())
+        .find(|(n, _)| n == name)
+        .map(|(_, d)| d)
+        .ok_or_else(|| {
+            format!("`{name}` is not a simulator parameter (`tmo sim parameters` lists them)")
+        })?;
+    match records.iter().find(|r| r.name == name) {
+        Some(r) if r.basis == Basis::Convention => Err(format!(
+            "`{name}` is a convention of the simulation, not a physical parameter a switch can set"
+        )),
+        _ if value == default => Err(format!(
+            "`{given}`: that is the default, so nothing is switched"
+        )),
+        _ => Ok(Variant {
+            parameter: name.to_string(),
+            end: SWITCH,
+            value,
+            default,
+            reseeded: false,
+        }),
+    }
+}
+
 /// A study: the noise reference first, then [`variants`] of the parameters in `only` (all
-/// when it is empty; none when it names only the reference, `reseeded`).
+/// when it is empty; none when it names only the reference, `reseeded`), then the
+/// switches `only` gives as `NAME=VALUE`.
 pub fn study(records: &[ParameterRecord], only: &[String]) -> Result<Vec<Variant>, String> {
+    let (switches, named): (Vec<&String>, Vec<&String>) =
+        only.iter().partition(|n| n.contains('='));
     // a name given twice is one parameter (else `x` and `x,x` would be different plans)
     let mut parameters: Vec<String> = Vec::new();
-    for n in only.iter().filter(|n| *n != RESEEDED) {
+    for n in named.into_iter().filter(|n| *n != RESEEDED) {
         if !parameters.contains(n) {
             parameters.push(n.clone());
         }
@@ -180,6 +236,12 @@ pub fn study(records: &[ParameterRecord], only: &[String]) -> Result<Vec<Variant
     let mut all = vec![Variant::reseeded()];
     if only.is_empty() || !parameters.is_empty() {
         all.extend(variants(records, &parameters)?);
+    }
+    for given in switches {
+        let v = switch(records, given)?;
+        if !all.contains(&v) {
+            all.push(v);
+        }
     }
     Ok(all)
 }
@@ -221,18 +283,20 @@ pub fn compare(variant: Variant, baseline: &[Judged], here: &[Judged]) -> Outcom
 }
 
 /// Marks each baseline finding with the parameter variants that change its verdict
-/// (empty: robust; `None` where the study varied no parameter, only the seeds), and with
-/// whether other seeds alone change it (the noise reference, where one was run).
+/// (empty: robust; `None` where the study varied no parameter within its range, only the
+/// seeds or switches), and with whether other seeds alone change it (the noise reference,
+/// where one was run). A switch may lie outside the plausible range, so it makes nothing
+/// fragile.
 pub fn mark_fragile(baseline: &mut [Judged], outcomes: &[Outcome]) {
     let reference = outcomes
         .iter()
         .find(|o| o.variant.reseeded && o.failed.is_none());
-    let any_varied = outcomes.iter().any(|o| !o.variant.reseeded);
+    let any_varied = outcomes.iter().any(|o| o.variant.in_range());
     for j in baseline.iter_mut() {
         j.sensitive_to = any_varied.then(|| {
             outcomes
                 .iter()
-                .filter(|o| !o.variant.reseeded && o.changed.contains_key(&j.finding.id))
+                .filter(|o| o.variant.in_range() && o.changed.contains_key(&j.finding.id))
                 .map(|o| o.variant.dir_name())
                 .collect()
         });
@@ -282,13 +346,19 @@ pub fn markdown(baseline: &[Judged], outcomes: &[Outcome]) -> String {
         "# Sensitivity: which verdicts change with the seeds alone\n\nOnly the noise reference was run (`--sensitivity-parameters reseeded`): no parameter was varied, so this says how firmly each verdict is decided at this many replicates, not what it hinges on. A cell gives the verdict there (baseline -> reference).\n\n".to_string()
     } else {
         format!(
-            "# Sensitivity: which verdicts change within the parameters' plausible ranges\n\n{} variants ({} parameters at each end of their range) were run with the baseline's seeds; {} changed at least one verdict. A cell gives the verdict there (baseline -> variant).\n\n",
+            "# Sensitivity: which verdicts change within the parameters' plausible ranges\n\n{} variants ({} parameters at each end of their range{}) were run with the baseline's seeds; {} changed at least one verdict. A cell gives the verdict there (baseline -> variant).\n\n",
             varied.len(),
             varied
                 .iter()
                 .map(|o| o.variant.parameter.as_str())
                 .collect::<std::collections::BTreeSet<_>>()
                 .len(),
+            match varied.iter().filter(|o| o.variant.end == SWITCH).count() {
+                0 => String::new(),
+                n => format!(
+                    ", or at a value of the study's own: {n} switch(es), which may lie outside the range"
+                ),
+            },
             varied.iter().filter(|o| !o.changed.is_empty()).count()
         )
     };
@@ -356,7 +426,7 @@ pub fn markdown(baseline: &[Judged], outcomes: &[Outcome]) -> String {
         "Not decided at this many replicates (other seeds alone change the verdict)",
         Standing::Undecided,
     );
-    let classes: &[(&str, Standing)] = if varied.is_empty() {
+    let classes: &[(&str, Standing)] = if !varied.iter().any(|o| o.variant.in_range()) {
         &[
             UNDECIDED,
             (
@@ -517,6 +587,67 @@ mod tests {
         assert!(md.contains("yes -> no"), "{md}");
         assert!(md.contains("Fragile (1): sf-rail-caught."), "{md}");
         assert!(md.contains("No noise reference was run"), "{md}");
+    }
+
+    #[test]
+    fn a_switch_sets_a_value_outside_the_range_and_shows_a_finding_can_fail_without_making_it_fragile(
+    ) {
+        let records = tmo_sim::parameters::built_in();
+        let plan = study(
+            &records,
+            &[
+                "reseeded".into(),
+                "tactip.noise_px=0.6".into(),
+                "tactip.noise_px=0.6".into(),
+            ],
+        )
+        .unwrap();
+        assert_eq!(plan.len(), 2, "the reference and one switch: {plan:?}");
+        let s = &plan[1];
+        assert_eq!((s.end, s.value, s.default), (SWITCH, 0.6, 0.08));
+        assert_eq!(s.dir_name(), "tactip.noise_px=0.6");
+        assert!(!s.in_range() && plan[0].reseeded);
+        // a protocol value may be switched too
+        assert!(switch(&records, "protocol.lift.lift_speed_mm_s=100").is_ok());
+        // refusals, each naming what is wrong
+        assert!(switch(&records, "tactip.noise_px")
+            .unwrap_err()
+            .contains("expected NAME=VALUE"));
+        for (given, says) in [
+            ("tactip.noise_px=fast", "not a finite number"),
+            ("tactip.noise_px=inf", "not a finite number"),
+            ("nonsense=1", "`nonsense` is not a simulator parameter"),
+            ("physics.step_s=0.002", "a convention"),
+            ("tactip.noise_px=0.08", "the default"),
+        ] {
+            let e = study(&records, &[given.to_string()]).unwrap_err();
+            assert!(e.contains(says), "{given}: {e}");
+        }
+
+        // the switch fails a finding; being outside the range, it makes nothing fragile
+        let at = judged_with_rail_catches;
+        let mut baseline = at(370);
+        let switched = Variant {
+            parameter: "rail.rail_mu".into(),
+            end: SWITCH,
+            value: 0.6,
+            default: 0.11,
+            reseeded: false,
+        };
+        let outcomes = vec![compare(switched, &baseline, &at(100))];
+        assert_eq!(
+            outcomes[0].changed["sf-rail-caught"],
+            (Reproduced::Yes, Reproduced::No)
+        );
+        mark_fragile(&mut baseline, &outcomes);
+        assert!(baseline.iter().all(|j| j.sensitive_to.is_none()));
+        let md = markdown(&baseline, &outcomes);
+        assert!(md.contains("1 switch(es)"), "{md}");
+        assert!(
+            md.contains("| rail.rail_mu | 0.6 (0.11) | yes -> no |"),
+            "{md}"
+        );
+        assert!(!md.contains("Fragile"), "{md}");
     }
 
     #[test]
