@@ -26,6 +26,7 @@ use tmo::online::strategy::Strategy;
 use tmo::runner::monitor::{FrameMonitor, Verdict, WatchLimits};
 use tmo::runner::Online;
 use tmo::slip::model::ModelFile;
+use tmo::slip::slip_model::SlipModel;
 use tmo_hal::real::clock::RealClock;
 use tmo_hal::real::jevois_sensor::JevoisSensor;
 use tmo_hal::real::model_o::{ModelOConfig, ModelOHand};
@@ -39,8 +40,8 @@ const TRIALS: usize = 200;
 /// How long the slow viewer takes over each message it reads, ms.
 const VIEWER_MS: u64 = 20;
 
-fn model() -> ModelFile {
-    ModelFile::threshold_model(PINS, vec![0], 0.5)
+fn model() -> SlipModel {
+    ModelFile::threshold_model(PINS, vec![0], 0.5).into()
 }
 
 fn pins(shift: f32, jitter: f32) -> Vec<[f32; 2]> {

@@ -65,7 +65,7 @@ fn replaying_with_the_model_and_strategy_that_ran_reproduces_the_detector_exactl
     );
 
     // Event by event: every classification up to the reaction, and the reaction itself.
-    let model = tmo::slip::model::ModelFile::load(&d.join("global.json")).unwrap();
+    let model = tmo::slip::slip_model::SlipModel::load(&d.join("global.json")).unwrap();
     for i in 0..16 {
         let trial = tmo::trial::read_trial(&d.join(format!("b/trial-{i:05}.mcap"))).unwrap();
         let strategy = trial.meta.parameters["strategy"].parse().unwrap();

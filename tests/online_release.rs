@@ -122,7 +122,7 @@ fn a_trained_detector_catches_releases_that_otherwise_fall() {
         // unanswered, the object slides out and falls (the lift is above the drop limit)
         assert_eq!(release(object, seed, None), (Verdict::FalseNegative, true));
         let online = Online {
-            model: &model,
+            model: &model.clone().into(),
             strategy,
         };
         caught += usize::from(release(object, seed, Some(online)).0 == Verdict::TruePositive);
@@ -220,7 +220,7 @@ fn a_trained_detector_reacts_to_the_rail_object_and_a_quick_reaction_catches_it(
         assert_eq!((verdict, dropped), (Verdict::FalseNegative, true));
         let fell_after_s = fell_after_s.expect("unanswered, the object slipped and dropped");
         let online = Online {
-            model: &model,
+            model: &model.clone().into(),
             strategy: "1x1".parse().unwrap(),
         };
         let (verdict, dropped, latency, _) = rail(speed, seed, Some(online));
@@ -303,7 +303,7 @@ fn responses_keep_a_filling_can_in_the_hand() {
     // it has fallen about as far as the marker's drop line by then (the paper-scale pour,
     // its own model and 2x2, is `pour-never-dropped`).
     let (_, responses, answered) = pour(Some(Online {
-        model: &model,
+        model: &model.clone().into(),
         strategy: "1x2".parse().unwrap(),
     }));
     assert!(responses >= 1, "responses {responses}");

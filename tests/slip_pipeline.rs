@@ -149,7 +149,7 @@ fn stricter_strategies_never_react_earlier_on_recorded_trials() {
         gamma: 0.0,
         max_iterations: None,
     };
-    let model = ModelFile::train(
+    let model: tmo::slip::slip_model::SlipModel = ModelFile::train(
         &data,
         &TrainSpec {
             kind: ClassifierKind::Logreg,
@@ -163,7 +163,8 @@ fn stricter_strategies_never_react_earlier_on_recorded_trials() {
         vec![],
         None,
     )
-    .unwrap();
+    .unwrap()
+    .into();
     let strategies: Vec<Strategy> = ["1x1", "2x1", "1x2", "2x2", "1x3", "2x3"]
         .iter()
         .map(|s| s.parse().unwrap())

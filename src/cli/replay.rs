@@ -10,7 +10,7 @@ use tmo::online::strategy::Strategy;
 use tmo::outcome::CatchSpec;
 use tmo::replay::{evaluate, ModelRef, ReplayOutcome, ReplayVerdict};
 use tmo::report::{Cell, Table};
-use tmo::slip::model::ModelFile;
+use tmo::slip::slip_model::SlipModel;
 use tmo::trial::{expand_trial_paths, read_trial_bytes, sha256_hex, Trial};
 
 /// Exit code when the replay finished but some trial logs could not be read.
@@ -197,14 +197,14 @@ pub fn replay_with(
     json: bool,
     live: Option<super::live::LiveArgs>,
 ) -> Result<bool> {
-    let models: Vec<(String, String, ModelFile)> = model_paths
+    let models: Vec<(String, String, SlipModel)> = model_paths
         .iter()
         .map(|p| {
             let bytes = std::fs::read(p).with_context(|| format!("cannot read {}", p.display()))?;
             Ok((
                 p.display().to_string(),
                 sha256_hex(&bytes),
-                ModelFile::load(p)?,
+                SlipModel::load(p)?,
             ))
         })
         .collect::<Result<_>>()?;
@@ -263,12 +263,12 @@ pub fn replay_with(
             }
             let own = tmo::slip::dataset::trial_features(t)
                 .map_err(|e| anyhow::anyhow!("{tpath}: {e}"))?;
-            if let Some((what, theirs, ours)) = m.features.mismatch(&own) {
+            if let Some((what, theirs, ours)) = m.features().mismatch(&own) {
                 anyhow::bail!(
                     "{mpath} cannot replay {tpath}: its {what} is {theirs}, the model's {ours}"
                 );
             }
-            if let Some(why) = m.features.rate_differs(&own) {
+            if let Some(why) = m.features().rate_differs(&own) {
                 eprintln!("warning: {mpath} on {tpath}: {why}");
             }
         }

@@ -644,18 +644,28 @@ fn print_held_out(folds: &[tmo::slip::metrics::Scores]) -> Result<()> {
 pub fn evaluate(args: EvaluateArgs) -> Result<()> {
     // `--out -`: the JSON alone on standard output, as --json gives it
     let json = args.json || args.out.as_deref().is_some_and(super::output::is_stdout);
-    let model = ModelFile::load(&args.model)?;
-    let (ds, refs, features) = load_dataset(&args.trials, &model.labels)?;
-    if let Some((what, theirs, ours)) = model.features.mismatch(&features) {
+    let model = tmo::slip::slip_model::SlipModel::load(&args.model)?;
+    let (ds, refs, features) = load_dataset(&args.trials, model.labels())?;
+    if let Some((what, theirs, ours)) = model.features().mismatch(&features) {
         anyhow::bail!(
             "{}: cannot read these trials: their {what} is {theirs}, the model's {ours}",
             args.model.display()
         );
     }
-    if let Some(why) = model.features.rate_differs(&features) {
+    if let Some(why) = model.features().rate_differs(&features) {
         eprintln!("warning: {}: {why}", args.model.display());
     }
-    let (overall, per_sensor) = model.evaluate(&ds)?;
+    let evaluated = model.evaluate(&ds)?;
+    let (overall, per_sensor) = (evaluated.overall, evaluated.per_sensor);
+    if evaluated.rows_without_window > 0 {
+        super::output::note(format!(
+            "note: {}: {} of {} rows come before a full window of {} frames of their trial and sensor (or after a dropped frame) and are scored static, as the online loop gives them no class",
+            args.model.display(),
+            evaluated.rows_without_window,
+            ds.len(),
+            model.window()
+        ));
+    }
     let trained_on = model.trained_on(&refs);
     if !trained_on.is_empty() {
         let names: Vec<&str> = trained_on.iter().map(|t| t.trial_id.as_str()).collect();
@@ -672,15 +682,15 @@ pub fn evaluate(args: EvaluateArgs) -> Result<()> {
         super::output::note(format!(
             "note: {}: a global model trained on sensors {:?} also scores sensor(s) {:?}, which it never saw: their scores measure how it generalises",
             args.model.display(),
-            model.sensors,
+            model.sensors(),
             unseen
         ));
     }
     if !json {
         outln!(
             "{} ({} scope) on {} rows",
-            model.classifier.name(),
-            model.scope.name(),
+            model.classifier_name(),
+            model.scope().name(),
             ds.len()
         );
         print_scores("overall", &overall)?;

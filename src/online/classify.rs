@@ -1,19 +1,56 @@
 //! Classifies each sensor's frames as they arrive, the way the runner does live: features
-//! from the sensor's previous frame, that sensor's model (local) or the shared one (global).
+//! from the sensor's previous frame, that sensor's model (local) or the shared one (global);
+//! a windowed ONNX model reads the sensor's last K frames' features.
 
 use tmo_hal::PinFrame;
 
 use super::strategy::{Detector, Strategy};
 use crate::slip::features::{frame_features, mean_velocity_norm};
-use crate::slip::model::ModelFile;
+use crate::slip::slip_model::SlipModel;
 use crate::slip::Class;
 
 /// Per-sensor state of the online classifier.
 pub struct FrameClassifier<'m> {
-    model: &'m ModelFile,
+    model: &'m SlipModel,
     previous: Vec<Option<PinFrame>>,
+    /// Each sensor's last frames' features, for a model that reads a window of them.
+    windows: Vec<FeatureWindow>,
     features: Vec<f32>,
     scratch: Vec<f32>,
+}
+
+/// One sensor's last K frames' features, oldest first, on consecutive frames only: as
+/// offline (`OnnxModel::predict_rows`), a dropped frame or one that gave no features
+/// starts the window again.
+#[derive(Debug, Clone, Default)]
+struct FeatureWindow {
+    /// `frames * F` values.
+    values: Vec<f32>,
+    frames: usize,
+    last_seq: Option<u64>,
+}
+
+impl FeatureWindow {
+    /// Adds frame `seq`'s features; the full window when it holds `k` frames.
+    fn push(&mut self, seq: u64, features: &[f32], k: usize) -> Option<&[f32]> {
+        if self.last_seq.is_none_or(|last| last + 1 != seq) {
+            self.values.clear();
+            self.frames = 0;
+        }
+        self.last_seq = Some(seq);
+        if self.frames == k {
+            // drop the oldest frame (K * F floats moved: some hundreds, per frame)
+            self.values.drain(..features.len());
+            self.frames -= 1;
+        }
+        self.values.extend_from_slice(features);
+        self.frames += 1;
+        (self.frames == k).then_some(self.values.as_slice())
+    }
+
+    fn reset(&mut self) {
+        self.last_seq = None;
+    }
 }
 
 /// One classified frame: its class and the norm of its mean pin velocity (px per frame, the
@@ -25,23 +62,39 @@ pub struct Classified {
 }
 
 impl<'m> FrameClassifier<'m> {
-    pub fn new(model: &'m ModelFile, sensors: usize) -> Self {
+    pub fn new(model: &'m SlipModel, sensors: usize) -> Self {
         Self {
             model,
             previous: vec![None; sensors],
-            features: Vec::with_capacity(model.features.len()),
+            windows: vec![FeatureWindow::default(); sensors],
+            features: Vec::with_capacity(model.features().len()),
             scratch: Vec::new(),
         }
     }
 
     /// The class of `frame`, or `None` when it cannot be classified: a sensor's first frame,
-    /// a frame whose pins do not match, or a sensor the model has no classifier for.
+    /// a frame whose pins do not match, a sensor the model has no classifier for, a frame
+    /// before a windowed model's window is full, or an ONNX model that failed to run.
     pub fn classify(&mut self, frame: &PinFrame) -> Option<Class> {
-        let slot = self.previous.get_mut(usize::from(frame.sensor))?;
+        let sensor = usize::from(frame.sensor);
+        let slot = self.previous.get_mut(sensor)?;
         let previous = slot.replace(frame.clone())?;
-        frame_features(&self.model.features, &previous, frame, &mut self.features).ok()?;
-        let model = self.model.for_sensor(frame.sensor)?;
-        Some(model.predict(&self.features, &mut self.scratch))
+        if frame_features(self.model.features(), &previous, frame, &mut self.features).is_err() {
+            self.windows[sensor].reset();
+            return None;
+        }
+        match self.model {
+            SlipModel::Tmo(m) => {
+                let model = m.for_sensor(frame.sensor)?;
+                Some(model.predict(&self.features, &mut self.scratch))
+            }
+            SlipModel::Onnx(m) => {
+                let window = self.windows[sensor].push(frame.seq, &self.features, m.meta.window)?;
+                // The model was run once on load; a failure here is not expected, and
+                // counts as no class rather than stopping the control loop.
+                m.slip_value(window).ok().map(|v| m.class_of(v))
+            }
+        }
     }
 
     /// Like [`Self::classify`], with the frame's mean pin velocity beside the class (from
@@ -66,7 +119,7 @@ pub struct Reaction {
 
 /// Runs `strategy` over recorded `frames` (in arrival order): the first reaction, if any.
 pub fn first_reaction(
-    model: &ModelFile,
+    model: &SlipModel,
     sensors: usize,
     frames: &[PinFrame],
     strategy: Strategy,

@@ -18,7 +18,7 @@ use crate::runner::monitor::WatchLimits;
 use crate::runner::replay::{run_replay, ArmedWindow, ReplayParams};
 use crate::runner::{Fault, Online, RunRecord, TICK_S};
 use crate::slip::labels::trial_onset;
-use crate::slip::model::ModelFile;
+use crate::slip::slip_model::SlipModel;
 use crate::trial::{is_reaction, Trial};
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
@@ -78,7 +78,7 @@ pub fn logged_reaction(trial: &Trial) -> Option<(f64, u8, u64)> {
 /// Replays `trial` through `model` and `strategy` on the replay backend.
 pub fn replay_trial(
     trial: &Trial,
-    model: &ModelFile,
+    model: &SlipModel,
     strategy: Strategy,
 ) -> Result<(RunRecord, &'static str), ScenarioError> {
     let (window, source) = ArmedWindow::of(trial);
@@ -154,7 +154,7 @@ pub fn judge(
 pub struct ModelRef<'m> {
     pub name: &'m str,
     pub sha256: &'m str,
-    pub file: &'m ModelFile,
+    pub file: &'m SlipModel,
 }
 
 /// Replays and judges one trial.

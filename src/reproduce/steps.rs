@@ -802,7 +802,7 @@ fn hand_models(ctx: &Context, dir: &Path) -> Result<(), ReproduceError> {
             .map_err(|e| ReproduceError::step(step, e))?;
         let e = Evaluation::of(
             &model_path,
-            &model,
+            &model.into(),
             test_refs.len(),
             test.len(),
             overall,

@@ -24,7 +24,7 @@ use crate::runner::real_trial::{run_real_trial, RealRig};
 use crate::runner::score::{self, CalibrationRow, GMinTable, LiftRow, OutcomeRow};
 use crate::runner::sim_trial::run_sim_trial;
 use crate::runner::staging::Staging;
-use crate::slip::model::ModelFile;
+use crate::slip::slip_model::SlipModel;
 use crate::trial::{read_trial, read_trial_for_scoring, sha256_hex, write_trial, Trial};
 
 /// Where and how a batch runs.
@@ -98,7 +98,7 @@ fn in_trial(t: &PlannedTrial, e: BatchError) -> BatchError {
 }
 
 /// Loads each of the plan's models with its SHA-256 (recorded in every trial).
-pub fn load_models(plan: &Plan) -> Result<Vec<(ModelFile, String)>, BatchError> {
+pub fn load_models(plan: &Plan) -> Result<Vec<(SlipModel, String)>, BatchError> {
     plan.models
         .iter()
         .enumerate()
@@ -113,7 +113,7 @@ pub fn load_models(plan: &Plan) -> Result<Vec<(ModelFile, String)>, BatchError> 
                     }
                 }
             })?;
-            let model = ModelFile::load(path)
+            let model = SlipModel::load(path)
                 .map_err(|source| BatchError::ProtocolModel { index, source })?;
             Ok((model, sha256_hex(&bytes)))
         })
@@ -139,7 +139,7 @@ fn rig_sensors(plan: &Plan, rig: &BatchRig) -> (usize, usize) {
 /// Refuses, before the first trial, a model that could never classify this rig's frames.
 pub fn check_models_fit_rig(
     plan: &Plan,
-    models: &[(ModelFile, String)],
+    models: &[(SlipModel, String)],
     sensors: usize,
     pins: usize,
 ) -> Result<(), BatchError> {
@@ -182,7 +182,7 @@ pub fn run_batch(
 /// What a batch needs before its first trial: its trials, models and calibration.
 struct Prepared {
     trials: Vec<PlannedTrial>,
-    models: Vec<(ModelFile, String)>,
+    models: Vec<(SlipModel, String)>,
     g_min: Option<GMinTable>,
     spec: crate::outcome::CatchSpec,
 }

@@ -334,7 +334,7 @@ mod tests {
             state_period_s,
             in_flight: None,
         };
-        let model = threshold_model();
+        let model = threshold_model().into();
         let online = Online {
             model: &model,
             strategy: strategy.parse().unwrap(),

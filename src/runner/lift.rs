@@ -386,7 +386,7 @@ mod tests {
             state_period_s: None,
             in_flight: None,
         };
-        let model = threshold_model();
+        let model = threshold_model().into();
         let online = Online {
             model: &model,
             strategy: "1x1".parse().unwrap(),

@@ -28,7 +28,7 @@ use serde_json::json;
 use tmo_hal::{Arm, Clock, Hand, MarkerTracker, TactileSensor};
 
 use crate::online::strategy::Strategy;
-use crate::slip::model::ModelFile;
+use crate::slip::slip_model::SlipModel;
 pub use crate::trial::state::event;
 use crate::trial::TrialEvent;
 use devices::{device, Devices, Recording, ScenarioError};
@@ -59,7 +59,7 @@ pub enum Fault {
 /// The model and strategy of an online trial.
 #[derive(Clone, Copy)]
 pub struct Online<'m> {
-    pub model: &'m ModelFile,
+    pub model: &'m SlipModel,
     pub strategy: Strategy,
 }
 

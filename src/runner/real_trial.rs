@@ -26,7 +26,7 @@ use super::Online;
 use crate::protocol::{KindParams, Mode, Plan, SafetyLimits};
 use crate::runner::devices::{device, Devices};
 use crate::runner::hardware::HardwareFile;
-use crate::slip::model::ModelFile;
+use crate::slip::slip_model::SlipModel;
 use crate::trial::Trial;
 
 pub type RealDevices =
@@ -141,7 +141,7 @@ pub fn open_real(hw: HardwareFile, limits: SafetyLimits) -> Result<RealRig, Batc
 pub fn run_real_trial(
     plan: &Plan,
     planned: &PlannedTrial,
-    models: &[(ModelFile, String)],
+    models: &[(SlipModel, String)],
     rig: &mut RealRig,
     started_unix_s: u64,
     stop: &std::sync::atomic::AtomicBool,

@@ -20,7 +20,7 @@ use crate::protocol::{KindParams, Mode, Plan};
 use crate::runner::devices::Devices;
 use crate::runner::devices::SimRigError;
 use crate::runner::sim_presets::{self, Preset, PresetOptions};
-use crate::slip::model::ModelFile;
+use crate::slip::slip_model::SlipModel;
 use crate::trial::{Trial, TrialMeta, TRIAL_FORMAT_VERSION};
 
 /// The object standing on the table between fingers open `gap` short of contact.
@@ -159,7 +159,7 @@ fn set_sim_parameters(config: &mut SimConfig, plan: &Plan) -> Result<(), BatchEr
 pub fn run_sim_trial(
     plan: &Plan,
     planned: &PlannedTrial,
-    models: &[(ModelFile, String)],
+    models: &[(SlipModel, String)],
     started_unix_s: u64,
     stop: &std::sync::atomic::AtomicBool,
     live: Option<&crate::live::LiveView>,
@@ -307,7 +307,7 @@ fn object_library() -> &'static tmo_sim::ObjectLibrary {
 pub(crate) fn finish_trial(
     plan: &Plan,
     planned: &PlannedTrial,
-    models: &[(ModelFile, String)],
+    models: &[(SlipModel, String)],
     record: super::RunRecord,
     mut parameters: std::collections::BTreeMap<String, String>,
     (backend, sensors, pins): (&str, u8, usize),
@@ -322,7 +322,7 @@ pub(crate) fn finish_trial(
     }
     if let Some(m) = planned.model {
         put("model", plan.models[m].display().to_string());
-        put("scope", format!("{:?}", models[m].0.scope).to_lowercase());
+        put("scope", format!("{:?}", models[m].0.scope()).to_lowercase());
     }
     if let Some(a) = record.armed_s {
         put("armed_s", format!("{a:.4}"));

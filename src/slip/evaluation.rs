@@ -34,7 +34,7 @@ impl Evaluation {
     /// its content) over `trials` trials and `rows` rows.
     pub fn of(
         path: &std::path::Path,
-        model: &super::model::ModelFile,
+        model: &super::slip_model::SlipModel,
         trials: usize,
         rows: usize,
         overall: Scores,
@@ -45,9 +45,9 @@ impl Evaluation {
             format: EVALUATION_FORMAT.into(),
             model: path.display().to_string(),
             model_sha256: crate::trial::sha256_hex(&bytes),
-            classifier: model.classifier.name().to_string(),
-            scope: model.scope,
-            n_slip: model.labels.n_slip,
+            classifier: model.classifier_name().to_string(),
+            scope: model.scope(),
+            n_slip: model.labels().n_slip,
             trials,
             rows,
             overall,

@@ -380,6 +380,16 @@ pub enum ModelFileError {
         field: String,
         message: String,
     },
+    /// An ONNX model (`.onnx`) that cannot be read or run (boxed: its messages are long,
+    /// and every error that carries this one would grow with it).
+    #[error(transparent)]
+    Onnx(Box<super::onnx::OnnxError>),
+}
+
+impl From<super::onnx::OnnxError> for ModelFileError {
+    fn from(e: super::onnx::OnnxError) -> Self {
+        ModelFileError::Onnx(Box::new(e))
+    }
 }
 
 impl ModelFile {

@@ -1,0 +1,188 @@
+//! A slip model wherever one is taken (evaluate, replay, a protocol's `models`): a model
+//! file of tmo's own, or an ONNX model brought from elsewhere (`.onnx`). Both are read,
+//! checked and scored the same way; only tmo's own can be trained here.
+
+use std::path::Path;
+
+use super::dataset::{Dataset, LabelSpec, Scope, TrialRef};
+use super::features::FeatureSpec;
+use super::metrics::{Confusion, Scores};
+use super::model::{ModelFile, ModelFileError};
+use super::onnx::OnnxModel;
+
+#[derive(Debug, Clone)]
+pub enum SlipModel {
+    Tmo(ModelFile),
+    Onnx(OnnxModel),
+}
+
+impl From<ModelFile> for SlipModel {
+    fn from(m: ModelFile) -> Self {
+        SlipModel::Tmo(m)
+    }
+}
+
+/// What [`SlipModel::evaluate`] gives: scores overall and per sensor, and how many rows had
+/// no full window (a windowed model's first frames of each trial and sensor, scored static).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Evaluated {
+    pub overall: Scores,
+    pub per_sensor: Vec<(u8, Scores)>,
+    pub rows_without_window: usize,
+}
+
+impl SlipModel {
+    /// Reads `path`: an ONNX model by its `.onnx` extension, else a model file of tmo's own.
+    pub fn load(path: &Path) -> Result<Self, ModelFileError> {
+        if is_onnx(path) {
+            Ok(SlipModel::Onnx(OnnxModel::load(path)?))
+        } else {
+            Ok(SlipModel::Tmo(ModelFile::load(path)?))
+        }
+    }
+
+    pub fn features(&self) -> &FeatureSpec {
+        match self {
+            SlipModel::Tmo(m) => &m.features,
+            SlipModel::Onnx(m) => &m.meta.features,
+        }
+    }
+
+    pub fn labels(&self) -> &LabelSpec {
+        match self {
+            SlipModel::Tmo(m) => &m.labels,
+            SlipModel::Onnx(m) => &m.meta.labels,
+        }
+    }
+
+    /// The sensors it was trained on.
+    pub fn sensors(&self) -> &[u8] {
+        match self {
+            SlipModel::Tmo(m) => &m.sensors,
+            SlipModel::Onnx(m) => &m.meta.sensors,
+        }
+    }
+
+    /// An ONNX model is one graph for every sensor: global.
+    pub fn scope(&self) -> Scope {
+        match self {
+            SlipModel::Tmo(m) => m.scope,
+            SlipModel::Onnx(_) => Scope::Global,
+        }
+    }
+
+    /// The classifier's name for tables: `svm`, `logreg`, `threshold` or `onnx`.
+    pub fn classifier_name(&self) -> &'static str {
+        match self {
+            SlipModel::Tmo(m) => m.classifier.name(),
+            SlipModel::Onnx(_) => "onnx",
+        }
+    }
+
+    /// Frames each classification reads (1 for every model of tmo's own).
+    pub fn window(&self) -> usize {
+        match self {
+            SlipModel::Tmo(_) => 1,
+            SlipModel::Onnx(m) => m.meta.window,
+        }
+    }
+
+    /// Whether it can classify the frames of `sensors` fingertips of `pins` pins each (see
+    /// [`ModelFile::fits`]).
+    pub fn fits(&self, sensors: usize, pins: usize) -> Result<(), String> {
+        match self {
+            SlipModel::Tmo(m) => m.fits(sensors, pins),
+            SlipModel::Onnx(m) if m.meta.features.pins != pins => Err(format!(
+                "tmo.features pins = {}, but the fingertips report {pins} pins each; export a model for this rig's frames",
+                m.meta.features.pins
+            )),
+            SlipModel::Onnx(_) => Ok(()),
+        }
+    }
+
+    /// A trial shorter than the window never gets a class: refused where the trial is known.
+    pub fn fits_frames(&self, frames_per_sensor: usize) -> Result<(), String> {
+        let k = self.window();
+        if frames_per_sensor > 0 && frames_per_sensor < k {
+            return Err(format!(
+                "the model reads a window of {k} frames (tmo.window), longer than the trial ({frames_per_sensor} frames per sensor): it could never classify a frame"
+            ));
+        }
+        Ok(())
+    }
+
+    /// Scores on every row of `data` (never down-sampled), overall and per sensor.
+    pub fn evaluate(&self, data: &Dataset) -> Result<Evaluated, ModelFileError> {
+        match self {
+            SlipModel::Tmo(m) => {
+                let (overall, per_sensor) = m.evaluate(data)?;
+                Ok(Evaluated {
+                    overall,
+                    per_sensor,
+                    rows_without_window: 0,
+                })
+            }
+            SlipModel::Onnx(m) => {
+                let (predicted, without) = m.predict_rows(data)?;
+                let mut overall = Confusion::default();
+                let mut per_sensor: Vec<(u8, Confusion)> = Vec::new();
+                for (i, &p) in predicted.iter().enumerate() {
+                    let (sensor, truth) = (data.sensor[i], data.y[i]);
+                    overall.add(truth, p);
+                    match per_sensor.iter_mut().find(|(s, _)| *s == sensor) {
+                        Some((_, c)) => c.add(truth, p),
+                        None => {
+                            let mut c = Confusion::default();
+                            c.add(truth, p);
+                            per_sensor.push((sensor, c));
+                        }
+                    }
+                }
+                per_sensor.sort_by_key(|(s, _)| *s);
+                Ok(Evaluated {
+                    overall: overall.scores(),
+                    per_sensor: per_sensor
+                        .into_iter()
+                        .map(|(s, c)| (s, c.scores()))
+                        .collect(),
+                    rows_without_window: without,
+                })
+            }
+        }
+    }
+
+    /// The trials of `refs` it was trained on (an ONNX model does not say: none).
+    pub fn trained_on<'a>(&self, refs: &'a [TrialRef]) -> Vec<&'a TrialRef> {
+        match self {
+            SlipModel::Tmo(m) => m.trained_on(refs),
+            SlipModel::Onnx(_) => Vec::new(),
+        }
+    }
+
+    /// Whether the trial log whose SHA-256 is `sha256` is one of its training trials (an
+    /// ONNX model does not say: no).
+    pub fn trained_on_log(&self, sha256: &str) -> bool {
+        match self {
+            SlipModel::Tmo(m) => m.trained_on_log(sha256),
+            SlipModel::Onnx(_) => false,
+        }
+    }
+
+    /// The sensors of `sensors` a global model never saw in training.
+    pub fn unseen_sensors(&self, sensors: &[u8]) -> Vec<u8> {
+        match self {
+            SlipModel::Tmo(m) => m.unseen_sensors(sensors),
+            SlipModel::Onnx(m) => sensors
+                .iter()
+                .copied()
+                .filter(|s| !m.meta.sensors.contains(s))
+                .collect(),
+        }
+    }
+}
+
+/// Whether `path` names an ONNX model (by its extension, as exporters write them).
+pub fn is_onnx(path: &Path) -> bool {
+    path.extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("onnx"))
+}
