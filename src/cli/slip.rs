@@ -655,6 +655,9 @@ pub fn evaluate(args: EvaluateArgs) -> Result<()> {
     if let Some(why) = model.features().rate_differs(&features) {
         eprintln!("warning: {}: {why}", args.model.display());
     }
+    if let Err(why) = model.fits_trials(&ds) {
+        anyhow::bail!("{}: {why}", args.model.display());
+    }
     let evaluated = model.evaluate(&ds)?;
     let (overall, per_sensor) = (evaluated.overall, evaluated.per_sensor);
     if evaluated.rows_without_window > 0 {

@@ -241,24 +241,32 @@ impl OnnxModel {
         }
     }
 
-    /// The class of every row of `data`: each row with the window of its sensor's frames in
-    /// its trial that ends at it. A row whose trial shows fewer than K frames of its sensor
-    /// up to it has no window and is classed static (online, such a frame gives no class
-    /// and the detector does not fire on it); their count comes back beside the classes.
-    pub fn predict_rows(&self, data: &Dataset) -> Result<(Vec<Class>, usize), OnnxError> {
+    /// The slip value of every row of `data`: each row with the window of its sensor's
+    /// frames in its trial that ends at it, `None` where its trial shows fewer than K
+    /// consecutive frames of its sensor up to it (online, such a frame gives no class).
+    pub fn slip_values(&self, data: &Dataset) -> Result<Vec<Option<f32>>, OnnxError> {
         let windows = Windows::of(data, self.meta.window);
         let mut input = Vec::with_capacity(self.input_len());
-        let mut classes = Vec::with_capacity(data.len());
-        let mut without = 0;
-        for i in 0..data.len() {
-            input.clear();
-            if !windows.fill(data, i, &mut input) {
-                without += 1;
-                classes.push(Class::Static);
-                continue;
-            }
-            classes.push(self.class_of(self.slip_value(&input)?));
-        }
+        (0..data.len())
+            .map(|i| {
+                input.clear();
+                if !windows.fill(data, i, &mut input) {
+                    return Ok(None);
+                }
+                self.slip_value(&input).map(Some)
+            })
+            .collect()
+    }
+
+    /// The class of every row of `data` ([`Self::slip_values`]); a row without a window is
+    /// classed static, and their count comes back beside the classes.
+    pub fn predict_rows(&self, data: &Dataset) -> Result<(Vec<Class>, usize), OnnxError> {
+        let values = self.slip_values(data)?;
+        let without = values.iter().filter(|v| v.is_none()).count();
+        let classes = values
+            .into_iter()
+            .map(|v| v.map_or(Class::Static, |v| self.class_of(v)))
+            .collect();
         Ok((classes, without))
     }
 }

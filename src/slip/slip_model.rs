@@ -111,6 +111,26 @@ impl SlipModel {
         Ok(())
     }
 
+    /// [`Self::fits_frames`] for every trial of `data` (each trial's frames with features,
+    /// per sensor): the error names the shortest trial that does not fit.
+    pub fn fits_trials(&self, data: &Dataset) -> Result<(), String> {
+        let mut rows: std::collections::BTreeMap<(u32, u8), usize> = Default::default();
+        for (&t, &s) in data.trial.iter().zip(&data.sensor) {
+            *rows.entry((t, s)).or_default() += 1;
+        }
+        let mut per_trial: std::collections::BTreeMap<u32, usize> = Default::default();
+        for ((t, _), n) in rows {
+            let shortest = per_trial.entry(t).or_insert(n);
+            *shortest = (*shortest).min(n);
+        }
+        match per_trial.into_iter().min_by_key(|&(_, n)| n) {
+            Some((t, n)) => self
+                .fits_frames(n)
+                .map_err(|e| format!("trial {}: {e}", data.trial_ids[t as usize])),
+            None => Ok(()),
+        }
+    }
+
     /// Scores on every row of `data` (never down-sampled), overall and per sensor.
     pub fn evaluate(&self, data: &Dataset) -> Result<Evaluated, ModelFileError> {
         match self {
