@@ -21,6 +21,7 @@ SPEC.json is a model file `tmo train` wrote on the same trials and labels: its `
 - window_mlp.onnx: an MLP over the last K = 15 frames of one sensor (input [N, 15, 60]),
   scikit-learn's MLPClassifier on standardised flattened windows, written as Reshape, Sub,
   Div, MatMul, Add, Relu and Sigmoid: slip probability, threshold 0.5.
+- frame_mlp.onnx: the same kind of MLP on one frame's features (input [N, 60]).
 - rows.csv: test rows (two sensors of the first test trial that slips), the inputs of the
   reference outputs, with the features as float32 values written exactly.
 - reference.json: onnxruntime's slip value of each model for each row (for the windowed
@@ -138,12 +139,14 @@ def svm_graph(scaler, svc, features):
     return helper.make_model(graph, opset_imports=[helper.make_opsetid("", OPSET)])
 
 
-def mlp_graph(scaler, mlp, features):
-    """The windowed MLP (one hidden layer, ReLU, logistic output) for input [N, K, F]."""
+def mlp_graph(scaler, mlp, features, window):
+    """An MLP (one hidden layer, ReLU, logistic output) for input [N, K, F] (K > 1: the
+    window, flattened), or [N, F] (K = 1)."""
     (w1, w2), (b1, b2) = mlp.coefs_, mlp.intercepts_
+    input_name = "window" if window > 1 else "features"
     f32 = np.float32
     inits = [
-        const("flat", np.array([-1, WINDOW * features], dtype=np.int64)),
+        const("flat", np.array([-1, window * features], dtype=np.int64)),
         const("mean", scaler.mean_.astype(f32)),
         const("scale", scaler.scale_.astype(f32)),
         const("w1", w1.astype(f32)),
@@ -152,7 +155,7 @@ def mlp_graph(scaler, mlp, features):
         const("b2", b2.astype(f32)),
     ]
     nodes = [
-        helper.make_node("Reshape", ["window", "flat"], ["flattened"]),
+        helper.make_node("Reshape", [input_name, "flat"], ["flattened"]),
         helper.make_node("Sub", ["flattened", "mean"], ["centred"]),
         helper.make_node("Div", ["centred", "scale"], ["scaled"]),
         helper.make_node("MatMul", ["scaled", "w1"], ["h1"]),
@@ -162,10 +165,11 @@ def mlp_graph(scaler, mlp, features):
         helper.make_node("Add", ["h2", "b2"], ["logit"]),
         helper.make_node("Sigmoid", ["logit"], ["slip_probability"]),
     ]
+    shape = ["N", window, features] if window > 1 else ["N", features]
     graph = helper.make_graph(
         nodes,
-        "window_mlp",
-        [helper.make_tensor_value_info("window", TensorProto.FLOAT, ["N", WINDOW, features])],
+        "window_mlp" if window > 1 else "frame_mlp",
+        [helper.make_tensor_value_info(input_name, TensorProto.FLOAT, shape)],
         [helper.make_tensor_value_info("slip_probability", TensorProto.FLOAT, ["N", 1])],
         inits,
     )
@@ -224,7 +228,16 @@ def main(spec_path, train_path, test_path, out):
     mlp = MLPClassifier(hidden_layer_sizes=(16,), max_iter=300, random_state=SEED)
     mlp.fit(wscaler.transform(xw), yw)
     models["window_mlp"] = metadata(
-        mlp_graph(wscaler, mlp, features), spec, "window mlp, 15 frames (scikit-learn)", "slip_probability", 0, 0.5, WINDOW
+        mlp_graph(wscaler, mlp, features, WINDOW), spec, "window mlp, 15 frames (scikit-learn)", "slip_probability", 0, 0.5, WINDOW
+    )
+
+    # per frame: the same MLP on one frame's features, every training row
+    fscaler = StandardScaler().fit(xtr)
+    fscaler.scale_ = np.where(fscaler.scale_ > 0, fscaler.scale_, 1.0)
+    fmlp = MLPClassifier(hidden_layer_sizes=(16,), max_iter=300, random_state=SEED)
+    fmlp.fit(fscaler.transform(xtr), ytr)
+    models["frame_mlp"] = metadata(
+        mlp_graph(fscaler, fmlp, features, 1), spec, "frame mlp (scikit-learn)", "slip_probability", 0, 0.5
     )
 
     # the rows of the reference: two sensors of the first test trial that slips, the 100

@@ -65,7 +65,7 @@ fn every_fixture_model_gives_onnxruntimes_values_within_1e_5_and_the_same_classe
     let data = rows();
     let reference = reference();
     assert_eq!(data.len(), reference["rows"].as_u64().unwrap() as usize);
-    for name in ["logreg", "svm_rbf", "window_mlp"] {
+    for name in ["logreg", "svm_rbf", "frame_mlp", "window_mlp"] {
         let model = OnnxModel::load(&fixture(&format!("{name}.onnx"))).unwrap();
         let ours = model.slip_values(&data).unwrap();
         let theirs = reference["models"][name]["values"].as_array().unwrap();

@@ -908,6 +908,33 @@ mod tests {
         assert!(!r.prediction.is_empty());
     }
 
+    /// Issue 53: a row counted as evidence must have been shown able to fail in this
+    /// simulator (a switch record), or it would be a pipeline check.
+    #[test]
+    fn every_shipped_evidence_row_has_a_switch_under_which_it_fails() {
+        let mut judged = judge_all(&paper(), &Measures::new(), &[]);
+        let parameters = tmo_sim::parameters::built_in();
+        mark_calibrated(
+            &mut judged,
+            parameters
+                .iter()
+                .map(|r| (r.name.as_str(), r.calibrated_against.as_slice())),
+        );
+        let records = shipped_standings();
+        mark_standings(&mut judged, &records);
+        let evidence: Vec<&str> = judged
+            .iter()
+            .filter(|j| j.standing.is_evidence())
+            .map(|j| j.finding.id.as_str())
+            .collect();
+        assert!(!evidence.is_empty());
+        let unshown: Vec<&&str> = evidence
+            .iter()
+            .filter(|id| !super::super::standing::can_fail(id, &records))
+            .collect();
+        assert!(unshown.is_empty(), "evidence without a switch: {unshown:?}");
+    }
+
     #[test]
     fn a_calibration_an_in_view_record_or_a_pipeline_check_takes_a_finding_out_of_the_evidence() {
         let f = paper();

@@ -136,6 +136,22 @@ pub struct UnchangedExpectation {
     pub why: String,
 }
 
+/// A configuration run to show that findings can fail in this simulator (issue 53: a row
+/// kept as evidence that no configuration can fail would be a pipeline check): a switch,
+/// a parameter set outside its range or a mechanism turned off, run beside a baseline with
+/// the same seeds, and each finding's verdict in both.
+#[derive(Debug, Clone, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Switch {
+    /// What was switched, e.g. `tactip.noise_px=0.6`.
+    pub switch: String,
+    /// The run: preset, replicates, commit, date, where its outputs were.
+    pub run: String,
+    /// Each finding's verdict `[baseline, switched]`.
+    pub verdicts: BTreeMap<String, [String; 2]>,
+    pub why: String,
+}
+
 /// Everything `docs/standings.toml` records.
 #[derive(Debug, Clone, Default, serde::Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -150,6 +166,8 @@ pub struct Records {
     pub prediction: Vec<Prediction>,
     #[serde(default)]
     pub unchanged_expectation: Vec<UnchangedExpectation>,
+    #[serde(default)]
+    pub switch: Vec<Switch>,
 }
 
 impl Records {
@@ -179,6 +197,9 @@ pub struct RecordsError {
 }
 
 const VERDICTS: [&str; 4] = ["yes", "no", "partly", "not resolved"];
+
+/// What a run may find of a row: a verdict, or nothing measured.
+const FOUND: [&str; 5] = ["yes", "no", "partly", "not resolved", "not measured"];
 
 /// Parses a records file against the findings' ids (`origin` names it in errors): every
 /// id a record names exists, every `all` is spelled so, every expectation is a verdict.
@@ -249,7 +270,28 @@ pub fn parse(text: &str, origin: &str, ids: &[&str]) -> Result<Records, RecordsE
             }
         }
     }
+    for sw in &r.switch {
+        for (id, verdicts) in &sw.verdicts {
+            known(id, "a switch record")?;
+            if let Some(v) = verdicts.iter().find(|v| !FOUND.contains(&v.as_str())) {
+                return Err(bad(format!(
+                    "the switch `{}` records `{v}` of `{id}`: expected one of {FOUND:?}",
+                    sw.switch
+                )));
+            }
+        }
+    }
     Ok(r)
+}
+
+/// Whether a switch record shows finding `id` failing: not "yes" under the switch, or
+/// already not "yes" in its baseline (a row that reads "no" fails as it stands).
+pub fn can_fail(id: &str, records: &Records) -> bool {
+    records.switch.iter().any(|sw| {
+        sw.verdicts
+            .get(id)
+            .is_some_and(|[baseline, switched]| baseline != "yes" || switched != "yes")
+    })
 }
 
 /// The shipped records, checked against the findings whose ids are `ids` (the shipped
@@ -430,6 +472,38 @@ why = "both verdicts as in the run before"
         };
         assert!(wrong("prediction = 2\nfindings = [\"a\"]\n").contains("expected 1 to 1"));
         assert!(wrong("prediction = 1\nfindings = [\"b\"]\n").contains("does not expect"));
+    }
+
+    #[test]
+    fn a_switch_shows_a_row_can_fail_where_it_is_not_yes_under_the_switch_or_in_its_baseline() {
+        let r = records(
+            r#"
+[[switch]]
+switch = "p=2"
+run = "test"
+verdicts = { a = ["yes", "no"], b = ["yes", "yes"], c = ["no", "no"], d = ["yes", "not measured"] }
+why = "w"
+"#,
+        );
+        assert!(can_fail("a", &r), "yes -> no");
+        assert!(!can_fail("b", &r), "yes under the switch too");
+        assert!(can_fail("c", &r), "no as it stands");
+        assert!(can_fail("d", &r), "not measured is not yes");
+        assert!(!can_fail("a", &records("")), "no record");
+        let e = parse(
+            "[[switch]]\nswitch = \"s\"\nrun = \"r\"\nverdicts = { a = [\"yes\", \"perhaps\"] }\nwhy = \"w\"\n",
+            "f",
+            &IDS,
+        )
+        .unwrap_err();
+        assert!(e.to_string().contains("records `perhaps` of `a`"), "{e}");
+        let e = parse(
+            "[[switch]]\nswitch = \"s\"\nrun = \"r\"\nverdicts = { zz = [\"yes\", \"no\"] }\nwhy = \"w\"\n",
+            "f",
+            &IDS,
+        )
+        .unwrap_err();
+        assert!(e.to_string().contains("a switch record names `zz`"), "{e}");
     }
 
     #[test]
