@@ -103,3 +103,33 @@ fn a_protocol_runs_an_onnx_model_on_the_simulator_and_replay_gives_the_same_reac
         std::fs::remove_dir_all(d.join("r")).unwrap();
     }
 }
+
+#[test]
+fn a_windowed_model_longer_than_a_trial_is_refused_before_replaying() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    copy_fixture(d, "window_mlp.onnx");
+    // one sensor of 30 pins, 10 frames: shorter than the model's 15-frame window
+    let mut csv = String::from("trial,sensor,frame,t_s,element,x,y,slip\n");
+    for f in 0..10 {
+        for e in 0..30 {
+            csv += &format!(
+                "a,s,{f},{:.4},{e},{},{},{}\n",
+                f as f64 / 60.0,
+                10.0 + 3.0 * e as f64 + 0.1 * f as f64,
+                20.0 + 0.05 * f as f64,
+                u8::from(f > 6)
+            );
+        }
+    }
+    std::fs::write(d.join("short.csv"), csv).unwrap();
+    ok(&tmo(
+        d,
+        &["-q", "import", "csv", "short.csv", "--out", "short"],
+    ));
+    let e = fails(&tmo(d, &["replay", "short", "--model", "window_mlp.onnx"]));
+    assert!(
+        e.contains("window_mlp.onnx cannot replay short/a.mcap: the model reads a window of 15 frames (tmo.window), longer than the trial (10 frames per sensor)"),
+        "{e}"
+    );
+}

@@ -261,6 +261,11 @@ pub fn replay_with(
             if let Err(e) = m.fits(usize::from(t.meta.sensors), t.meta.pins) {
                 anyhow::bail!("{mpath} cannot replay {tpath}: {e}");
             }
+            // a windowed model never classifies a trial shorter than its window
+            let per_sensor = t.frames.len() / usize::from(t.meta.sensors).max(1);
+            if let Err(e) = m.fits_frames(per_sensor) {
+                anyhow::bail!("{mpath} cannot replay {tpath}: {e}");
+            }
             let own = tmo::slip::dataset::trial_features(t)
                 .map_err(|e| anyhow::anyhow!("{tpath}: {e}"))?;
             if let Some((what, theirs, ours)) = m.features().mismatch(&own) {
