@@ -79,6 +79,17 @@ pub struct PipelineCheck {
     pub why: String,
 }
 
+/// A pipeline check whose reason no longer holds (a mechanism now lets the simulator fail
+/// the row): records are never taken back, so this one says the check is withdrawn, by
+/// which change and why. The row then takes the next standing that applies.
+#[derive(Debug, Clone, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct WithdrawnPipelineCheck {
+    pub finding: String,
+    pub commits: Vec<String>,
+    pub why: String,
+}
+
 #[derive(Debug, Clone, serde::Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct CalibratedMechanism {
@@ -159,6 +170,8 @@ pub struct Records {
     #[serde(default)]
     pub pipeline_check: Vec<PipelineCheck>,
     #[serde(default)]
+    pub withdrawn_pipeline_check: Vec<WithdrawnPipelineCheck>,
+    #[serde(default)]
     pub calibrated_mechanism: Vec<CalibratedMechanism>,
     #[serde(default)]
     pub in_view: Vec<InView>,
@@ -218,6 +231,14 @@ pub fn parse(text: &str, origin: &str, ids: &[&str]) -> Result<Records, RecordsE
     };
     for p in &r.pipeline_check {
         known(&p.finding, "a pipeline check")?;
+    }
+    for w in &r.withdrawn_pipeline_check {
+        if !r.pipeline_check.iter().any(|p| p.finding == w.finding) {
+            return Err(bad(format!(
+                "a withdrawn pipeline check names `{}`, which no pipeline check names",
+                w.finding
+            )));
+        }
     }
     for m in &r.calibrated_mechanism {
         for id in &m.findings {
@@ -303,7 +324,18 @@ pub fn shipped(ids: &[&str]) -> Records {
 /// The standing of finding `id`, with the record that gave it, in words; `parameters` are
 /// the simulator parameters calibrated against it.
 pub fn of(id: &str, parameters: &[String], records: &Records) -> (Standing, String) {
-    if let Some(p) = records.pipeline_check.iter().find(|p| p.finding == id) {
+    let withdrawn = |p: &&PipelineCheck| {
+        records
+            .withdrawn_pipeline_check
+            .iter()
+            .any(|w| w.finding == p.finding)
+    };
+    if let Some(p) = records
+        .pipeline_check
+        .iter()
+        .filter(|p| !withdrawn(p))
+        .find(|p| p.finding == id)
+    {
         return (Standing::PipelineCheck, p.why.clone());
     }
     let mechanisms: Vec<&CalibratedMechanism> = records
@@ -504,6 +536,35 @@ why = "w"
         )
         .unwrap_err();
         assert!(e.to_string().contains("a switch record names `zz`"), "{e}");
+    }
+
+    #[test]
+    fn a_withdrawn_pipeline_check_leaves_the_row_to_its_next_standing() {
+        let text = r#"
+[[pipeline_check]]
+finding = "a"
+why = "cannot fail"
+
+[[in_view]]
+commits = ["x"]
+chose = "c"
+findings = "all"
+"#;
+        assert_eq!(of("a", &[], &records(text)).0, Standing::PipelineCheck);
+        let withdrawn = format!(
+            "{text}\n[[withdrawn_pipeline_check]]\nfinding = \"a\"\ncommits = [\"m\"]\nwhy = \"it can fail now\"\n"
+        );
+        assert_eq!(of("a", &[], &records(&withdrawn)).0, Standing::InView);
+        let e = parse(
+            "[[withdrawn_pipeline_check]]\nfinding = \"b\"\ncommits = []\nwhy = \"w\"\n",
+            "f",
+            &IDS,
+        )
+        .unwrap_err();
+        assert!(
+            e.to_string().contains("which no pipeline check names"),
+            "{e}"
+        );
     }
 
     #[test]
