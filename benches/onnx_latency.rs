@@ -20,8 +20,6 @@ use std::path::Path;
 use std::time::Instant;
 
 use tmo::online::classify::FrameClassifier;
-use tmo::protocol::collect::{CollectPreset, CollectRig};
-use tmo::runner::sim_trial::collect_in_memory;
 use tmo::slip::dataset::{LabelSpec, Scope};
 use tmo::slip::features::FeatureSpec;
 use tmo::slip::labels::OnsetSpec;
@@ -67,23 +65,7 @@ fn time(model: &SlipModel, trials: &[tmo::trial::Trial]) -> (Vec<f64>, usize) {
 }
 
 fn main() {
-    let objects: Vec<String> = [
-        "crisps_can",
-        "windex_bottle",
-        "bleach_bottle",
-        "mustard_bottle",
-        "banana",
-    ]
-    .map(String::from)
-    .to_vec();
-    let trials = collect_in_memory(&CollectPreset {
-        rig: CollectRig::Hand,
-        repetitions: 2,
-        seed: 2,
-        objects: &objects,
-        grasps_deg: &[0.0],
-    })
-    .expect("trials run");
+    let trials = common::hand_release_trials(2, 2, &[0.0]);
     let frames: usize = trials.iter().map(|t| t.frames.len()).sum();
     let fixtures = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/onnx");
     let mut models: Vec<(String, SlipModel)> = vec![

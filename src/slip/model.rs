@@ -867,9 +867,19 @@ pub fn score_models_on(
             predicted[k] = p;
         }
     }
+    Ok(scores_by_sensor(data, rows, &predicted))
+}
+
+/// Scores of the classes `predicted` for `data`'s rows `rows` (in that order), overall
+/// and per sensor (in sensor order).
+pub fn scores_by_sensor(
+    data: &Dataset,
+    rows: &[usize],
+    predicted: &[Class],
+) -> (Scores, Vec<(u8, Scores)>) {
     let mut overall = Confusion::default();
     let mut per_sensor: Vec<(u8, Confusion)> = Vec::new();
-    for (&i, &p) in rows.iter().zip(&predicted) {
+    for (&i, &p) in rows.iter().zip(predicted) {
         let (sensor, truth) = (data.sensor[i], data.y[i]);
         overall.add(truth, p);
         match per_sensor.iter_mut().find(|(s, _)| *s == sensor) {
@@ -882,13 +892,13 @@ pub fn score_models_on(
         }
     }
     per_sensor.sort_by_key(|(s, _)| *s);
-    Ok((
+    (
         overall.scores(),
         per_sensor
             .into_iter()
             .map(|(s, c)| (s, c.scores()))
             .collect(),
-    ))
+    )
 }
 
 /// Trains the models of one file: one per sensor (local) or one for all (global), each on

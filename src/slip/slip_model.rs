@@ -6,7 +6,7 @@ use std::path::Path;
 
 use super::dataset::{Dataset, LabelSpec, Scope, TrialRef};
 use super::features::FeatureSpec;
-use super::metrics::{Confusion, Scores};
+use super::metrics::Scores;
 use super::model::{ModelFile, ModelFileError};
 use super::onnx::OnnxModel;
 
@@ -144,27 +144,11 @@ impl SlipModel {
             }
             SlipModel::Onnx(m) => {
                 let (predicted, without) = m.predict_rows(data)?;
-                let mut overall = Confusion::default();
-                let mut per_sensor: Vec<(u8, Confusion)> = Vec::new();
-                for (i, &p) in predicted.iter().enumerate() {
-                    let (sensor, truth) = (data.sensor[i], data.y[i]);
-                    overall.add(truth, p);
-                    match per_sensor.iter_mut().find(|(s, _)| *s == sensor) {
-                        Some((_, c)) => c.add(truth, p),
-                        None => {
-                            let mut c = Confusion::default();
-                            c.add(truth, p);
-                            per_sensor.push((sensor, c));
-                        }
-                    }
-                }
-                per_sensor.sort_by_key(|(s, _)| *s);
+                let rows: Vec<usize> = (0..data.len()).collect();
+                let (overall, per_sensor) = super::model::scores_by_sensor(data, &rows, &predicted);
                 Ok(Evaluated {
-                    overall: overall.scores(),
-                    per_sensor: per_sensor
-                        .into_iter()
-                        .map(|(s, c)| (s, c.scores()))
-                        .collect(),
+                    overall,
+                    per_sensor,
                     rows_without_window: without,
                 })
             }
