@@ -129,6 +129,7 @@ pub fn classifier_label(name: &str) -> String {
         "svm-rbf" => "SVM (RBF)",
         "svm-linear" => "SVM (linear)",
         "logreg" => "LogReg",
+        "onnx" => "ONNX",
         other => other,
     }
     .to_string()

@@ -257,18 +257,19 @@ pub fn calibrations(path: &Path, rows: &[CalibrationRow]) -> Result<(), InputErr
 
 pub fn evaluation(path: &Path, e: &Evaluation) -> Result<(), InputError> {
     use clap::ValueEnum;
-    let known = crate::slip::classifier::ClassifierKind::value_variants();
-    if !known.iter().any(|k| k.name() == e.classifier) {
+    // tmo's own classifiers, and any ONNX model (docs/onnx.md)
+    let known: Vec<&str> = crate::slip::classifier::ClassifierKind::value_variants()
+        .iter()
+        .map(|k| k.name())
+        .chain([crate::slip::slip_model::ONNX_CLASSIFIER])
+        .collect();
+    if !known.contains(&e.classifier.as_str()) {
         return Err(InputError::Format {
             path: path.to_path_buf(),
             message: format!(
                 "`classifier` = {:?}: expected one of {}",
                 e.classifier,
-                known
-                    .iter()
-                    .map(|k| k.name())
-                    .collect::<Vec<_>>()
-                    .join(", ")
+                known.join(", ")
             ),
         });
     }
@@ -297,5 +298,31 @@ mod tests {
         };
         let e = Rows { path }.scores(1, "overall.", &zero).unwrap_err();
         assert!(e.to_string().contains("every count is 0"), "{e}");
+    }
+
+    #[test]
+    fn an_onnx_models_evaluation_is_read_and_an_unknown_classifier_is_refused() {
+        let mut scores = Scores::default();
+        scores.confusion.true_slip = 3;
+        scores.confusion.true_static = 5;
+        let mut e = Evaluation {
+            format: crate::slip::evaluation::EVALUATION_FORMAT.into(),
+            model: "mine.onnx".into(),
+            model_sha256: String::new(),
+            classifier: "onnx".into(),
+            scope: crate::slip::dataset::Scope::Global,
+            n_slip: 13,
+            trials: 1,
+            rows: 8,
+            overall: scores,
+            per_sensor: vec![],
+        };
+        evaluation(Path::new("e.json"), &e).unwrap();
+        e.classifier = "forest".into();
+        let err = evaluation(Path::new("e.json"), &e).unwrap_err().to_string();
+        assert!(
+            err.contains("expected one of svm-rbf") && err.contains("onnx"),
+            "{err}"
+        );
     }
 }

@@ -10,6 +10,9 @@ use super::metrics::Scores;
 use super::model::{ModelFile, ModelFileError};
 use super::onnx::OnnxModel;
 
+/// The classifier name of every ONNX model, in evaluations and tables.
+pub const ONNX_CLASSIFIER: &str = "onnx";
+
 #[derive(Debug, Clone)]
 pub enum SlipModel {
     Tmo(ModelFile),
@@ -75,7 +78,7 @@ impl SlipModel {
     pub fn classifier_name(&self) -> &'static str {
         match self {
             SlipModel::Tmo(m) => m.classifier.name(),
-            SlipModel::Onnx(_) => "onnx",
+            SlipModel::Onnx(_) => ONNX_CLASSIFIER,
         }
     }
 
