@@ -13,7 +13,9 @@
 //! runner's wait, which wakes on a frame's arrival, and for the previous runner's, which
 //! slept the whole 1 kHz tick, in the same run), and for the runner now with its live view
 //! serving every frame and event to a connected viewer that reads slowly (`tmo run --live`).
-//! `TICK_US=100` shortens the control tick.
+//! `TICK_US=100` shortens the control tick. `LATENCY_MODEL=tests/fixtures/onnx/svm_rbf.onnx`
+//! runs the loop with that model (any model of 30 pins that calls the bench's uniform 2 px
+//! shift slip and its still frames static) instead of the threshold model.
 
 use std::fs::File;
 use std::io::{Read, Write};
@@ -41,7 +43,10 @@ const TRIALS: usize = 200;
 const VIEWER_MS: u64 = 20;
 
 fn model() -> SlipModel {
-    ModelFile::threshold_model(PINS, vec![0], 0.5).into()
+    match std::env::var("LATENCY_MODEL") {
+        Ok(path) => SlipModel::load(std::path::Path::new(&path)).expect("LATENCY_MODEL loads"),
+        Err(_) => ModelFile::threshold_model(PINS, vec![0], 0.5).into(),
+    }
 }
 
 fn pins(shift: f32, jitter: f32) -> Vec<[f32; 2]> {
@@ -292,6 +297,10 @@ fn main() {
         println!("LATENCIES {}", text.join(" "));
         std::process::exit(0);
     }
+    println!(
+        "model: {}",
+        std::env::var("LATENCY_MODEL").unwrap_or_else(|_| "threshold, 0.5 px per frame".into())
+    );
     let mut medians = Vec::new();
     for (k, (_, _, name)) in CONFIGS.iter().enumerate() {
         let out = std::process::Command::new(std::env::current_exe().unwrap())
