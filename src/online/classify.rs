@@ -137,3 +137,40 @@ pub fn first_reaction(
             })
     })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::FeatureWindow;
+
+    #[test]
+    fn a_window_fills_on_consecutive_frames_slides_and_starts_again_after_a_gap() {
+        let mut w = FeatureWindow::default();
+        let f = |v: f32| [v, -v];
+        // K = 3: no window until three consecutive frames
+        assert_eq!(w.push(1, &f(1.0), 3), None);
+        assert_eq!(w.push(2, &f(2.0), 3), None);
+        assert_eq!(
+            w.push(3, &f(3.0), 3),
+            Some(&[1.0, -1.0, 2.0, -2.0, 3.0, -3.0][..])
+        );
+        // it slides, oldest first
+        assert_eq!(
+            w.push(4, &f(4.0), 3),
+            Some(&[2.0, -2.0, 3.0, -3.0, 4.0, -4.0][..])
+        );
+        // a dropped frame (5) starts it again
+        assert_eq!(w.push(6, &f(6.0), 3), None);
+        assert_eq!(w.push(7, &f(7.0), 3), None);
+        assert_eq!(
+            w.push(8, &f(8.0), 3),
+            Some(&[6.0, -6.0, 7.0, -7.0, 8.0, -8.0][..])
+        );
+        // a frame without features (reset) too, even if the next one is consecutive
+        w.reset();
+        assert_eq!(w.push(9, &f(9.0), 3), None);
+        // K = 1: every frame is a window
+        let mut one = FeatureWindow::default();
+        assert_eq!(one.push(5, &f(5.0), 1), Some(&[5.0, -5.0][..]));
+        assert_eq!(one.push(9, &f(9.0), 1), Some(&[9.0, -9.0][..]));
+    }
+}
