@@ -133,3 +133,105 @@ fn a_windowed_model_longer_than_a_trial_is_refused_before_replaying() {
         "{e}"
     );
 }
+
+#[test]
+fn a_reproduction_judges_a_users_model_as_the_hands_global_model() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    copy_fixture(d, "logreg.onnx");
+    let out = ok(&tmo(
+        d,
+        &[
+            "reproduce",
+            "--preset",
+            "quick",
+            "--hand-model",
+            "logreg.onnx",
+            "--out",
+            "q",
+        ],
+    ));
+    assert!(
+        out.contains("The whole hand's global model in this reproduction is the user's"),
+        "{out}"
+    );
+    let models = d.join("q/replicate-01/06_hand_models");
+    let sha = tmo::trial::sha256_hex(&std::fs::read(d.join("logreg.onnx")).unwrap());
+    assert_eq!(
+        std::fs::read(models.join("user_model.onnx")).unwrap(),
+        std::fs::read(d.join("logreg.onnx")).unwrap()
+    );
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(d.join("q/findings.json")).unwrap()).unwrap();
+    assert_eq!(json["hand_model"]["file"], "user_model.onnx");
+    assert_eq!(json["hand_model"]["sha256"], sha.as_str());
+    let eval = |f: &str| -> serde_json::Value {
+        serde_json::from_str(&std::fs::read_to_string(models.join(f)).unwrap()).unwrap()
+    };
+    assert_eq!(eval("eval_global.json")["classifier"], "onnx");
+    assert_eq!(eval("eval_tmo_global.json")["classifier"], "svm-rbf");
+    // every online hand step ran the user's model in place of tmo's global one
+    for protocol in [
+        "07_hand_online/protocol.toml",
+        "08_hand_objects/all/protocol.toml",
+        "09_rice_pour/protocol.toml",
+        "11_first_time_lift/can/protocol.toml",
+    ] {
+        let text = std::fs::read_to_string(d.join("q/replicate-01").join(protocol)).unwrap();
+        assert!(
+            text.contains("06_hand_models/user_model.onnx\""),
+            "{protocol}: {text}"
+        );
+        assert!(!text.contains("global.json"), "{protocol}: {text}");
+    }
+    let page = std::fs::read_to_string(d.join("q/findings.md")).unwrap();
+    assert!(
+        page.contains("logreg.onnx` (onnx, 1 frame a classification"),
+        "{page}"
+    );
+
+    // the page written again checks the steps against the model they recorded
+    let again = ok(&tmo(
+        d,
+        &[
+            "reproduce",
+            "--preset",
+            "quick",
+            "--out",
+            "q",
+            "--findings-only",
+        ],
+    ));
+    assert!(!again.contains("other inputs"), "{again}");
+    // without the model, the hand's steps are made again with tmo's own; the rail's kept
+    let resumed = ok(&tmo(
+        d,
+        &["reproduce", "--preset", "quick", "--out", "q", "--resume"],
+    ));
+    assert!(
+        resumed.contains("5 step(s) run, 6 already done"),
+        "{resumed}"
+    );
+    assert!(!models.join("user_model.onnx").exists());
+    assert!(!resumed.contains("user's"), "{resumed}");
+
+    // a model that cannot stand in is refused before anything runs, naming the file
+    copy_fixture(d, "svm_skl2onnx.onnx");
+    let e = fails(&tmo(
+        d,
+        &[
+            "reproduce",
+            "--preset",
+            "quick",
+            "--hand-model",
+            "svm_skl2onnx.onnx",
+            "--out",
+            "r",
+        ],
+    ));
+    assert!(
+        e.contains("svm_skl2onnx.onnx: operator(s) SVMClassifier"),
+        "{e}"
+    );
+    assert!(!d.join("r").exists());
+}

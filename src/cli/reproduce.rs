@@ -83,6 +83,12 @@ pub struct ReproduceArgs {
     /// one whose screen changed more verdicts than the screen's noise reference did.
     #[arg(long, value_name = "DIR", conflicts_with_all = ["sensitivity_parameters", "findings_only"])]
     screen: Option<PathBuf>,
+    /// A slip model of your own (an ONNX model, or a model file of tmo's) in place of the
+    /// whole hand's global model: every online hand step runs it and the hand's offline
+    /// evaluation scores it, so the findings on the global model judge it (docs/onnx.md).
+    /// tmo's own global model is still trained, and scored beside it.
+    #[arg(long, value_name = "FILE", conflicts_with = "findings_only")]
+    hand_model: Option<PathBuf>,
     /// Where every step's outputs and the findings report go.
     #[arg(long, value_parser = super::output::a_dir, default_value = "results/paper")]
     out: PathBuf,
@@ -148,7 +154,14 @@ pub fn run(args: ReproduceArgs) -> Result<u8> {
             .sensitivity
             .then(|| args.sensitivity_parameters.clone()),
     };
+    // read and checked before anything runs: a model that cannot stand in fails now
+    let hand_model = args
+        .hand_model
+        .as_deref()
+        .map(reproduce::hand_model::HandModel::read)
+        .transpose()?;
     let options = Options {
+        hand_model,
         out: args.out.clone(),
         preset,
         replicates: args
@@ -431,6 +444,11 @@ fn merge(args: MergeArgs) -> Result<u8> {
         outln!("  {line}");
     }
     for line in [
+        merged
+            .report
+            .hand_model
+            .as_ref()
+            .map(|m| m.line().replace('`', "")),
         Some(merged.report.noise_text()),
         merged.report.agreement_line(),
     ]
@@ -455,6 +473,9 @@ fn print_report(report: &reproduce::page::Written, options: &Options) -> Result<
         outln!("  {line}");
     }
     outln!("{}", report.noise_text());
+    if let Some(m) = &report.hand_model {
+        outln!("{}", m.line().replace('`', ""));
+    }
     if let Some((n, agree)) = report.truth_agreement {
         outln!(
             "marker-scored verdicts agree with the simulator's ground truth in {agree} of {n} catch trials ({:.1} %)",

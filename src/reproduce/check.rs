@@ -114,6 +114,8 @@ pub fn check_replicate(
     }
     let stop = AtomicBool::new(false);
     let bar = indicatif::ProgressBar::hidden();
+    // a user's model is one of the hand models' inputs: the one its step recorded
+    let hand_model = super::hand_model::HandModel::recorded(&dir.join(Step::HandModels.dir()));
     let context = |replicate: u32| Context {
         out: dir,
         replicate,
@@ -125,6 +127,7 @@ pub fn check_replicate(
         bar: &bar,
         job: "",
         sweep_from: None,
+        hand_model: hand_model.as_ref(),
     };
     let (version, revision) = crate::trial::TrialMeta::code_version();
     let mut problems = Vec::new();

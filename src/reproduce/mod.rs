@@ -13,6 +13,7 @@
 pub mod check;
 pub mod evidence;
 pub mod findings;
+pub mod hand_model;
 pub mod measure;
 pub mod page;
 pub mod screen;
@@ -110,6 +111,8 @@ pub struct Options {
     /// Keep the sensitivity variants' trial logs; by default a variant's replicate removes
     /// them once it is finished ([`prune_logs`]).
     pub keep_variant_logs: bool,
+    /// A user's model in place of the whole hand's global model ([`hand_model`]).
+    pub hand_model: Option<hand_model::HandModel>,
     pub resume: bool,
     pub backend: Backend,
 }
@@ -659,6 +662,7 @@ fn run_replicate(
         bar,
         job: &job,
         sweep_from: sweep_from.map(|p| p as &dyn steps::SweptElsewhere),
+        hand_model: options.hand_model.as_ref(),
     };
     // A pruned replicate with a step to run again starts again from its pruned steps: a
     // later step may read their logs.

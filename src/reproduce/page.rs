@@ -41,6 +41,8 @@ pub struct Written {
     /// Verdicts the sensitivity study's noise reference (other seeds alone) changes, and
     /// the verdicts it judged; `None` where no reference was run.
     pub seed_noise: Option<(usize, usize)>,
+    /// A user's model that stood in for the hand's global model (`--hand-model`).
+    pub hand_model: Option<super::hand_model::HandModel>,
 }
 
 /// `yes Y, no N, ...` of a tally, the kinds it has.
@@ -437,9 +439,13 @@ fn markdown(preset: Preset, judged: &[Judged], w: &Written, tables: &str) -> Str
         out += &format!("- {line}\n");
     }
     out += "\n";
-    for line in [Some(w.noise_text()), w.agreement_line()]
-        .into_iter()
-        .flatten()
+    for line in [
+        w.hand_model.as_ref().map(|m| m.line()),
+        Some(w.noise_text()),
+        w.agreement_line(),
+    ]
+    .into_iter()
+    .flatten()
     {
         out += &format!("{line}\n\n");
     }
@@ -501,9 +507,13 @@ fn html_page(
         body += &format!("<li>{}</li>\n", html::escape(&line));
     }
     body += "</ul>\n";
-    for line in [Some(w.noise_text()), w.agreement_line()]
-        .into_iter()
-        .flatten()
+    for line in [
+        w.hand_model.as_ref().map(|m| m.line()),
+        Some(w.noise_text()),
+        w.agreement_line(),
+    ]
+    .into_iter()
+    .flatten()
     {
         body += &format!("<p>{}</p>\n", html::inline_markdown(&line));
     }
@@ -714,6 +724,7 @@ pub fn write_findings(
         by_standing,
         truth_agreement,
         seed_noise: seed_noise(&judged),
+        hand_model: super::hand_model::HandModel::recorded(&first.join(Step::HandModels.dir())),
     };
     let md_tables = crate::report::render(&tables, crate::report::Format::Md)
         .map_err(|e| ReproduceError::step("findings", e))?;
@@ -733,6 +744,7 @@ pub fn write_findings(
         "standings": written.by_standing,
         "truth_agreement": truth_agreement.map(|(n, agree)| serde_json::json!({"trials": n, "agree": agree})),
         "seed_noise": written.seed_noise.map(|(changed, of)| serde_json::json!({"changed": changed, "verdicts": of})),
+        "hand_model": written.hand_model,
         "findings": judged,
         "measures": measures,
     });

@@ -17,6 +17,7 @@ use crate::slip::dataset::{load_labelled, LabelSpec, Scope};
 use crate::slip::evaluation::Evaluation;
 use crate::slip::labels::OnsetSpec;
 use crate::slip::model::{ClassifierKind, Hyperparameters, ModelFile, TrainSpec};
+use crate::slip::slip_model::SlipModel;
 use crate::slip::sweep::{HyperChoice, SweepRow, SweepSpec};
 use crate::slip::sweep_file::{run_to_file, SweepPart, SweepTarget};
 use crate::slip::tuning::{self, TuneSpec};
@@ -28,6 +29,9 @@ pub const SWEEP_C: f64 = 3.989;
 /// kernel (the paper does not say how it scaled them), so the paper's 1.104 does not carry
 /// over; 0.02 is near 1/60, scikit-learn's "scale" default for 60 standardised features.
 pub const SWEEP_GAMMA: f64 = 0.02;
+
+/// tmo's own global model in the hand models' step.
+const TMO_GLOBAL: &str = "global.json";
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "snake_case")]
@@ -142,6 +146,8 @@ pub struct Context<'a> {
     /// Where the rail sweep was run (`--sweep-from`): its rows are joined from these
     /// parts instead of computed here.
     pub sweep_from: Option<&'a dyn SweptElsewhere>,
+    /// A user's model in place of the hand's global model (`--hand-model`).
+    pub hand_model: Option<&'a super::hand_model::HandModel>,
 }
 
 /// A rail sweep run elsewhere (`--sweep-only` parts, [`super::sweep_parts`]), whose rows a
@@ -168,6 +174,11 @@ pub fn sweep_data_digest(
 
 impl Context<'_> {
     /// The seed of learners (sweep, search, training): 0 in the first replicate.
+    /// The hand's global model's file in the hand models' step: a user's model, or tmo's.
+    pub fn global_model(&self) -> &str {
+        self.hand_model.map_or(TMO_GLOBAL, |m| m.file.as_str())
+    }
+
     pub fn learner_seed(&self) -> u64 {
         learner_seed(self.replicate)
     }
@@ -302,16 +313,18 @@ impl Step {
     }
 
     /// Protocol files of a batch step in replicate `r` with simulator parameters `sim`, by
-    /// sub-directory ("" for the step's own).
+    /// sub-directory ("" for the step's own); the hand's global model is the file
+    /// `global` of the hand models' step (tmo's `global.json`, or a user's model).
     fn protocols(
         self,
         c: &Counts,
         r: u32,
         sim: &std::collections::BTreeMap<String, f64>,
+        global: &str,
     ) -> Vec<(&'static str, String)> {
         let table = self.sim_table(sim);
         let lines = self.protocol_lines(sim);
-        self.base_protocols(c, r)
+        self.base_protocols(c, r, global)
             .into_iter()
             .map(|(sub, text)| (sub, text + &lines + &table))
             .collect()
@@ -329,7 +342,7 @@ impl Step {
             .collect()
     }
 
-    fn base_protocols(self, c: &Counts, r: u32) -> Vec<(&'static str, String)> {
+    fn base_protocols(self, c: &Counts, r: u32, global: &str) -> Vec<(&'static str, String)> {
         let seed = |base: u32| trial_seed(base, r);
         let [s13, s23, s24, s25, s26, s27, s28, s29, s30] =
             [13, 23, 24, 25, 26, 27, 28, 29, 30].map(seed);
@@ -370,7 +383,7 @@ impl Step {
             Step::HandOnline => vec![(
                 "",
                 format!(
-                    "kind = \"hand_release\"\nrepetitions = {}\nseed = {s23}\nobjects = [\"crisps_can\"]\ngrasps_deg = [0, 180]\nmodels = [\"{models}/global.json\", \"{models}/local.json\"]\nstrategies = [\"1x1\", \"2x1\", \"1x2\", \"2x2\", \"1x3\", \"2x3\"]\n",
+                    "kind = \"hand_release\"\nrepetitions = {}\nseed = {s23}\nobjects = [\"crisps_can\"]\ngrasps_deg = [0, 180]\nmodels = [\"{models}/{global}\", \"{models}/local.json\"]\nstrategies = [\"1x1\", \"2x1\", \"1x2\", \"2x2\", \"1x3\", \"2x3\"]\n",
                     c.hand_online
                 ),
             )],
@@ -378,7 +391,7 @@ impl Step {
                 (
                     "all",
                     format!(
-                        "kind = \"hand_release\"\nrepetitions = {}\nseed = {s24}\nobjects = [{}]\ngrasps_deg = [0]\nmodels = [\"../{models}/global.json\"]\nstrategies = [\"2x2\", \"1x2\"]\n",
+                        "kind = \"hand_release\"\nrepetitions = {}\nseed = {s24}\nobjects = [{}]\ngrasps_deg = [0]\nmodels = [\"../{models}/{global}\"]\nstrategies = [\"2x2\", \"1x2\"]\n",
                         c.objects,
                         quoted(&paper_objects())
                     ),
@@ -387,7 +400,7 @@ impl Step {
                     // the paper's cat again, with a 100 g mass adhered to its underside
                     "cat_100g",
                     format!(
-                        "kind = \"hand_release\"\nrepetitions = {}\nseed = {s30}\nobjects = [\"toy_cat\"]\ngrasps_deg = [0]\nmodels = [\"../{models}/global.json\"]\nstrategies = [\"2x2\", \"1x2\"]\n\n[hand_release]\nmasses_g = [100]\n",
+                        "kind = \"hand_release\"\nrepetitions = {}\nseed = {s30}\nobjects = [\"toy_cat\"]\ngrasps_deg = [0]\nmodels = [\"../{models}/{global}\"]\nstrategies = [\"2x2\", \"1x2\"]\n\n[hand_release]\nmasses_g = [100]\n",
                         c.objects
                     ),
                 ),
@@ -395,7 +408,7 @@ impl Step {
             Step::RicePour => vec![(
                 "",
                 format!(
-                    "kind = \"rice_pour\"\nrepetitions = {}\nseed = {s25}\nobjects = [\"crisps_can_empty\"]\nmodels = [\"{models}/global.json\"]\nstrategies = [\"2x2\"]\n",
+                    "kind = \"rice_pour\"\nrepetitions = {}\nseed = {s25}\nobjects = [\"crisps_can_empty\"]\nmodels = [\"{models}/{global}\"]\nstrategies = [\"2x2\"]\n",
                     c.pour
                 ),
             )],
@@ -419,14 +432,14 @@ impl Step {
                 (
                     "can",
                     format!(
-                        "kind = \"first_time_lift\"\nrepetitions = {}\nseed = {s28}\nobjects = [\"crisps_can_empty\"]\nmodels = [\"../{models}/global.json\"]\nstrategies = [\"1x1\"]\n\n[first_time_lift]\nmasses_g = [0, 50, 100, 150, 250, 350, 450]\ncalibration = \"../../10_calibrate_lift/can/g_min.json\"\n",
+                        "kind = \"first_time_lift\"\nrepetitions = {}\nseed = {s28}\nobjects = [\"crisps_can_empty\"]\nmodels = [\"../{models}/{global}\"]\nstrategies = [\"1x1\"]\n\n[first_time_lift]\nmasses_g = [0, 50, 100, 150, 250, 350, 450]\ncalibration = \"../../10_calibrate_lift/can/g_min.json\"\n",
                         c.lift
                     ),
                 ),
                 (
                     "cat",
                     format!(
-                        "kind = \"first_time_lift\"\nrepetitions = {}\nseed = {s29}\nobjects = [\"toy_cat\"]\nmodels = [\"../{models}/global.json\"]\nstrategies = [\"1x1\"]\n\n[first_time_lift]\nmasses_g = [0, 100]\ncalibration = \"../../10_calibrate_lift/cat/g_min.json\"\n",
+                        "kind = \"first_time_lift\"\nrepetitions = {}\nseed = {s29}\nobjects = [\"toy_cat\"]\nmodels = [\"../{models}/{global}\"]\nstrategies = [\"1x1\"]\n\n[first_time_lift]\nmasses_g = [0, 100]\ncalibration = \"../../10_calibrate_lift/cat/g_min.json\"\n",
                         c.lift
                     ),
                 ),
@@ -471,8 +484,11 @@ impl Step {
             )),
             _ => {}
         }
-        for (sub, protocol) in self.protocols(&c, ctx.replicate, ctx.sim) {
+        for (sub, protocol) in self.protocols(&c, ctx.replicate, ctx.sim, ctx.global_model()) {
             text.push_str(&format!("[{sub}]\n{protocol}"));
+        }
+        if let (Step::HandModels, Some(m)) = (self, ctx.hand_model) {
+            text.push_str(&m.inputs_line());
         }
         if let Backend::Real { hand, rail, .. } = ctx.backend {
             let file = if matches!(self, Step::RailCollect | Step::RailOnline) {
@@ -500,7 +516,9 @@ impl Step {
             Step::RailModel => rail_model(ctx, &c, dir).map(|_| true),
             Step::HandModels => hand_models(ctx, dir).map(|_| true),
             _ => {
-                for (sub, protocol) in self.protocols(&c, ctx.replicate, ctx.sim) {
+                for (sub, protocol) in
+                    self.protocols(&c, ctx.replicate, ctx.sim, ctx.global_model())
+                {
                     let batch_dir = if sub.is_empty() {
                         dir.to_path_buf()
                     } else {
@@ -773,8 +791,8 @@ fn hand_models(ctx: &Context, dir: &Path) -> Result<(), ReproduceError> {
     let n_slip = rail.labels.n_slip;
     let (train, refs, features) = load(step, &[collect.join("train")], n_slip)?;
     let (test, test_refs, _) = load(step, &[collect.join("test")], n_slip)?;
-    ctx.bar.set_length(5);
-    for (scope, file) in [(Scope::Global, "global.json"), (Scope::Local, "local.json")] {
+    ctx.bar.set_length(5 + u64::from(ctx.hand_model.is_some()));
+    for (scope, file) in [(Scope::Global, TMO_GLOBAL), (Scope::Local, "local.json")] {
         let spec = TrainSpec {
             kind: ClassifierKind::SvmRbf,
             hyper: rail.hyperparameters,
@@ -791,8 +809,55 @@ fn hand_models(ctx: &Context, dir: &Path) -> Result<(), ReproduceError> {
             .map_err(|e| ReproduceError::step(step, e))?;
         ctx.bar.inc(1);
     }
+    // A user's model stands in for tmo's global one: it is the one evaluated as the
+    // global model (with its own labels, as `tmo evaluate` reads them) and timed.
+    let (global_eval, timed) = match ctx.hand_model {
+        Some(m) => {
+            let path = m
+                .copy_into(dir)
+                .map_err(|e| ReproduceError::step(step, e))?;
+            let record = dir.join(super::hand_model::RECORD);
+            crate::output::atomic::write_atomic(
+                &record,
+                serde_json::to_string_pretty(m)
+                    .expect("a model record serialises")
+                    .as_bytes(),
+            )
+            .map_err(io(&record))?;
+            let user = SlipModel::load(&path).map_err(|e| ReproduceError::step(step, e))?;
+            let (data, refs, data_features) = load_labelled(&[collect.join("test")], user.labels())
+                .map_err(|e| ReproduceError::step(step, e))?;
+            if let Some((what, theirs, ours)) = user.features().mismatch(&data_features) {
+                return Err(ReproduceError::step(
+                    step,
+                    format!("{}: cannot read the hand's trials: their {what} is {theirs}, the model's {ours}", m.source),
+                ));
+            }
+            user.fits_trials(&data)
+                .map_err(|why| ReproduceError::step(step, format!("{}: {why}", m.source)))?;
+            let evaluated = user
+                .evaluate(&data)
+                .map_err(|e| ReproduceError::step(step, e))?;
+            write_evaluation(
+                &dir.join("eval_global.json"),
+                &path,
+                &user,
+                refs.len(),
+                data.len(),
+                evaluated.overall,
+                evaluated.per_sensor,
+            )?;
+            ctx.bar.inc(1);
+            (super::hand_model::TMO_GLOBAL_EVALUATION, (user, data))
+        }
+        None => {
+            let user = SlipModel::load(&dir.join(TMO_GLOBAL))
+                .map_err(|e| ReproduceError::step(step, e))?;
+            ("eval_global.json", (user, test.clone()))
+        }
+    };
     for (model_path, out) in [
-        (dir.join("global.json"), "eval_global.json"),
+        (dir.join(TMO_GLOBAL), global_eval),
         (dir.join("local.json"), "eval_local.json"),
         (rail_path.clone(), "eval_rail_model.json"),
     ] {
@@ -800,27 +865,19 @@ fn hand_models(ctx: &Context, dir: &Path) -> Result<(), ReproduceError> {
         let (overall, per_sensor) = model
             .evaluate(&test)
             .map_err(|e| ReproduceError::step(step, e))?;
-        let e = Evaluation::of(
+        write_evaluation(
+            &dir.join(out),
             &model_path,
             &model.into(),
             test_refs.len(),
             test.len(),
             overall,
             per_sensor,
-        )
-        .map_err(io(&model_path))?;
-        let path = dir.join(out);
-        crate::output::atomic::write_atomic(
-            &path,
-            serde_json::to_string_pretty(&e)
-                .expect("evaluations serialise")
-                .as_bytes(),
-        )
-        .map_err(io(&path))?;
+        )?;
         ctx.bar.inc(1);
     }
-    let timing = time_classification(&dir.join("global.json"), &test)
-        .map_err(|e| ReproduceError::step(step, e))?;
+    let timing =
+        time_classification(&timed.0, &timed.1).map_err(|e| ReproduceError::step(step, e))?;
     let path = dir.join("timing.json");
     crate::output::atomic::write_atomic(
         &path,
@@ -832,24 +889,65 @@ fn hand_models(ctx: &Context, dir: &Path) -> Result<(), ReproduceError> {
     Ok(())
 }
 
-/// Times the model's classification of up to 2000 test frames one at a time, as the online
-/// detector calls it (a measurement for the findings table, not a benchmark).
-fn time_classification(
+/// Writes an evaluation of `model` (read from `model_path`) to `path`.
+fn write_evaluation(
+    path: &Path,
     model_path: &Path,
+    model: &SlipModel,
+    trials: usize,
+    rows: usize,
+    overall: crate::slip::metrics::Scores,
+    per_sensor: Vec<(u8, crate::slip::metrics::Scores)>,
+) -> Result<(), ReproduceError> {
+    let e = Evaluation::of(model_path, model, trials, rows, overall, per_sensor)
+        .map_err(io(model_path))?;
+    crate::output::atomic::write_atomic(
+        path,
+        serde_json::to_string_pretty(&e)
+            .expect("evaluations serialise")
+            .as_bytes(),
+    )
+    .map_err(io(path))
+}
+
+/// Times the model's classification of up to 2000 test frames one at a time, as the online
+/// detector calls it (a measurement for the findings table, not a benchmark). A windowed
+/// model reads each frame's features repeated over its window: its cost does not depend on
+/// the values.
+fn time_classification(
+    model: &SlipModel,
     test: &crate::slip::dataset::Dataset,
 ) -> Result<Timing, crate::slip::model::ModelFileError> {
-    let mut model = ModelFile::load(model_path)?;
-    let m = &mut model.models[0];
-    m.prepare();
-    let mut scratch = Vec::new();
     let n = test.len().min(2000);
-    let mut ms: Vec<f64> = (0..n)
-        .map(|i| {
-            let t = std::time::Instant::now();
-            std::hint::black_box(m.predict(test.row(i), &mut scratch));
-            t.elapsed().as_secs_f64() * 1000.0
-        })
-        .collect();
+    let mut ms: Vec<f64> = match model {
+        SlipModel::Tmo(file) => {
+            let mut m = file.models[0].clone();
+            m.prepare();
+            let mut scratch = Vec::new();
+            (0..n)
+                .map(|i| {
+                    let t = std::time::Instant::now();
+                    std::hint::black_box(m.predict(test.row(i), &mut scratch));
+                    t.elapsed().as_secs_f64() * 1000.0
+                })
+                .collect()
+        }
+        SlipModel::Onnx(m) => {
+            let k = m.meta.window;
+            let mut input = Vec::with_capacity(m.input_len());
+            let mut out = Vec::with_capacity(n);
+            for i in 0..n {
+                input.clear();
+                for _ in 0..k {
+                    input.extend_from_slice(test.row(i));
+                }
+                let t = std::time::Instant::now();
+                std::hint::black_box(m.slip_value(&input)?);
+                out.push(t.elapsed().as_secs_f64() * 1000.0);
+            }
+            out
+        }
+    };
     ms.sort_by(f64::total_cmp);
     let at = |q: f64| ms.get(((q * (n.max(1) - 1) as f64) as usize).min(n.saturating_sub(1)));
     Ok(Timing {
@@ -887,7 +985,7 @@ mod tests {
                     ("protocol.lift.lift_speed_mm_s".to_string(), 30.0),
                 ]
                 .into();
-                for (sub, text) in step.protocols(&preset.counts(), 2, &sim) {
+                for (sub, text) in step.protocols(&preset.counts(), 2, &sim, TMO_GLOBAL) {
                     // a protocol value goes to the lifts' own section, never to [sim]
                     let lifts = matches!(step, Step::Calibrate | Step::FirstTimeLift);
                     assert_eq!(
@@ -914,7 +1012,9 @@ mod tests {
         let seeds = |r: u32| -> Vec<String> {
             Step::ALL
                 .iter()
-                .flat_map(|s| s.protocols(&Preset::Paper.counts(), r, &Default::default()))
+                .flat_map(|s| {
+                    s.protocols(&Preset::Paper.counts(), r, &Default::default(), TMO_GLOBAL)
+                })
                 .map(|(_, text)| {
                     text.lines()
                         .find(|l| l.starts_with("seed = "))

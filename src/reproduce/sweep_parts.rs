@@ -208,6 +208,8 @@ fn run_job_part(
         bar,
         job: &job.dir,
         sweep_from: None,
+        // the rail's steps, which no hand model touches
+        hand_model: None,
     };
     if matches!(
         super::run_step(&ctx, Step::RailCollect, bar, false)?,
