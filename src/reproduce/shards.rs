@@ -31,6 +31,10 @@ pub struct ShardPlan {
     pub variants: Vec<String>,
     pub tmo_version: String,
     pub git_revision: String,
+    /// SHA-256 of the user's model that stands in for the hand's global model
+    /// (`--hand-model`), if any: shards of one reproduction judge the same model.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub hand_model: Option<String>,
 }
 
 impl ShardPlan {
@@ -43,6 +47,7 @@ impl ShardPlan {
             variants: variants.iter().map(|v| v.dir_name()).collect(),
             tmo_version,
             git_revision,
+            hand_model: options.hand_model.as_ref().map(|m| m.sha256.clone()),
         }
     }
 
@@ -52,6 +57,8 @@ impl ShardPlan {
             Some("the builds of tmo")
         } else if self.preset != other.preset || self.replicates != other.replicates {
             Some("the preset or the replicates")
+        } else if self.hand_model != other.hand_model {
+            Some("the hand's models (--hand-model)")
         } else if self != other {
             Some("the sensitivity studies")
         } else {
@@ -423,6 +430,7 @@ mod tests {
             ],
             tmo_version: "0".into(),
             git_revision: "abc".into(),
+            hand_model: None,
         }
     }
 
@@ -481,6 +489,15 @@ mod tests {
         let mixed = write(root.path(), "f", &record("2/3", &q));
         let e = check_parts(&[one.clone(), mixed, three.clone()]).unwrap_err();
         assert!(matches!(e, MergeError::Mixed { .. }), "{e}");
+        // shards that judged different models of the user's
+        let mut q = p.clone();
+        q.hand_model = Some("0f".repeat(32));
+        let mixed = write(root.path(), "f2", &record("2/3", &q));
+        let e = check_parts(&[one.clone(), mixed, three.clone()]).unwrap_err();
+        assert!(
+            matches!(e, MergeError::Mixed { what, .. } if what.contains("--hand-model")),
+            "{e}"
+        );
         // a record listing another part's jobs
         let mut wrong = record("2/3", &p);
         wrong.jobs.pop();
