@@ -848,12 +848,12 @@ fn hand_models(ctx: &Context, dir: &Path) -> Result<(), ReproduceError> {
                 evaluated.per_sensor,
             )?;
             ctx.bar.inc(1);
-            (super::hand_model::TMO_GLOBAL_EVALUATION, (user, data))
+            (super::hand_model::TMO_GLOBAL_EVALUATION, (user, Some(data)))
         }
         None => {
-            let user = SlipModel::load(&dir.join(TMO_GLOBAL))
+            let tmo_global = SlipModel::load(&dir.join(TMO_GLOBAL))
                 .map_err(|e| ReproduceError::step(step, e))?;
-            ("eval_global.json", (user, test.clone()))
+            ("eval_global.json", (tmo_global, None))
         }
     };
     for (model_path, out) in [
@@ -876,8 +876,8 @@ fn hand_models(ctx: &Context, dir: &Path) -> Result<(), ReproduceError> {
         )?;
         ctx.bar.inc(1);
     }
-    let timing =
-        time_classification(&timed.0, &timed.1).map_err(|e| ReproduceError::step(step, e))?;
+    let timing = time_classification(&timed.0, timed.1.as_ref().unwrap_or(&test))
+        .map_err(|e| ReproduceError::step(step, e))?;
     let path = dir.join("timing.json");
     crate::output::atomic::write_atomic(
         &path,
