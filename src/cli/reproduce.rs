@@ -443,19 +443,8 @@ fn merge(args: MergeArgs) -> Result<u8> {
     for line in merged.report.standing_lines() {
         outln!("  {line}");
     }
-    for line in [
-        merged
-            .report
-            .hand_model
-            .as_ref()
-            .map(|m| m.line().replace('`', "")),
-        Some(merged.report.noise_text()),
-        merged.report.agreement_line(),
-    ]
-    .into_iter()
-    .flatten()
-    {
-        outln!("{line}");
+    for line in merged.report.lead_paragraphs() {
+        outln!("{}", line.replace('`', ""));
     }
     outln!(
         "wrote {} (open it in a browser), {}, {} and every replicate's step outputs under {}",
@@ -472,7 +461,7 @@ fn print_report(report: &reproduce::page::Written, options: &Options) -> Result<
     for line in report.standing_lines() {
         outln!("  {line}");
     }
-    outln!("{}", report.noise_text());
+    outln!("{}", report.noise_text().replace('`', ""));
     if let Some(m) = &report.hand_model {
         outln!("{}", m.line().replace('`', ""));
     }

@@ -144,6 +144,19 @@ impl Written {
     }
 
     /// How often the marker verdicts agree with ground truth, if any trial has one.
+    /// The paragraphs under the headline: which model judged the hand (when a user's did),
+    /// the seeds' noise, and the markers' agreement with the ground truth.
+    pub fn lead_paragraphs(&self) -> Vec<String> {
+        [
+            self.hand_model.as_ref().map(|m| m.line()),
+            Some(self.noise_text()),
+            self.agreement_line(),
+        ]
+        .into_iter()
+        .flatten()
+        .collect()
+    }
+
     pub fn agreement_line(&self) -> Option<String> {
         self.truth_agreement.map(|(n, agree)| {
             format!(
@@ -439,14 +452,7 @@ fn markdown(preset: Preset, judged: &[Judged], w: &Written, tables: &str) -> Str
         out += &format!("- {line}\n");
     }
     out += "\n";
-    for line in [
-        w.hand_model.as_ref().map(|m| m.line()),
-        Some(w.noise_text()),
-        w.agreement_line(),
-    ]
-    .into_iter()
-    .flatten()
-    {
+    for line in w.lead_paragraphs() {
         out += &format!("{line}\n\n");
     }
     for c in caveats(preset, judged, w) {
@@ -507,14 +513,7 @@ fn html_page(
         body += &format!("<li>{}</li>\n", html::escape(&line));
     }
     body += "</ul>\n";
-    for line in [
-        w.hand_model.as_ref().map(|m| m.line()),
-        Some(w.noise_text()),
-        w.agreement_line(),
-    ]
-    .into_iter()
-    .flatten()
-    {
+    for line in w.lead_paragraphs() {
         body += &format!("<p>{}</p>\n", html::inline_markdown(&line));
     }
     body += "<ul>\n";
