@@ -173,12 +173,12 @@ pub fn sweep_data_digest(
 }
 
 impl Context<'_> {
-    /// The seed of learners (sweep, search, training): 0 in the first replicate.
     /// The hand's global model's file in the hand models' step: a user's model, or tmo's.
     pub fn global_model(&self) -> &str {
         self.hand_model.map_or(TMO_GLOBAL, |m| m.file.as_str())
     }
 
+    /// The seed of learners (sweep, search, training): 0 in the first replicate.
     pub fn learner_seed(&self) -> u64 {
         learner_seed(self.replicate)
     }
