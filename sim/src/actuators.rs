@@ -1,4 +1,5 @@
-//! Servo and arm motion: latency, speed and acceleration limits, nothing else.
+//! Servo and arm motion: latency, speed and acceleration limits, and the servos' encoder
+//! counts.
 
 use std::collections::VecDeque;
 
@@ -11,11 +12,33 @@ pub enum ServoCommand {
     TorqueLimit(f64),
 }
 
+/// The servos' position encoders: each reads whole counts, `counts_per_range` of them over
+/// a finger's range, its grid shifted by its own fraction of a count (each servo's zero is
+/// calibrated on its own).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Encoders {
+    pub counts_per_range: f64,
+    /// Each servo's grid offset, fraction of a count in [0, 1).
+    pub phase: HandPositions,
+}
+
+impl Encoders {
+    /// The position of servo `i`'s count nearest `q`, fraction of the range.
+    pub fn nearest_count(&self, i: usize, q: f64) -> f64 {
+        let c = self.counts_per_range;
+        ((q * c + self.phase[i]).round() - self.phase[i]) / c
+    }
+}
+
 /// The hand's four position-controlled servos.
 #[derive(Debug, Clone)]
 pub struct Servos {
-    /// Where each servo's motor is (what its encoder reports).
+    /// Where each servo's motor is (what its encoder reports): on a whole count when the
+    /// servos have encoders.
     pub position: HandPositions,
+    /// The proportional loop's own state: where the motor would be if it turned smoothly.
+    drive: HandPositions,
+    encoders: Option<Encoders>,
     /// Where each finger is: it follows its motor through a tendon with free play, so
     /// after a reversal the motor turns through the backlash before the finger moves.
     pub finger: HandPositions,
@@ -38,6 +61,8 @@ impl Servos {
     ) -> Self {
         Self {
             position: start,
+            drive: start,
+            encoders: None,
             finger: start,
             backlash: 0.0,
             target: start,
@@ -55,12 +80,27 @@ impl Servos {
         self
     }
 
+    /// Encoders that read whole counts: the goal is rounded to a count, as the hand's
+    /// backend sends it, and the shaft moves from count to count. A proportional loop puts
+    /// out torque only from its count error, and the gear train's friction holds the shaft
+    /// between counts, so it sits on the count nearest the loop's smooth state: a slow move
+    /// is a staircase, and a hold does not dither.
+    pub fn with_encoders(mut self, encoders: Encoders) -> Self {
+        for i in 0..HAND_ACTUATORS {
+            self.position[i] = encoders.nearest_count(i, self.drive[i]);
+            self.finger[i] = self.position[i];
+        }
+        self.encoders = Some(encoders);
+        self
+    }
+
     pub fn command(&mut self, now_s: f64, command: ServoCommand) {
         self.pending.push_back((now_s + self.latency_s, command));
     }
 
     /// Advances to `now_s`: applies commands that have arrived, then moves each servo as a
-    /// proportional position loop does (speed = error / time constant), at most max speed.
+    /// proportional position loop does (speed = error / time constant), at most max speed;
+    /// with encoders, the shaft then takes the count nearest the loop's state.
     pub fn step(&mut self, now_s: f64, step_s: f64) {
         while let Some(&(at, cmd)) = self.pending.front() {
             if at > now_s + 1e-12 {
@@ -76,8 +116,18 @@ impl Servos {
         // Exact for the linear part: the error decays by exp(-dt / tau) per step.
         let gain = 1.0 - (-step_s / self.position_time_s).exp();
         for i in 0..HAND_ACTUATORS {
-            let d = self.target[i] - self.position[i];
-            self.position[i] += (d * gain).clamp(-max_move, max_move);
+            // The driver caps a goal to the range, then sends the count nearest it (which
+            // may lie a fraction of a count outside: each servo's grid has its own zero).
+            let goal = match &self.encoders {
+                Some(e) => e.nearest_count(i, self.target[i].clamp(0.0, 1.0)),
+                None => self.target[i],
+            };
+            let d = goal - self.drive[i];
+            self.drive[i] += (d * gain).clamp(-max_move, max_move);
+            self.position[i] = match &self.encoders {
+                Some(e) => e.nearest_count(i, self.drive[i]),
+                None => self.drive[i],
+            };
             let half = 0.5 * self.backlash;
             self.finger[i] = self.finger[i].clamp(self.position[i] - half, self.position[i] + half);
         }
@@ -261,6 +311,82 @@ mod tests {
         }
         let done = s.position[0] / 0.02;
         assert!((done - (1.0 - (-1f64).exp())).abs() < 0.02, "{done}");
+    }
+
+    fn ramp_down(s: &mut Servos, speed_per_s: f64, seconds: f64) -> Vec<HandPositions> {
+        let (dt, start) = (0.001, s.target);
+        (1..=(seconds / dt).round() as usize)
+            .map(|k| {
+                let t = k as f64 * dt;
+                s.command(t, ServoCommand::Targets(start.map(|q| q - speed_per_s * t)));
+                s.step(t, dt);
+                s.position
+            })
+            .collect()
+    }
+
+    #[test]
+    fn with_encoders_a_slow_release_is_a_staircase_of_single_counts_on_each_servos_grid() {
+        let counts = 2866.5;
+        let phase = [0.0, 0.25, 0.5, 0.75];
+        let mut s = Servos::new([0.5; 4], 1.0, 0.0, 2.0, 0.05).with_encoders(Encoders {
+            counts_per_range: counts,
+            phase,
+        });
+        // the paper preset's release, 0.01 of the range a second: a count every 34.9 ms
+        let path = ramp_down(&mut s, 0.01, 1.0);
+        for i in 0..4 {
+            let mut steps = Vec::new();
+            for (k, w) in path.windows(2).enumerate() {
+                let moved = (w[1][i] - w[0][i]) * counts;
+                if moved.abs() > 1e-9 {
+                    assert!(
+                        (moved + 1.0).abs() < 1e-6,
+                        "a step of one count down: {moved}"
+                    );
+                    steps.push(k);
+                }
+                // always on the servo's own grid
+                let on_grid = w[1][i] * counts + phase[i];
+                assert!((on_grid - on_grid.round()).abs() < 1e-6);
+            }
+            let gaps: Vec<usize> = steps.windows(2).map(|g| g[1] - g[0]).collect();
+            assert!(gaps.len() > 20, "{gaps:?}");
+            // once the loop's lag has built up (a few time constants), one count every
+            // 1 / (0.01 x 2866.5) = 34.9 ms
+            let steady = &gaps[5..];
+            assert!(steady.iter().all(|&g| (34..=36).contains(&g)), "{gaps:?}");
+            let mean = steady.iter().sum::<usize>() as f64 / steady.len() as f64;
+            assert!((mean - 34.9).abs() < 0.3, "{mean}");
+        }
+        // each servo's steps come at its own phase
+        let first_step = |i: usize| {
+            path.windows(2)
+                .position(|w| (w[1][i] - w[0][i]).abs() > 1e-9)
+                .unwrap()
+        };
+        let firsts: Vec<usize> = (0..4).map(first_step).collect();
+        assert!(firsts.windows(2).all(|w| w[0] != w[1]), "{firsts:?}");
+    }
+
+    #[test]
+    fn without_encoders_the_same_release_is_smooth_and_with_them_a_hold_is_still() {
+        let mut smooth = Servos::new([0.5; 4], 1.0, 0.0, 2.0, 0.05);
+        let path = ramp_down(&mut smooth, 0.01, 0.5);
+        assert!(path.windows(2).skip(100).all(|w| w[1][0] < w[0][0]));
+        let encoders = Encoders {
+            counts_per_range: 2866.5,
+            phase: [0.3; 4],
+        };
+        let mut held = Servos::new([0.5; 4], 1.0, 0.0, 2.0, 0.05).with_encoders(encoders);
+        let start = held.position;
+        let mut t = 0.0;
+        for _ in 0..2000 {
+            t += 0.001;
+            held.step(t, 0.001);
+            assert_eq!(held.position, start, "no dither while holding");
+        }
+        assert!((start[0] - 0.5).abs() <= 0.5 / 2866.5 + 1e-12);
     }
 
     #[test]

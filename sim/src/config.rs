@@ -153,6 +153,12 @@ impl SimConfig {
             ("servo.position_time_s", s.position_time_s, positive, 10.0),
             ("servo.backlash", s.backlash, zero, 1.0),
             (
+                "servo.encoder_counts_per_range",
+                s.encoder_counts_per_range,
+                zero,
+                1e6,
+            ),
+            (
                 "servo.initial_torque_limit",
                 s.initial_torque_limit,
                 zero,
@@ -601,6 +607,9 @@ pub struct ServoParams {
     pub backlash: f64,
     /// Torque limit at start, fraction of maximum.
     pub initial_torque_limit: f64,
+    /// Encoder counts over a finger's range: each servo's shaft moves in whole counts, so a
+    /// slow move is a staircase (0: a smooth servo without counts).
+    pub encoder_counts_per_range: f64,
 }
 
 impl Default for ServoParams {
@@ -611,6 +620,7 @@ impl Default for ServoParams {
             position_time_s: 0.05,
             backlash: 0.02,
             initial_torque_limit: 1.0,
+            encoder_counts_per_range: 2866.5,
         }
     }
 }

@@ -190,8 +190,14 @@ impl Hand for SimHand {
         w.servos.command(now, ServoCommand::TorqueLimit(fraction));
         Ok(())
     }
+    /// Within 0..=1, as the real backend reads them: each servo's grid of encoder counts
+    /// has its own zero, so the count nearest an end may lie a fraction of a count past it.
     fn present_positions(&mut self) -> Result<HandPositions, SimError> {
-        Ok(self.world.borrow().present_positions())
+        Ok(self
+            .world
+            .borrow()
+            .present_positions()
+            .map(|q| q.clamp(0.0, 1.0)))
     }
 }
 

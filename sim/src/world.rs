@@ -9,7 +9,7 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal, StandardNormal};
 
-use super::actuators::{ArmState, Servos};
+use super::actuators::{ArmState, Encoders, Servos};
 use super::config::{ObjectStart, PhysicsParams, RigSetup, SimConfig};
 use super::curl::{CurlContact, CurlLimits};
 use super::grasp::{
@@ -26,7 +26,7 @@ use super::tactip::{
 };
 use super::turn;
 use super::SimError;
-use tmo_hal::types::{HandPositions, MarkerSample, PinFrame};
+use tmo_hal::types::{HandPositions, MarkerSample, PinFrame, HAND_ACTUATORS};
 
 /// Frames a sensor buffers before the oldest are lost, as a serial buffer overflows.
 const SENSOR_QUEUE_LIMIT: usize = 4096;
@@ -58,6 +58,9 @@ pub struct TruthState {
     pub in_grasp: bool,
     pub dropped: bool,
     pub finger_positions: HandPositions,
+    /// What each servo's encoder reads, fraction of the range (on a whole count when the
+    /// servos have encoders).
+    pub servo_positions: HandPositions,
     /// How far the object has turned about the pinch axis since it was grasped, degrees
     /// (signed as the turn about the hand frame's pinch axis).
     pub turn_deg: f64,
@@ -303,6 +306,16 @@ impl World {
             cfg.servo.position_time_s,
         )
         .with_backlash(cfg.servo.backlash);
+        if cfg.servo.encoder_counts_per_range > 0.0 {
+            // Each servo's zero is calibrated on its own: its grid sits a fraction of a
+            // count off the others'.
+            let mut erng = ChaCha8Rng::seed_from_u64(cfg.seed);
+            erng.set_stream(4);
+            servos = servos.with_encoders(Encoders {
+                counts_per_range: cfg.servo.encoder_counts_per_range,
+                phase: [(); HAND_ACTUATORS].map(|_| erng.gen_range(0.0..1.0)),
+            });
+        }
         if let RigSetup::Rail(r) = &cfg.rig {
             // The rig's reset leaves the finger still pressing in as the trial starts.
             servos.target[0] = (r.finger_closure + r.press_in_mm / p.finger_travel_mm).min(1.0);
@@ -1187,6 +1200,7 @@ impl World {
             in_grasp: self.in_grasp,
             dropped: self.events.drop_s.is_some(),
             finger_positions: self.present_positions(),
+            servo_positions: self.servos.position,
             turn_deg: self.turn_rad.to_degrees(),
             contact_slid_mm: self.curls[..n].iter().map(|c| c.travelled_mm()).collect(),
         }

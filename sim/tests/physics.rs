@@ -74,6 +74,23 @@ fn slow_release_from(
     tmo_sim::TruthState,
     tmo_sim::TruthState,
 ) {
+    let counts = SimConfig::default().servo.encoder_counts_per_range;
+    slow_release_with_counts(library, object, grasp_deg, after_s, counts)
+}
+
+/// [`slow_release_from`] with the servos' encoders reading `counts` over the range (0: a
+/// smooth servo).
+fn slow_release_with_counts(
+    library: &ObjectLibrary,
+    object: &str,
+    grasp_deg: f64,
+    after_s: f64,
+    counts: f64,
+) -> (
+    tmo_sim::TruthState,
+    tmo_sim::TruthState,
+    tmo_sim::TruthState,
+) {
     let contact = SimRig::with_library(hand_config(object, 0.0, ObjectStart::OnTable), library)
         .unwrap()
         .probe()
@@ -84,6 +101,7 @@ fn slow_release_from(
     if let RigSetup::Hand(h) = &mut cfg.rig {
         h.grasp_deg = grasp_deg;
     }
+    cfg.servo.encoder_counts_per_range = counts;
     let rig = SimRig::with_library(cfg, library).unwrap();
     let (mut clock, mut hand, probe) = (rig.clock(), rig.hand(), rig.probe());
     let mut before = probe.state();
@@ -211,12 +229,14 @@ fn a_moment_shows_in_the_fingers_images_across_the_slip_axis() {
     // The fingers' couple lies across the slip axis, opposite at the two fingers: held
     // (the statics' couple) and while the object turns. The images show it along the
     // roll's direction, flipping with the hand's roll; a centred object's two fingers
-    // roll alike.
+    // roll alike when their servos turn alike (without encoder counts: each servo's own
+    // grid of counts puts the two fingers up to a count apart, some 0.08 px of roll).
     let library = banana_and_banana_centred();
     let across = |s: &tmo_sim::TruthState| s.roll_px[1] - s.roll_px[2];
     for grasp_deg in [0.0, 180.0] {
         let (held, _, turning) = slow_release_from(&library, "banana", grasp_deg, 0.3);
-        let (held_c, _, later_c) = slow_release_from(&library, "banana_centred", grasp_deg, 0.3);
+        let (held_c, _, later_c) =
+            slow_release_with_counts(&library, "banana_centred", grasp_deg, 0.3, 0.0);
         // at 0 deg the weight's moment is about -x: the finger at +w pushes the object
         // along -y (towards the palm), the one at -w along +y
         let sense = if grasp_deg == 0.0 { 1.0 } else { -1.0 };
@@ -590,4 +610,91 @@ fn a_relaxing_grasp_slips_each_fingertip_before_the_object_the_thumb_first() {
             "{e:?}"
         );
     }
+}
+
+/// What each finger's servo reads, every ms of a slow release from a grasp of the crisps can
+/// until it slips, with the servos' encoders reading `counts` over the range.
+fn finger_paths_in_a_slow_release(seed: u64, counts: f64) -> Vec<[f64; 3]> {
+    let q0 = contact_closure("crisps_can") + 0.04;
+    let mut cfg = hand_config("crisps_can", q0, ObjectStart::InHand);
+    cfg.seed = seed;
+    cfg.servo.encoder_counts_per_range = counts;
+    let rig = SimRig::new(cfg).unwrap();
+    let (mut clock, mut hand, probe) = (rig.clock(), rig.hand(), rig.probe());
+    let mut path = Vec::new();
+    while clock.now_s() < 10.0 && !probe.state().sliding {
+        let q = (q0 - 0.01 * clock.now_s()).max(0.0);
+        hand.set_targets([q, q, q, 0.0]).unwrap();
+        clock.sleep(0.001);
+        let f = probe.state().servo_positions;
+        path.push([f[0], f[1], f[2]]);
+    }
+    path
+}
+
+/// The ms at which finger `i`'s servo moved.
+fn step_times(path: &[[f64; 3]], i: usize) -> Vec<usize> {
+    (1..path.len())
+        .filter(|&k| path[k][i] != path[k - 1][i])
+        .collect()
+}
+
+#[test]
+fn a_slow_release_moves_each_finger_in_whole_counts_at_its_own_times() {
+    let counts = SimConfig::default().servo.encoder_counts_per_range;
+    assert_eq!(
+        counts, 2866.5,
+        "the OpenHand driver's 0.7 turn of 4095 counts"
+    );
+    let path = finger_paths_in_a_slow_release(7, counts);
+    assert!(path.len() > 500, "the release lasted {} ms", path.len());
+    let later = path.len() / 2;
+    for i in 0..3 {
+        let steps = step_times(&path, i);
+        assert!(steps.len() > 10, "finger {i}: {steps:?}");
+        for &k in &steps {
+            let moved = (path[k][i] - path[k - 1][i]) * counts;
+            assert!(
+                (moved + 1.0).abs() < 1e-6,
+                "finger {i} moved {moved} counts"
+            );
+        }
+        // at 0.01 of the range a second, a count every 34.9 ms once the loop's lag is built
+        let late: Vec<usize> = steps.into_iter().filter(|&k| k > later).collect();
+        let gaps: Vec<usize> = late.windows(2).map(|w| w[1] - w[0]).collect();
+        assert!(gaps.iter().all(|&g| (34..=36).contains(&g)), "{gaps:?}");
+    }
+    // the two fingers opposite the thumb, same load, step at their own moments
+    let (a, b) = (step_times(&path, 1), step_times(&path, 2));
+    let shared = a.iter().filter(|k| b.contains(k)).count();
+    assert!(shared < a.len() / 2, "{a:?} {b:?}");
+    // the same seed gives the same staircase; without encoders the fingers move every ms
+    assert_eq!(path, finger_paths_in_a_slow_release(7, counts));
+    let smooth = finger_paths_in_a_slow_release(7, 0.0);
+    assert!(step_times(&smooth, 1).len() > smooth.len() / 2);
+}
+
+#[test]
+fn a_servo_whose_nearest_count_lies_past_the_open_end_still_reads_within_the_range() {
+    // Each servo's grid of counts has its own zero, so opening fully can leave a motor a
+    // fraction of a count below 0; the hand reads it as 0, as the real backend does, so a
+    // runner holding where the hand is sends a target the hand takes.
+    let mut past_the_end = 0;
+    for seed in 0..8 {
+        let mut cfg = hand_config("crisps_can", 0.0, ObjectStart::OnTable);
+        cfg.seed = seed;
+        let rig = SimRig::new(cfg).unwrap();
+        let (mut clock, mut hand, probe) = (rig.clock(), rig.hand(), rig.probe());
+        hand.set_targets([0.0; 4]).unwrap();
+        clock.sleep(0.5);
+        let motors = probe.state().servo_positions;
+        past_the_end += motors.iter().filter(|&&q| q < 0.0).count();
+        let read = hand.present_positions().unwrap();
+        assert!(read.iter().all(|q| (0.0..=1.0).contains(q)), "{read:?}");
+        hand.set_targets(read).unwrap();
+    }
+    assert!(
+        past_the_end > 0,
+        "no servo's nearest count lay past the open end"
+    );
 }

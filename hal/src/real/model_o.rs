@@ -26,10 +26,12 @@ impl ModelOConfig {
         (lo + q.clamp(0.0, 1.0) * (hi - lo)).round() as u32
     }
 
-    /// Normalised position of servo `i` at `counts`.
+    /// Normalised position of servo `i` at `counts`, within 0..=1: a servo resting a count
+    /// or two past its calibrated open or closed end reads as that end, since the runner
+    /// holds and ramps from readings and a target outside the range is refused.
     pub fn position(&self, i: usize, counts: u32) -> f64 {
         let (lo, hi) = (f64::from(self.min[i]), f64::from(self.max[i]));
-        (f64::from(counts) - lo) / (hi - lo)
+        ((f64::from(counts) - lo) / (hi - lo)).clamp(0.0, 1.0)
     }
 }
 
@@ -174,5 +176,10 @@ mod tests {
         assert_eq!(cfg.counts(2, 0.25), 2500, "a reversed servo counts down");
         assert_eq!(cfg.counts(0, 2.0), 3000, "clamped");
         assert!((cfg.position(2, 2500) - 0.25).abs() < 1e-12);
+        // a count or two past an end reads as that end, either way round
+        assert_eq!(cfg.position(0, 998), 0.0);
+        assert_eq!(cfg.position(0, 3002), 1.0);
+        assert_eq!(cfg.position(2, 3001), 0.0);
+        assert_eq!(cfg.position(2, 999), 1.0);
     }
 }
