@@ -13,7 +13,7 @@ use super::{io, read_record, Backend, ReproduceError};
 use crate::protocol::collect::{CollectPreset, CollectRig};
 use crate::protocol::Kind;
 use crate::runner::batch_run::{run_batch, BatchEnd, BatchRequest, BatchRig};
-use crate::slip::dataset::{load_labelled, LabelSpec, Scope};
+use crate::slip::dataset::{load_labelled, Dataset, LabelSpec, Scope};
 use crate::slip::evaluation::Evaluation;
 use crate::slip::labels::OnsetSpec;
 use crate::slip::model::{ClassifierKind, Hyperparameters, ModelFile, TrainSpec};
@@ -165,10 +165,7 @@ pub trait SweptElsewhere: Sync {
 }
 
 /// What a sweep was computed from: the digest of its training and test rows.
-pub fn sweep_data_digest(
-    train: &crate::slip::dataset::Dataset,
-    test: &crate::slip::dataset::Dataset,
-) -> String {
+pub fn sweep_data_digest(train: &Dataset, test: &Dataset) -> String {
     crate::trial::sha256_hex(format!("{} {}", train.digest(), test.digest()).as_bytes())
 }
 
@@ -597,7 +594,7 @@ fn load(
     n_slip: usize,
 ) -> Result<
     (
-        crate::slip::dataset::Dataset,
+        Dataset,
         Vec<crate::slip::model::TrialRef>,
         crate::slip::features::FeatureSpec,
     ),
@@ -653,10 +650,7 @@ pub(crate) fn sweep_identity(ctx: &Context, spec: &SweepSpec) -> String {
 }
 
 /// The rail collect's training and test trials, labelled for the sweep's largest n_slip.
-pub(crate) fn sweep_data(
-    ctx: &Context,
-    c: &Counts,
-) -> Result<(crate::slip::dataset::Dataset, crate::slip::dataset::Dataset), ReproduceError> {
+pub(crate) fn sweep_data(ctx: &Context, c: &Counts) -> Result<(Dataset, Dataset), ReproduceError> {
     let step = "rail_sweep";
     let collect = ctx.out.join(Step::RailCollect.dir());
     let max_n = c.sweep_n_slip.iter().copied().max().unwrap_or(15);
@@ -813,40 +807,7 @@ fn hand_models(ctx: &Context, dir: &Path) -> Result<(), ReproduceError> {
     // global model (with its own labels, as `tmo evaluate` reads them) and timed.
     let (global_eval, timed) = match ctx.hand_model {
         Some(m) => {
-            let path = m
-                .copy_into(dir)
-                .map_err(|e| ReproduceError::step(step, e))?;
-            let record = dir.join(super::hand_model::RECORD);
-            crate::output::atomic::write_atomic(
-                &record,
-                serde_json::to_string_pretty(m)
-                    .expect("a model record serialises")
-                    .as_bytes(),
-            )
-            .map_err(io(&record))?;
-            let user = SlipModel::load(&path).map_err(|e| ReproduceError::step(step, e))?;
-            let (data, refs, data_features) = load_labelled(&[collect.join("test")], user.labels())
-                .map_err(|e| ReproduceError::step(step, e))?;
-            if let Some((what, theirs, ours)) = user.features().mismatch(&data_features) {
-                return Err(ReproduceError::step(
-                    step,
-                    format!("{}: cannot read the hand's trials: their {what} is {theirs}, the model's {ours}", m.source),
-                ));
-            }
-            user.fits_trials(&data)
-                .map_err(|why| ReproduceError::step(step, format!("{}: {why}", m.source)))?;
-            let evaluated = user
-                .evaluate(&data)
-                .map_err(|e| ReproduceError::step(step, e))?;
-            write_evaluation(
-                &dir.join("eval_global.json"),
-                &path,
-                &user,
-                refs.len(),
-                data.len(),
-                evaluated.overall,
-                evaluated.per_sensor,
-            )?;
+            let (user, data) = evaluate_users_model(m, dir, &collect.join("test"))?;
             ctx.bar.inc(1);
             (super::hand_model::TMO_GLOBAL_EVALUATION, (user, Some(data)))
         }
@@ -889,6 +850,55 @@ fn hand_models(ctx: &Context, dir: &Path) -> Result<(), ReproduceError> {
     Ok(())
 }
 
+/// Copies a user's model into the hand models' step `dir` with its record, and scores it
+/// on the hand's test trials in `test_dir` as the global model (`eval_global.json`), read
+/// with its own labels; returns the model and the rows it was scored on, for timing.
+fn evaluate_users_model(
+    m: &super::hand_model::HandModel,
+    dir: &Path,
+    test_dir: &Path,
+) -> Result<(SlipModel, Dataset), ReproduceError> {
+    let step = "hand_models";
+    let path = m
+        .copy_into(dir)
+        .map_err(|e| ReproduceError::step(step, e))?;
+    let record = dir.join(super::hand_model::RECORD);
+    crate::output::atomic::write_atomic(
+        &record,
+        serde_json::to_string_pretty(m)
+            .expect("a model record serialises")
+            .as_bytes(),
+    )
+    .map_err(io(&record))?;
+    let user = SlipModel::load(&path).map_err(|e| ReproduceError::step(step, e))?;
+    let (data, refs, data_features) = load_labelled(&[test_dir.to_path_buf()], user.labels())
+        .map_err(|e| ReproduceError::step(step, e))?;
+    if let Some((what, theirs, ours)) = user.features().mismatch(&data_features) {
+        return Err(ReproduceError::step(
+            step,
+            format!(
+                "{}: cannot read the hand's trials: their {what} is {theirs}, the model's {ours}",
+                m.source
+            ),
+        ));
+    }
+    user.fits_trials(&data)
+        .map_err(|why| ReproduceError::step(step, format!("{}: {why}", m.source)))?;
+    let evaluated = user
+        .evaluate(&data)
+        .map_err(|e| ReproduceError::step(step, e))?;
+    write_evaluation(
+        &dir.join("eval_global.json"),
+        &path,
+        &user,
+        refs.len(),
+        data.len(),
+        evaluated.overall,
+        evaluated.per_sensor,
+    )?;
+    Ok((user, data))
+}
+
 /// Writes an evaluation of `model` (read from `model_path`) to `path`.
 fn write_evaluation(
     path: &Path,
@@ -916,7 +926,7 @@ fn write_evaluation(
 /// the values.
 fn time_classification(
     model: &SlipModel,
-    test: &crate::slip::dataset::Dataset,
+    test: &Dataset,
 ) -> Result<Timing, crate::slip::model::ModelFileError> {
     let n = test.len().min(2000);
     let mut ms: Vec<f64> = match model {
