@@ -150,6 +150,12 @@ impl SimConfig {
         fields.extend([
             ("servo.latency_s", s.latency_s, zero, 1.0),
             ("servo.max_speed_per_s", s.max_speed_per_s, positive, 100.0),
+            (
+                "servo.reference_speed_per_s",
+                s.reference_speed_per_s,
+                positive,
+                100.0,
+            ),
             ("servo.position_time_s", s.position_time_s, positive, 10.0),
             ("servo.backlash", s.backlash, zero, 1.0),
             (
@@ -596,8 +602,14 @@ impl Default for PhysicsParams {
 pub struct ServoParams {
     /// Delay from a command to the servo starting to act on it (bus + firmware), s.
     pub latency_s: f64,
-    /// Fastest finger motion, fraction of range per s.
+    /// Fastest finger motion, fraction of range per s: the motor's no-load speed, which
+    /// no command can exceed.
     pub max_speed_per_s: f64,
+    /// The speed the protocols' `*_of_max` fractions are of, fraction of range per s (a
+    /// real hand's hardware file's `hand.max_speed_per_s`): the paper's "maximum finger
+    /// movement speed", of which its release is 0.5 %. Not a limit: it may exceed
+    /// `max_speed_per_s`, as the paper's does the motor's.
+    pub reference_speed_per_s: f64,
     /// Time constant of the servo's position loop (proportional control), s: a step in the
     /// target is 63 % done after this long unless the speed limit binds.
     pub position_time_s: f64,
@@ -616,7 +628,8 @@ impl Default for ServoParams {
     fn default() -> Self {
         Self {
             latency_s: 0.008,
-            max_speed_per_s: 2.0,
+            max_speed_per_s: 1.10,
+            reference_speed_per_s: 3.18,
             position_time_s: 0.05,
             backlash: 0.02,
             initial_torque_limit: 1.0,

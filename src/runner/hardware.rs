@@ -72,15 +72,19 @@ pub struct HandBus {
     pub encoder_range: u32,
     /// Current limit written at start, mA.
     pub current_limit_ma: u32,
-    /// Fastest finger motion, fraction of the range per s (protocol speeds are given as a
-    /// fraction of it).
+    /// The speed protocol speeds are fractions of, fraction of the range per s: the paper's
+    /// "maximum finger movement speed", of which its release (0.5 %) is ~0.07 rad/s at the
+    /// servo. Not the motor's limit, which the servo keeps itself.
     #[serde(default = "default_hand_speed")]
     pub max_speed_per_s: f64,
 }
 
 fn default_hand_speed() -> f64 {
-    // an XM430-W350 at 12 V turns about 0.77 rev/s; a Model O finger spans ~0.4 rev
-    2.0
+    // The paper's release, ~0.07 rad/s at the servo, is 0.5 % of its maximum; a Model O
+    // finger spans 0.7 turn of its servo (4.40 rad, the OpenHand driver's max_close), so
+    // the maximum is 0.07 / 0.005 / 4.40 = 3.18 ranges a second. The simulator's
+    // servo.reference_speed_per_s is the same value (sim/data/parameters.toml).
+    3.18
 }
 
 fn default_encoder() -> u32 {

@@ -198,7 +198,7 @@ mod tests {
         .unwrap();
         let (mut clock, mut hand, probe) = (rig.clock(), rig.hand(), rig.probe());
         clock.sleep(0.5);
-        let speed = 0.005 * base.servo.max_speed_per_s;
+        let speed = 0.005 * base.servo.reference_speed_per_s;
         let start = clock.now_s();
         let onset = loop {
             if let Some(&t) = probe.events().slip_onsets_s.first() {

@@ -182,7 +182,8 @@ pub fn run_sim_trial(
     let mut devices = safe_sim_devices(&rig, &plan.safety);
     // watched live, the simulator is held to wall-clock speed
     devices.live = live.map(|l| l.trial(started_unix_s.saturating_mul(1_000_000_000), true));
-    let max_speed = config.servo.max_speed_per_s;
+    // the protocols' speeds are fractions of the paper's maximum, not of the motor's
+    let max_speed = config.servo.reference_speed_per_s;
     let record = match &plan.params {
         KindParams::HandRelease(p) => {
             // "Closed until stable": unless the protocol finds the grasp from contact, the
