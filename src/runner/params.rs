@@ -60,7 +60,7 @@ pub(crate) fn release_params(
     p: &HandRelease,
     object: &str,
     closure: f64,
-    max_speed_per_s: f64,
+    reference_speed_per_s: f64,
     watch: WatchLimits,
 ) -> ReleaseParams {
     ReleaseParams {
@@ -70,13 +70,13 @@ pub(crate) fn release_params(
             p.grasp_past_contact.as_ref(),
             object,
             p.contact_deformation_px,
-            p.approach_speed_of_max * max_speed_per_s,
+            p.approach_speed_of_max * reference_speed_per_s,
         ),
         close_speed_per_s: 0.05,
         lift_mm: p.lift_mm,
         lift_speed_mm_s: p.lift_speed_mm_s,
         hold_s: p.hold_s,
-        release_speed_per_s: p.release_speed_of_max * max_speed_per_s,
+        release_speed_per_s: p.release_speed_of_max * reference_speed_per_s,
         regrasp: p.regrasp,
         observe_s: 1.5,
         max_duration_s: p.max_duration_s,
@@ -117,7 +117,7 @@ pub(crate) fn pour_params(
     plan: &Plan,
     p: &RicePour,
     object: &str,
-    max_speed_per_s: f64,
+    reference_speed_per_s: f64,
     watch: WatchLimits,
 ) -> PourParams {
     PourParams {
@@ -126,7 +126,7 @@ pub(crate) fn pour_params(
             p.grasp_past_contact.as_ref(),
             object,
             p.contact_deformation_px,
-            p.approach_speed_of_max * max_speed_per_s,
+            p.approach_speed_of_max * reference_speed_per_s,
         ),
         regrasp: p.regrasp,
         max_closure: plan.safety.max_grip,
@@ -139,12 +139,12 @@ pub(crate) fn pour_params(
 pub(crate) fn lift_params(
     plan: &Plan,
     p: &FirstTimeLift,
-    max_speed_per_s: f64,
+    reference_speed_per_s: f64,
     watch: WatchLimits,
 ) -> LiftParams {
     LiftParams {
         deformation_px: p.deformation_px,
-        approach_speed_per_s: p.approach_speed_of_max * max_speed_per_s,
+        approach_speed_per_s: p.approach_speed_of_max * reference_speed_per_s,
         max_closure: plan.safety.max_grip,
         lift_mm: p.lift_height_mm,
         lift_speed_mm_s: p.lift_speed_mm_s,
@@ -158,12 +158,12 @@ pub(crate) fn lift_params(
 pub(crate) fn calibration_params(
     plan: &Plan,
     p: &Calibration,
-    max_speed_per_s: f64,
+    reference_speed_per_s: f64,
     watch: WatchLimits,
 ) -> CalibrationParams {
     CalibrationParams {
         deformation_px: p.deformation_px,
-        approach_speed_per_s: p.approach_speed_of_max * max_speed_per_s,
+        approach_speed_per_s: p.approach_speed_of_max * reference_speed_per_s,
         max_closure: plan.safety.max_grip,
         step: p.step,
         lift_mm: p.lift_height_mm,

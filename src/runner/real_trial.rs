@@ -162,12 +162,12 @@ pub fn run_real_trial(
     devices.live = live.map(|l| l.trial(started_unix_s.saturating_mul(1_000_000_000), false));
     let in_flight = super::devices::InFlight::default();
     devices.in_flight = Some(in_flight.clone());
-    let max_speed = hw.hand.max_speed_per_s;
+    let reference_speed = hw.hand.max_speed_per_s;
     let watch = watch(hw);
     let result = match &plan.params {
         KindParams::HandRelease(p) => {
             // the grasp comes from contact: check_real_plan made sure the protocol gives one
-            let params = release_params(plan, p, &planned.object, 0.0, max_speed, watch);
+            let params = release_params(plan, p, &planned.object, 0.0, reference_speed, watch);
             put(
                 "release_speed_per_s",
                 format!("{:.5}", params.release_speed_per_s),
@@ -188,7 +188,7 @@ pub fn run_real_trial(
             put("total_g", format!("{:.1}", p.total_g));
             run_pour(
                 devices,
-                &pour_params(plan, p, &planned.object, max_speed, watch),
+                &pour_params(plan, p, &planned.object, reference_speed, watch),
                 online,
                 stop,
             )
@@ -197,7 +197,7 @@ pub fn run_real_trial(
             put("extra_mass_g", format!("{:.1}", planned.extra_mass_g));
             run_first_time_lift(
                 devices,
-                &lift_params(plan, p, max_speed, watch),
+                &lift_params(plan, p, reference_speed, watch),
                 online,
                 stop,
             )
@@ -206,7 +206,7 @@ pub fn run_real_trial(
             put("extra_mass_g", format!("{:.1}", planned.extra_mass_g));
             run_calibration(
                 devices,
-                &calibration_params(plan, p, max_speed, watch),
+                &calibration_params(plan, p, reference_speed, watch),
                 stop,
             )
         }

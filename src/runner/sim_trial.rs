@@ -183,7 +183,7 @@ pub fn run_sim_trial(
     // watched live, the simulator is held to wall-clock speed
     devices.live = live.map(|l| l.trial(started_unix_s.saturating_mul(1_000_000_000), true));
     // the protocols' speeds are fractions of the paper's maximum, not of the motor's
-    let max_speed = config.servo.reference_speed_per_s;
+    let reference_speed = config.servo.reference_speed_per_s;
     let record = match &plan.params {
         KindParams::HandRelease(p) => {
             // "Closed until stable": unless the protocol finds the grasp from contact, the
@@ -198,7 +198,7 @@ pub fn run_sim_trial(
                 p,
                 &planned.object,
                 closure,
-                max_speed,
+                reference_speed,
                 Default::default(),
             );
             if params.contact.is_none() {
@@ -225,18 +225,24 @@ pub fn run_sim_trial(
             put("total_g", format!("{:.1}", p.total_g));
             run_pour(
                 &mut devices,
-                &pour_params(plan, p, &planned.object, max_speed, Default::default()),
+                &pour_params(
+                    plan,
+                    p,
+                    &planned.object,
+                    reference_speed,
+                    Default::default(),
+                ),
                 online,
                 stop,
             )?
         }
         KindParams::FirstTimeLift(p) => {
-            let params = lift_params(plan, p, max_speed, Default::default());
+            let params = lift_params(plan, p, reference_speed, Default::default());
             put("extra_mass_g", format!("{:.1}", planned.extra_mass_g));
             run_first_time_lift(&mut devices, &params, online, stop)?
         }
         KindParams::CalibrateLift(p) => {
-            let params = calibration_params(plan, p, max_speed, Default::default());
+            let params = calibration_params(plan, p, reference_speed, Default::default());
             put("extra_mass_g", format!("{:.1}", planned.extra_mass_g));
             run_calibration(&mut devices, &params, stop)?
         }
