@@ -182,7 +182,10 @@ fn hand_release_and_rice_pour_run_on_the_real_backend_against_the_served_simulat
         "global.json",
     );
     let _server = common::serve_sim(d, &[]);
-    let release = "kind = \"hand_release\"\nrepetitions = 2\nobjects = [\"crisps_can\", \"banana\"]\ngrasps_deg = [0]\nmodels = [\"global.json\"]\nstrategies = [\"2x2\"]\n[outcome]\ndrop_limit_mm = 30.0\n[hand_release]\nlift_mm = 40.0\nrelease_speed_of_max = 0.02\n";
+    // A trial the detector misses runs to its max_duration_s in real time (the object's
+    // onset comes some 5 s in): 12 s, not the default 60, keeps the four trials well inside
+    // the served simulator's 300 s (they took 240 s at 60).
+    let release = "kind = \"hand_release\"\nrepetitions = 2\nobjects = [\"crisps_can\", \"banana\"]\ngrasps_deg = [0]\nmodels = [\"global.json\"]\nstrategies = [\"2x2\"]\n[outcome]\ndrop_limit_mm = 30.0\n[hand_release]\nlift_mm = 40.0\nrelease_speed_of_max = 0.02\nmax_duration_s = 12.0\n";
     // without a grasp the real backend has nothing to close to: refused before any device
     std::fs::write(d.join("bare.toml"), release).unwrap();
     let err = common::fails(&run_real(d, "bare.toml", "bare"));
