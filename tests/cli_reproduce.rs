@@ -403,6 +403,24 @@ fn a_reproduction_killed_mid_way_resumes_without_rerunning_finished_steps() {
         ],
     ));
     assert!(e.contains("replicate-03: no such replicate"), "{e}");
+    // a page asked of this quick run with the paper preset names the preset that fits
+    let e = fails(&tmo(
+        d,
+        &[
+            "reproduce",
+            "--out",
+            "r",
+            "--findings-only",
+            "--replicates",
+            "2",
+            "--preset",
+            "paper",
+        ],
+    ));
+    assert!(
+        e.contains("holds a reproduction with the quick preset") && e.contains("--preset quick"),
+        "{e}"
+    );
     let page_of_two = |out: &str| {
         fails(&tmo(
             d,

@@ -344,6 +344,26 @@ fn check_before_findings(
     )?;
     let (fatal, builds): (Vec<_>, Vec<_>) = problems.iter().partition(|p| p.is_fatal());
     if !fatal.is_empty() {
+        let other_inputs = |p: &&reproduce::check::Problem| {
+            matches!(p, reproduce::check::Problem::OtherInputs { .. })
+        };
+        if fatal.iter().any(other_inputs) {
+            if let Some(fits) = reproduce::check::preset_that_fits(
+                &options.out,
+                &options.preset,
+                options.replicates,
+                variants,
+                &options.backend,
+            )? {
+                anyhow::bail!(
+                    "{} holds a reproduction with the {} preset, not the {} preset this page was asked of: add `--preset {}`",
+                    options.out.display(),
+                    fits.name(),
+                    options.preset.name(),
+                    fits.name()
+                );
+            }
+        }
         let shown: Vec<String> = fatal.iter().take(12).map(|p| format!("  {p}")).collect();
         anyhow::bail!(
             "{} does not hold the {} replicate(s) this page would say it pools:\n{}{}\nfinish or remake them with `tmo reproduce --out {} --replicates {} --resume` (with the same preset{}), or write the page for the replicates it has (--replicates K)",

@@ -175,6 +175,28 @@ pub fn check_replicate(
     Ok(problems)
 }
 
+/// The other preset under which every step of the plan in `out` is its job's own, when
+/// `asked`'s check found steps made for other inputs: a page asked of a paper run without
+/// `--preset paper` (whose default is quick) is refused, and this says which flag fits.
+pub fn preset_that_fits(
+    out: &Path,
+    asked: &Preset,
+    replicates: u32,
+    variants: &[Variant],
+    backend: &Backend,
+) -> Result<Option<Preset>, ReproduceError> {
+    for other in [Preset::Quick, Preset::Paper] {
+        if other == *asked {
+            continue;
+        }
+        let problems = check_plan(out, &other, replicates, variants, backend)?;
+        if !problems.iter().any(Problem::is_fatal) {
+            return Ok(Some(other));
+        }
+    }
+    Ok(None)
+}
+
 /// The replicates beyond `replicates` that `out` holds (`replicate-03` when two were
 /// asked for): the page leaves them out, and says so.
 pub fn beyond(out: &Path, replicates: u32) -> Vec<u32> {
