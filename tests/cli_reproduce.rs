@@ -449,24 +449,31 @@ fn a_reproduction_killed_mid_way_resumes_without_rerunning_finished_steps() {
     let said = String::from_utf8_lossy(&page.stderr);
     assert!(said.contains("also holds replicate(s) 2"), "{said}");
 
-    // the two replicates ran side by side (one job per core); run one at a time as two
-    // shards and merged, they give the same trials, sweep, models and findings
-    for k in ["1", "2"] {
-        let out = ok(&tmo(
-            d,
-            &[
+    // the two replicates ran side by side (one job per core); run one a process as two
+    // shards (side by side, as a cluster's jobs) and merged, they give the same trials,
+    // sweep, models and findings
+    let shards: Vec<Vec<String>> = (1..=2)
+        .map(|k| {
+            let shard = format!("{k}/2");
+            let out = format!("part{k}");
+            [
                 "reproduce",
                 "--out",
-                &format!("part{k}"),
+                &out,
                 "--replicates",
                 "2",
                 "--jobs",
                 "1",
                 "--shard",
-                &format!("{k}/2"),
-            ],
-        ));
-        assert!(out.contains(&format!("shard {k}/2")), "{out}");
+                &shard,
+            ]
+            .map(String::from)
+            .to_vec()
+        })
+        .collect();
+    for (k, run) in tmo_side_by_side(d, &shards).iter().enumerate() {
+        let out = ok(run);
+        assert!(out.contains(&format!("shard {}/2", k + 1)), "{out}");
     }
     // parts missing or altered are refused, and nothing is written
     let e = fails(&tmo(d, &["reproduce", "merge", "part1", "--out", "seq"]));
@@ -593,23 +600,29 @@ fn a_reproduction_killed_mid_way_resumes_without_rerunning_finished_steps() {
 
     // In two stages: the two replicates' sweeps dealt over three parts, then the other
     // steps in two shards that join the parts' rows; the same sweeps and findings.
-    for k in 1..=3 {
-        let out = ok(&tmo(
-            d,
-            &[
+    let parts: Vec<Vec<String>> = (1..=3)
+        .map(|k| {
+            let shard = format!("{k}/3");
+            let out = format!("sweep{k}");
+            [
                 "reproduce",
                 "--out",
-                &format!("sweep{k}"),
+                &out,
                 "--replicates",
                 "2",
                 "--sweep-only",
                 "--shard",
-                &format!("{k}/3"),
-            ],
-        ));
-        assert!(out.contains(&format!("sweep part {k}/3")), "{out}");
+                &shard,
+            ]
+            .map(String::from)
+            .to_vec()
+        })
+        .collect();
+    for (k, run) in tmo_side_by_side(d, &parts).iter().enumerate() {
+        let out = ok(run);
+        assert!(out.contains(&format!("sweep part {}/3", k + 1)), "{out}");
     }
-    let stage_two = |k: u32, parts: &[&str]| {
+    let stage_two_args = |k: u32, parts: &[&str]| {
         let mut args = vec![
             "reproduce".to_string(),
             "--out".into(),
@@ -621,6 +634,10 @@ fn a_reproduction_killed_mid_way_resumes_without_rerunning_finished_steps() {
             "--sweep-from".into(),
         ];
         args.extend(parts.iter().map(|p| p.to_string()));
+        args
+    };
+    let stage_two = |k: u32, parts: &[&str]| {
+        let args = stage_two_args(k, parts);
         let args: Vec<&str> = args.iter().map(String::as_str).collect();
         tmo(d, &args)
     };
@@ -642,8 +659,11 @@ fn a_reproduction_killed_mid_way_resumes_without_rerunning_finished_steps() {
     assert!(e.contains("changed after the part finished"), "{e}");
     std::fs::write(&part, &original).unwrap();
     assert!(!d.join("steps1").exists(), "refused before anything ran");
-    for k in 1..=2 {
-        ok(&stage_two(k, &["sweep3", "sweep1", "sweep2"]));
+    let both: Vec<Vec<String>> = (1..=2)
+        .map(|k| stage_two_args(k, &["sweep3", "sweep1", "sweep2"]))
+        .collect();
+    for run in tmo_side_by_side(d, &both) {
+        ok(&run);
     }
     let e = fails(&tmo(
         d,
@@ -658,20 +678,26 @@ fn a_reproduction_killed_mid_way_resumes_without_rerunning_finished_steps() {
 
     // A study sharded: the baseline in one shard, the noise reference in the other; the
     // merge judges the reference against the baseline as a single run does.
-    for k in ["1", "2"] {
-        ok(&tmo(
-            d,
-            &[
+    let study: Vec<Vec<String>> = (1..=2)
+        .map(|k| {
+            let shard = format!("{k}/2");
+            let out = format!("study{k}");
+            [
                 "reproduce",
                 "--out",
-                &format!("study{k}"),
+                &out,
                 "--shard",
-                &format!("{k}/2"),
+                &shard,
                 "--sensitivity",
                 "--sensitivity-parameters",
                 "reseeded",
-            ],
-        ));
+            ]
+            .map(String::from)
+            .to_vec()
+        })
+        .collect();
+    for run in tmo_side_by_side(d, &study) {
+        ok(&run);
     }
     let out = ok(&tmo(
         d,

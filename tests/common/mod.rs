@@ -18,6 +18,26 @@ pub fn tmo(dir: &Path, args: &[&str]) -> Output {
         .expect("tmo runs")
 }
 
+/// Runs `tmo` in `dir` once for each of `runs` (its arguments) side by side, as a
+/// cluster's jobs run a plan's shards: the outputs in the order of `runs`.
+pub fn tmo_side_by_side(dir: &Path, runs: &[Vec<String>]) -> Vec<Output> {
+    std::thread::scope(|scope| {
+        let running: Vec<_> = runs
+            .iter()
+            .map(|args| {
+                scope.spawn(move || {
+                    let args: Vec<&str> = args.iter().map(String::as_str).collect();
+                    tmo(dir, &args)
+                })
+            })
+            .collect();
+        running
+            .into_iter()
+            .map(|run| run.join().expect("tmo ran"))
+            .collect()
+    })
+}
+
 /// Starts `tmo args...` in `dir`, its stdout dropped and its stderr piped (where a live
 /// view says its address and notes go).
 pub fn spawn_tmo(dir: &Path, args: &[&str]) -> Child {
