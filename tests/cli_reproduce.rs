@@ -452,26 +452,20 @@ fn a_reproduction_killed_mid_way_resumes_without_rerunning_finished_steps() {
     // the two replicates ran side by side (one job per core); run one a process as two
     // shards (side by side, as a cluster's jobs) and merged, they give the same trials,
     // sweep, models and findings
-    let shards: Vec<Vec<String>> = (1..=2)
-        .map(|k| {
-            let shard = format!("{k}/2");
-            let out = format!("part{k}");
-            [
-                "reproduce",
-                "--out",
-                &out,
-                "--replicates",
-                "2",
-                "--jobs",
-                "1",
-                "--shard",
-                &shard,
-            ]
-            .map(String::from)
-            .to_vec()
-        })
-        .collect();
-    for (k, run) in tmo_side_by_side(d, &shards).iter().enumerate() {
+    let shards = tmo_side_by_side(d, 2, |k| {
+        owned(&[
+            "reproduce",
+            "--out",
+            &format!("part{k}"),
+            "--replicates",
+            "2",
+            "--jobs",
+            "1",
+            "--shard",
+            &format!("{k}/2"),
+        ])
+    });
+    for (k, run) in shards.iter().enumerate() {
         let out = ok(run);
         assert!(out.contains(&format!("shard {}/2", k + 1)), "{out}");
     }
@@ -600,25 +594,19 @@ fn a_reproduction_killed_mid_way_resumes_without_rerunning_finished_steps() {
 
     // In two stages: the two replicates' sweeps dealt over three parts, then the other
     // steps in two shards that join the parts' rows; the same sweeps and findings.
-    let parts: Vec<Vec<String>> = (1..=3)
-        .map(|k| {
-            let shard = format!("{k}/3");
-            let out = format!("sweep{k}");
-            [
-                "reproduce",
-                "--out",
-                &out,
-                "--replicates",
-                "2",
-                "--sweep-only",
-                "--shard",
-                &shard,
-            ]
-            .map(String::from)
-            .to_vec()
-        })
-        .collect();
-    for (k, run) in tmo_side_by_side(d, &parts).iter().enumerate() {
+    let parts = tmo_side_by_side(d, 3, |k| {
+        owned(&[
+            "reproduce",
+            "--out",
+            &format!("sweep{k}"),
+            "--replicates",
+            "2",
+            "--sweep-only",
+            "--shard",
+            &format!("{k}/3"),
+        ])
+    });
+    for (k, run) in parts.iter().enumerate() {
         let out = ok(run);
         assert!(out.contains(&format!("sweep part {}/3", k + 1)), "{out}");
     }
@@ -659,10 +647,7 @@ fn a_reproduction_killed_mid_way_resumes_without_rerunning_finished_steps() {
     assert!(e.contains("changed after the part finished"), "{e}");
     std::fs::write(&part, &original).unwrap();
     assert!(!d.join("steps1").exists(), "refused before anything ran");
-    let both: Vec<Vec<String>> = (1..=2)
-        .map(|k| stage_two_args(k, &["sweep3", "sweep1", "sweep2"]))
-        .collect();
-    for run in tmo_side_by_side(d, &both) {
+    for run in tmo_side_by_side(d, 2, |k| stage_two_args(k, &["sweep3", "sweep1", "sweep2"])) {
         ok(&run);
     }
     let e = fails(&tmo(
@@ -678,25 +663,19 @@ fn a_reproduction_killed_mid_way_resumes_without_rerunning_finished_steps() {
 
     // A study sharded: the baseline in one shard, the noise reference in the other; the
     // merge judges the reference against the baseline as a single run does.
-    let study: Vec<Vec<String>> = (1..=2)
-        .map(|k| {
-            let shard = format!("{k}/2");
-            let out = format!("study{k}");
-            [
-                "reproduce",
-                "--out",
-                &out,
-                "--shard",
-                &shard,
-                "--sensitivity",
-                "--sensitivity-parameters",
-                "reseeded",
-            ]
-            .map(String::from)
-            .to_vec()
-        })
-        .collect();
-    for run in tmo_side_by_side(d, &study) {
+    let study = tmo_side_by_side(d, 2, |k| {
+        owned(&[
+            "reproduce",
+            "--out",
+            &format!("study{k}"),
+            "--shard",
+            &format!("{k}/2"),
+            "--sensitivity",
+            "--sensitivity-parameters",
+            "reseeded",
+        ])
+    });
+    for run in study {
         ok(&run);
     }
     let out = ok(&tmo(

@@ -18,14 +18,19 @@ pub fn tmo(dir: &Path, args: &[&str]) -> Output {
         .expect("tmo runs")
 }
 
-/// Runs `tmo` in `dir` once for each of `runs` (its arguments) side by side, as a
-/// cluster's jobs run a plan's shards: the outputs in the order of `runs`.
-pub fn tmo_side_by_side(dir: &Path, runs: &[Vec<String>]) -> Vec<Output> {
+/// Runs `tmo` in `dir` `n` times side by side, as a cluster's jobs run a plan's shards,
+/// run `k` (1..=n) with the arguments `args_of(k)`: the outputs in the order of `k`.
+pub fn tmo_side_by_side(
+    dir: &Path,
+    n: u32,
+    args_of: impl Fn(u32) -> Vec<String> + Sync,
+) -> Vec<Output> {
+    let args_of = &args_of;
     std::thread::scope(|scope| {
-        let running: Vec<_> = runs
-            .iter()
-            .map(|args| {
+        let running: Vec<_> = (1..=n)
+            .map(|k| {
                 scope.spawn(move || {
+                    let args = args_of(k);
                     let args: Vec<&str> = args.iter().map(String::as_str).collect();
                     tmo(dir, &args)
                 })
@@ -36,6 +41,11 @@ pub fn tmo_side_by_side(dir: &Path, runs: &[Vec<String>]) -> Vec<Output> {
             .map(|run| run.join().expect("tmo ran"))
             .collect()
     })
+}
+
+/// `args` as owned strings (for `tmo_side_by_side`).
+pub fn owned(args: &[&str]) -> Vec<String> {
+    args.iter().map(|a| a.to_string()).collect()
 }
 
 /// Starts `tmo args...` in `dir`, its stdout dropped and its stderr piped (where a live
