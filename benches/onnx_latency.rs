@@ -56,12 +56,91 @@ fn time(model: &SlipModel, trials: &[tmo::trial::Trial]) -> (Vec<f64>, usize) {
                 let t = Instant::now();
                 let class = std::hint::black_box(classifier.classify(frame));
                 us.push(t.elapsed().as_secs_f64() * 1e6);
-                classified += usize::from(class.is_some());
+                classified += usize::from(class.expect("a finite slip value").is_some());
             }
         }
     }
     us.sort_by(f64::total_cmp);
     (us, classified / 3)
+}
+
+/// The fixtures' reference rows (tests/fixtures/onnx/rows.csv): each row's features.
+fn reference_rows(fixtures: &Path) -> Vec<Vec<f32>> {
+    let mut reader = csv::Reader::from_path(fixtures.join("rows.csv")).expect("rows.csv");
+    let header = reader.headers().expect("a header").clone();
+    let columns: Vec<usize> = header
+        .iter()
+        .enumerate()
+        .filter(|(_, h)| h.starts_with("dr_") || h.starts_with("dtheta_"))
+        .map(|(i, _)| i)
+        .collect();
+    reader
+        .records()
+        .map(|r| {
+            let r = r.expect("a row");
+            columns
+                .iter()
+                .map(|&i| r[i].parse().expect("a number"))
+                .collect()
+        })
+        .collect()
+}
+
+/// The model alone on one row (batch of one), us, sorted: what onnxruntime's figure in
+/// onnxruntime_timing.json (scripts/time_onnxruntime.py, the same rows) measures.
+fn time_model_alone(model: &tmo::slip::onnx::OnnxModel, rows: &[Vec<f32>]) -> Vec<f64> {
+    let mut us = Vec::new();
+    for _ in 0..20 {
+        for row in rows {
+            let t = Instant::now();
+            std::hint::black_box(
+                model
+                    .slip_value(std::hint::black_box(row))
+                    .expect("a value"),
+            );
+            us.push(t.elapsed().as_secs_f64() * 1e6);
+        }
+    }
+    us.sort_by(f64::total_cmp);
+    us
+}
+
+/// The model alone against onnxruntime's committed figure on the same rows, for the
+/// per-frame fixtures.
+fn model_alone_against_onnxruntime(fixtures: &Path) {
+    let rows = reference_rows(fixtures);
+    let ort: serde_json::Value = std::fs::read_to_string(fixtures.join("onnxruntime_timing.json"))
+        .ok()
+        .and_then(|t| serde_json::from_str(&t).ok())
+        .unwrap_or_default();
+    println!(
+        "the model alone, one row (batch of one), {} rows x 20; onnxruntime {} on the same rows ({}):",
+        rows.len(),
+        ort["onnxruntime"].as_str().unwrap_or("?"),
+        ort["machine"].as_str().unwrap_or("not measured: run scripts/time_onnxruntime.py")
+    );
+    for name in [
+        "logreg",
+        "svm_rbf",
+        "frame_mlp",
+        "mlp_pipeline",
+        "forest",
+        "boosted",
+    ] {
+        let model = tmo::slip::onnx::OnnxModel::load(&fixtures.join(format!("{name}.onnx")))
+            .expect("fixture");
+        let us = time_model_alone(&model, &rows);
+        let at = |q: f64| us[((q * us.len() as f64).ceil() as usize).clamp(1, us.len()) - 1];
+        let theirs = ort["models"][name]["median_us"].as_f64();
+        println!(
+            "  {name:<14} {:<22} median {:>7.2} us  p99 {:>7.2} us  onnxruntime median {}  ratio {}",
+            model.engine(),
+            at(0.5),
+            at(0.99),
+            theirs.map_or("?".into(), |t| format!("{t:.2} us")),
+            theirs.map_or("?".into(), |t| format!("x{:.2}", at(0.5) / t))
+        );
+    }
 }
 
 fn main() {
@@ -95,10 +174,20 @@ fn main() {
         let model = SlipModel::load(Path::new(&path)).expect("ANCHOR_MODEL loads");
         models.push((format!("tmo {} ({path})", model.classifier_name()), model));
     }
-    for name in ["logreg", "svm_rbf", "frame_mlp", "window_mlp"] {
+    for name in [
+        "logreg",
+        "svm_rbf",
+        "frame_mlp",
+        "window_mlp",
+        "mlp_pipeline",
+        "forest",
+        "boosted",
+        "window_rows",
+    ] {
         let model = SlipModel::load(&fixtures.join(format!("{name}.onnx"))).expect("fixture");
         models.push((format!("onnx {name} (K {})", model.window()), model));
     }
+    model_alone_against_onnxruntime(&fixtures);
     println!(
         "per-frame classification, frame in -> class out ({} trials, {frames} frames, each timed 3 times):",
         trials.len()

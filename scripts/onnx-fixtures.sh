@@ -4,15 +4,17 @@
 # ONNX, and onnxruntime's outputs on test rows. CI does not run this (the fixtures are
 # committed); run it again after a change to the features or the simulator's trials:
 #
-#   cargo build --release && bash scripts/onnx-fixtures.sh
+#   cargo build --release && OUT=tests/fixtures/onnx bash scripts/onnx-fixtures.sh
 #
+# Without OUT it writes to a new scratch directory (and says where), so a run made to look
+# never overwrites the committed fixtures.
 # It installs its Python packages (scripts/onnx-requirements.txt) into a venv of its own,
 # $ONNX_VENV (default: a directory under $TMPDIR), and works in a temporary directory.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 tmo=${TMO:-target/release/tmo}
 venv=${ONNX_VENV:-${TMPDIR:-/tmp}/tmo-onnx-venv}
-out=${OUT:-tests/fixtures/onnx}
+out=${OUT:-$(mktemp -d "${TMPDIR:-/tmp}/tmo-onnx-fixtures.XXXXXX")}
 [ -x "$venv/bin/python" ] || python3 -m venv "$venv"
 "$venv/bin/pip" install -q -r scripts/onnx-requirements.txt
 work=$(mktemp -d)

@@ -22,6 +22,16 @@ SPEC.json is a model file `tmo train` wrote on the same trials and labels: its `
   scikit-learn's MLPClassifier on standardised flattened windows, written as Reshape, Sub,
   Div, MatMul, Add, Relu and Sigmoid: slip probability, threshold 0.5.
 - frame_mlp.onnx: the same kind of MLP on one frame's features (input [N, 60]).
+- mlp_pipeline.onnx: StandardScaler + MLPClassifier as skl2onnx writes the pipeline (no
+  hand-written graph): slip probability, column 1 of `probabilities`, threshold 0.5.
+- forest.onnx: a RandomForestClassifier (50 trees, depth <= 10) as skl2onnx writes it
+  (ai.onnx.ml TreeEnsembleClassifier): column 1 of `probabilities`, threshold 0.5.
+- boosted.onnx: a GradientBoostingClassifier (50 trees, depth 3) as skl2onnx writes it (one
+  base value and a logistic post-transform for the binary case): column 1 of
+  `probabilities`, threshold 0.5.
+- window_rows.onnx: the frame MLP applied to every frame of a window of K = 10, input
+  [N, 10, 60], output one row per frame `[N, 10, 1]` (tmo.output_rows = per_frame: the newest
+  frame's row is the frame's value).
 - rows.csv: test rows (two sensors of the first test trial that slips), the inputs of the
   reference outputs, with the features as float32 values written exactly.
 - reference.json: onnxruntime's slip value of each model for each row (for the windowed
@@ -40,6 +50,7 @@ import sklearn
 from onnx import TensorProto, helper, numpy_helper
 from skl2onnx import convert_sklearn
 from skl2onnx.common.data_types import FloatTensorType
+from sklearn.ensemble import GradientBoostingClassifier, RandomForestClassifier
 from sklearn.linear_model import LogisticRegression
 from sklearn.neural_network import MLPClassifier
 from sklearn.pipeline import Pipeline
@@ -47,6 +58,7 @@ from sklearn.preprocessing import StandardScaler
 from sklearn.svm import SVC
 
 WINDOW = 15
+ROWS_WINDOW = 10
 OPSET = 17
 SEED = 0
 
@@ -76,7 +88,7 @@ def windows(df, x, k):
     return out
 
 
-def metadata(model, spec, name, output, column, threshold, window=1):
+def metadata(model, spec, name, output, column, threshold, window=1, output_rows=None):
     props = {
         "tmo.format": "tmo-onnx-slip-model",
         "tmo.version": "1",
@@ -89,6 +101,8 @@ def metadata(model, spec, name, output, column, threshold, window=1):
         "tmo.slip_column": str(column),
         "tmo.threshold": repr(float(threshold)),
     }
+    if output_rows is not None:
+        props["tmo.output_rows"] = output_rows
     del model.metadata_props[:]
     for k, v in props.items():
         entry = model.metadata_props.add()
@@ -176,6 +190,39 @@ def mlp_graph(scaler, mlp, features, window):
     return helper.make_model(graph, opset_imports=[helper.make_opsetid("", OPSET)])
 
 
+def rows_graph(scaler, mlp, features, window):
+    """The frame MLP on each frame of a window: input [N, K, F], output [N, K, 1], one row
+    per frame, oldest first."""
+    (w1, w2), (b1, b2) = mlp.coefs_, mlp.intercepts_
+    f32 = np.float32
+    inits = [
+        const("mean", scaler.mean_.astype(f32)),
+        const("scale", scaler.scale_.astype(f32)),
+        const("w1", w1.astype(f32)),
+        const("b1", b1.astype(f32)),
+        const("w2", w2.astype(f32)),
+        const("b2", b2.astype(f32)),
+    ]
+    nodes = [
+        helper.make_node("Sub", ["window", "mean"], ["centred"]),
+        helper.make_node("Div", ["centred", "scale"], ["scaled"]),
+        helper.make_node("MatMul", ["scaled", "w1"], ["h1"]),
+        helper.make_node("Add", ["h1", "b1"], ["h1b"]),
+        helper.make_node("Relu", ["h1b"], ["hidden"]),
+        helper.make_node("MatMul", ["hidden", "w2"], ["h2"]),
+        helper.make_node("Add", ["h2", "b2"], ["logit"]),
+        helper.make_node("Sigmoid", ["logit"], ["frame_probabilities"]),
+    ]
+    graph = helper.make_graph(
+        nodes,
+        "window_rows",
+        [helper.make_tensor_value_info("window", TensorProto.FLOAT, ["N", window, features])],
+        [helper.make_tensor_value_info("frame_probabilities", TensorProto.FLOAT, ["N", window, 1])],
+        inits,
+    )
+    return helper.make_model(graph, opset_imports=[helper.make_opsetid("", OPSET)])
+
+
 def run(model, name, inputs):
     session = ort.InferenceSession(model.SerializeToString(), providers=["CPUExecutionProvider"])
     outputs = [o.name for o in session.get_outputs()]
@@ -240,6 +287,43 @@ def main(spec_path, train_path, test_path, out):
         mlp_graph(fscaler, fmlp, features, 1), spec, "frame mlp (scikit-learn)", "slip_probability", 0, 0.5
     )
 
+    # per frame: StandardScaler + MLPClassifier, the pipeline as skl2onnx writes it
+    pipe = Pipeline([("scaler", StandardScaler()), ("clf", MLPClassifier(hidden_layer_sizes=(16,), max_iter=300, random_state=SEED))])
+    pipe.fit(xtr, ytr)
+    onx = convert_sklearn(
+        pipe,
+        initial_types=[("features", FloatTensorType([None, features]))],
+        options={StandardScaler: {"div": "div"}, MLPClassifier: {"zipmap": False}},
+        target_opset={"": OPSET, "ai.onnx.ml": 3},
+    )
+    models["mlp_pipeline"] = metadata(onx, spec, "mlp pipeline (skl2onnx)", "probabilities", 1, 0.5)
+
+    # tree ensembles as skl2onnx writes them (ai.onnx.ml TreeEnsembleClassifier)
+    forest = RandomForestClassifier(n_estimators=50, max_depth=10, min_samples_leaf=3, random_state=SEED, n_jobs=1)
+    forest.fit(xtr, ytr)
+    onx = convert_sklearn(
+        forest,
+        initial_types=[("features", FloatTensorType([None, features]))],
+        options={RandomForestClassifier: {"zipmap": False}},
+        target_opset={"": OPSET, "ai.onnx.ml": 3},
+    )
+    models["forest"] = metadata(onx, spec, "random forest, 50 trees (skl2onnx)", "probabilities", 1, 0.5)
+    boosted = GradientBoostingClassifier(n_estimators=50, max_depth=3, random_state=SEED)
+    boosted.fit(xtr, ytr)
+    onx = convert_sklearn(
+        boosted,
+        initial_types=[("features", FloatTensorType([None, features]))],
+        options={GradientBoostingClassifier: {"zipmap": False}},
+        target_opset={"": OPSET, "ai.onnx.ml": 3},
+    )
+    models["boosted"] = metadata(onx, spec, "gradient boosting, 50 trees (skl2onnx)", "probabilities", 1, 0.5)
+
+    # a window of 10 frames, one output row per frame (the newest is the frame's value)
+    models["window_rows"] = metadata(
+        rows_graph(fscaler, fmlp, features, ROWS_WINDOW), spec, "frame mlp on each frame of 10", "frame_probabilities", 0, 0.5,
+        ROWS_WINDOW, "per_frame",
+    )
+
     # the rows of the reference: two sensors of the first test trial that slips, the 100
     # frames before each sensor's first slip row and the 20 from it
     first = test.trial_id[test.label == "slip"].iloc[0]
@@ -271,10 +355,13 @@ def main(spec_path, train_path, test_path, out):
         onnx.save(model, f"{out}/{name}.onnx")
         props = {p.key: p.value for p in model.metadata_props}
         output, column = props["tmo.slip_output"], int(props["tmo.slip_column"])
-        if name == "window_mlp":
-            ws = windows(sub, xs, WINDOW)
+        if name in ("window_mlp", "window_rows"):
+            k = WINDOW if name == "window_mlp" else ROWS_WINDOW
+            ws = windows(sub, xs, k)
             have = [i for i, w in enumerate(ws) if w is not None]
-            got = run(model, name, np.stack([ws[i] for i in have]).reshape(-1, WINDOW, features))[output]
+            got = run(model, name, np.stack([ws[i] for i in have]).reshape(-1, k, features))[output]
+            # one row per window, or (per_frame) the newest frame's row of each
+            got = got[:, -1, :] if got.ndim == 3 else got
             values = [None] * len(sub)
             for i, v in zip(have, got[:, column]):
                 values[i] = float(v)

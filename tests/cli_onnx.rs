@@ -105,6 +105,47 @@ fn a_protocol_runs_an_onnx_model_on_the_simulator_and_replay_gives_the_same_reac
 }
 
 #[test]
+fn each_of_a_protocols_models_is_a_row_of_its_own() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let models = ["window_mlp", "logreg", "forest", "boosted", "mlp_pipeline"];
+    for m in models {
+        copy_fixture(d, &format!("{m}.onnx"));
+    }
+    let list: Vec<String> = models.iter().map(|m| format!("\"{m}.onnx\"")).collect();
+    std::fs::write(
+        d.join("hand.toml"),
+        format!("kind = \"hand_release\"\nobjects = [\"crisps_can\"]\ngrasps_deg = [0]\nmodels = [{}]\nstrategies = [\"1x1\"]\nrepetitions = 1\nseed = 6\n", list.join(", ")),
+    )
+    .unwrap();
+    let out = ok(&tmo(d, &["run", "hand.toml", "--out", "b"]));
+    let mut reader = csv::Reader::from_path(d.join("b/outcomes.csv")).unwrap();
+    let rows: Vec<std::collections::HashMap<String, String>> =
+        reader.deserialize().map(|r| r.unwrap()).collect();
+    let named: std::collections::BTreeSet<&str> =
+        rows.iter().map(|r| r["model"].as_str()).collect();
+    // each model by its tmo.name, once
+    let expected: std::collections::BTreeSet<&str> = [
+        "gradient boosting, 50 trees (skl2onnx)",
+        "random forest, 50 trees (skl2onnx)",
+        "logreg (scikit-learn, skl2onnx)",
+        "mlp pipeline (skl2onnx)",
+        "window mlp, 15 frames (scikit-learn)",
+    ]
+    .into();
+    assert_eq!(rows.len(), 5);
+    assert_eq!(named, expected);
+    // the summary's table has a model column and a row per model, none pooled
+    assert!(out.contains("| model | scope |"), "{out}");
+    for n in &named {
+        assert!(
+            out.contains(&format!("| {n} | global | 1Fr1Sen |")),
+            "{n}: {out}"
+        );
+    }
+}
+
+#[test]
 fn a_windowed_model_longer_than_a_trial_is_refused_before_replaying() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();

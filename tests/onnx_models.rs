@@ -65,7 +65,16 @@ fn every_fixture_model_gives_onnxruntimes_values_within_1e_5_and_the_same_classe
     let data = rows();
     let reference = reference();
     assert_eq!(data.len(), reference["rows"].as_u64().unwrap() as usize);
-    for name in ["logreg", "svm_rbf", "frame_mlp", "window_mlp"] {
+    for name in [
+        "logreg",
+        "svm_rbf",
+        "frame_mlp",
+        "window_mlp",
+        "mlp_pipeline",
+        "forest",
+        "boosted",
+        "window_rows",
+    ] {
         let model = OnnxModel::load(&fixture(&format!("{name}.onnx"))).unwrap();
         let ours = model.slip_values(&data).unwrap();
         let theirs = reference["models"][name]["values"].as_array().unwrap();
@@ -105,6 +114,18 @@ fn every_fixture_model_gives_onnxruntimes_values_within_1e_5_and_the_same_classe
             assert_eq!(model.meta.window, 15);
             assert_eq!(compared, data.len() - 2 * 14, "each sensor's first 14 rows");
         }
+        if name == "window_rows" {
+            assert_eq!(model.meta.window, 10);
+            assert_eq!(compared, data.len() - 2 * 9, "each sensor's first 9 rows");
+        }
+        // scikit-learn's tree ensembles, as skl2onnx writes them, run on tmo's own evaluator
+        let trees = matches!(name, "forest" | "boosted");
+        assert_eq!(
+            model.engine() == "tmo's tree evaluator",
+            trees,
+            "{name}: {}",
+            model.engine()
+        );
     }
 }
 
@@ -180,12 +201,14 @@ fn missing_or_inconsistent_metadata_and_wrong_shapes_are_refused_with_what_was_e
     let e = refused("logreg.onnx", "tmo.slip_output", Some("slip"));
     assert!(e.contains("`tmo.slip_output`: expected one of the graph's outputs (label, probabilities), found `slip`"), "{e}");
     let e = refused("logreg.onnx", "tmo.slip_column", Some("2"));
-    assert!(e.contains("output `probabilities`: expected a column 2 (tmo.slip_column) in its one row, found 2 value(s)"), "{e}");
+    assert!(e.contains("output `probabilities`: expected the slip value where tmo.output_rows and tmo.slip_column say, found one row for the batch of one with column 2 (tmo.slip_column): [1], or [1, C] with C > 2; found shape [1, 2]"), "{e}");
     // the features' count against the input: 31 pins are 62 features, the graph takes 60
     let e = refused(
         "logreg.onnx",
         "tmo.features",
-        Some("{\"pins\": 31, \"max_pin_step_px\": 20.0, \"units\": \"px\"}"),
+        Some(
+            "{\"pins\": 31, \"max_pin_step_px\": 20.0, \"units\": \"px\", \"frame_rate_hz\": 60.0}",
+        ),
     );
     assert!(
         e.contains("input `features`: expected [N, 62] (62 features of 31 pins, per tmo.features and tmo.window), found [N, 60]"),
@@ -227,6 +250,236 @@ fn a_window_longer_than_a_trial_is_refused() {
     let e = model.fits(3, 40).unwrap_err();
     assert!(
         e.contains("tmo.features pins = 30, but the fingertips report 40 pins"),
+        "{e}"
+    );
+}
+
+/// tmo's metadata of `logreg.onnx` with `key` set to `value`, and the load's message.
+fn refusal(d: &Path, name: &str, key: &str, value: Option<&str>) -> String {
+    let path = edited(d, name, |p| set_prop(p, key, value));
+    OnnxModel::load(&path).unwrap_err().to_string()
+}
+
+#[test]
+fn onnx_metadata_gets_the_checks_a_tmo_model_file_gets() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let labels = |n_slip: &str, drop: &str, resolution: &str| {
+        format!("{{\"n_slip\": {n_slip}, \"onset\": {{\"drop_threshold_mm\": {drop}, \"hold_window_s\": 0.5, \"confirm_samples\": 5, \"relative_to_hand\": true, \"resolution_mm\": {resolution}, \"rest_samples\": 6}}}}")
+    };
+    for (value, expected) in [
+        (
+            labels("0", "1.0", "0.5"),
+            "`tmo.labels`, `n_slip`: expected 1..=10000 slip frames, got 0",
+        ),
+        (
+            labels("1000000000", "1.0", "0.5"),
+            "expected 1..=10000 slip frames, got 1000000000",
+        ),
+        (
+            labels("13", "-1", "0.5"),
+            "`tmo.labels`, `onset`: `drop_threshold_mm` = -1: expected a positive number",
+        ),
+        (
+            labels("13", "1.0", "0"),
+            "`resolution_mm` = 0: expected a positive number",
+        ),
+    ] {
+        let e = refusal(d, "logreg.onnx", "tmo.labels", Some(&value));
+        assert!(e.contains(expected), "{value}: {e}");
+        assert!(e.contains("the same check as a tmo model file's"), "{e}");
+    }
+    for (rate, expected) in [
+        (
+            "0",
+            "`frame_rate_hz`: expected the frames' rate in Hz, above 0 and at most 10000, got 0",
+        ),
+        ("-60", "got -60"),
+        ("1e6", "got 1000000"),
+    ] {
+        let spec = format!("{{\"pins\": 30, \"max_pin_step_px\": 20.0, \"units\": \"px\", \"frame_rate_hz\": {rate}}}");
+        let e = refusal(d, "logreg.onnx", "tmo.features", Some(&spec));
+        assert!(e.contains(expected), "{rate}: {e}");
+    }
+    // 1e308 is no f32: refused as no feature spec at all
+    let spec =
+        "{\"pins\": 30, \"max_pin_step_px\": 20.0, \"units\": \"px\", \"frame_rate_hz\": 1e308}";
+    let e = refusal(d, "logreg.onnx", "tmo.features", Some(spec));
+    assert!(e.contains("`tmo.features`"), "{e}");
+    // a model from elsewhere states its rate
+    let spec = "{\"pins\": 30, \"max_pin_step_px\": 20.0, \"units\": \"px\"}";
+    let e = refusal(d, "logreg.onnx", "tmo.features", Some(spec));
+    assert!(
+        e.contains("`frame_rate_hz`: expected the frames' rate in Hz that the model was trained at, got none"),
+        "{e}"
+    );
+    // a key inside the JSON given twice
+    let spec = "{\"pins\": 30, \"pins\": 31, \"max_pin_step_px\": 20.0, \"units\": \"px\", \"frame_rate_hz\": 60.0}";
+    let e = refusal(d, "logreg.onnx", "tmo.features", Some(spec));
+    assert!(e.contains("duplicate field `pins`"), "{e}");
+    // sensors each once
+    let e = refusal(d, "logreg.onnx", "tmo.sensors", Some("[0, 0, 1]"));
+    assert!(e.contains("each once") && e.contains("[0, 0, 1]"), "{e}");
+    // tmo.output_rows
+    let e = refusal(d, "logreg.onnx", "tmo.output_rows", Some("newest"));
+    assert!(e.contains("`tmo.output_rows`: expected `one`"), "{e}");
+    let e = refusal(d, "logreg.onnx", "tmo.output_rows", Some("per_frame"));
+    assert!(e.contains("`per_frame` is for a window's rows"), "{e}");
+}
+
+#[test]
+fn a_key_given_twice_or_one_tmo_does_not_read_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let path = edited(d, "logreg.onnx", |p| {
+        p.metadata_props.push(pb::StringStringEntryProto {
+            key: "tmo.threshold".into(),
+            value: "0.9".into(),
+        })
+    });
+    let e = OnnxModel::load(&path).unwrap_err().to_string();
+    assert!(
+        e.contains("metadata `tmo.threshold`: expected each key once, found the key twice"),
+        "{e}"
+    );
+    let e = refusal(d, "logreg.onnx", "tmo.treshold", Some("0.5"));
+    assert!(
+        e.contains("metadata `tmo.treshold`: expected one of tmo's keys"),
+        "{e}"
+    );
+}
+
+#[test]
+fn an_output_of_several_rows_is_read_where_the_metadata_says_or_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    // one row per frame of the window, read as a batch's one row: refused with its shape
+    let e = refusal(d, "window_rows.onnx", "tmo.output_rows", None);
+    assert!(e.contains("found shape [1, 10, 1]"), "{e}");
+    // as the metadata says, the newest frame's row: the frame MLP's value on that frame
+    let per_row = OnnxModel::load(&fixture("window_rows.onnx")).unwrap();
+    let frame = OnnxModel::load(&fixture("frame_mlp.onnx")).unwrap();
+    let data = rows();
+    let windowed = per_row.slip_values(&data).unwrap();
+    let per_frame = frame.slip_values(&data).unwrap();
+    for (i, (w, f)) in windowed.iter().zip(&per_frame).enumerate() {
+        if let Some(w) = w {
+            assert!((w - f.unwrap()).abs() < 1e-5, "row {i}: {w} against {f:?}");
+        }
+    }
+    // the shapes a batch of one may have
+    use tmo::slip::onnx::{slip_value_in, OutputRows};
+    assert_eq!(slip_value_in(&[1], &[0.7], OutputRows::One, 0, 1), Ok(0.7));
+    assert_eq!(
+        slip_value_in(&[1, 2], &[0.3, 0.7], OutputRows::One, 1, 1),
+        Ok(0.7)
+    );
+    assert!(slip_value_in(&[2, 2], &[0.3, 0.7, 0.1, 0.9], OutputRows::One, 1, 1).is_err());
+    assert!(slip_value_in(&[1, 15, 2], &[0.0; 30], OutputRows::One, 1, 15).is_err());
+    let mut values = vec![0.0; 30];
+    values[29] = 0.9;
+    assert_eq!(
+        slip_value_in(&[1, 15, 2], &values, OutputRows::PerFrame, 1, 15),
+        Ok(0.9)
+    );
+    assert!(slip_value_in(&[1, 14, 2], &values[..28], OutputRows::PerFrame, 1, 15).is_err());
+}
+
+/// A graph whose output is `op` of the features (shape [N, 60]), read at `column`.
+fn elementwise(d: &Path, op: &str, column: usize) -> PathBuf {
+    edited(d, "logreg.onnx", |p| {
+        let graph = p.graph.as_mut().unwrap();
+        graph.node = vec![pb::NodeProto {
+            op_type: op.into(),
+            input: vec!["features".into()],
+            output: vec!["out".into()],
+            ..Default::default()
+        }];
+        graph.initializer.clear();
+        graph.output = vec![pb::ValueInfoProto {
+            name: "out".into(),
+            ..graph.input[0].clone()
+        }];
+        p.opset_import.retain(|o| o.domain.is_empty());
+        set_prop(p, "tmo.slip_output", Some("out"));
+        set_prop(p, "tmo.slip_column", Some(&column.to_string()));
+        set_prop(p, "tmo.threshold", Some("0.5"));
+    })
+}
+
+#[test]
+fn a_non_finite_slip_value_is_refused_at_load_and_named_with_its_frame_at_run_time() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    // Log(0) is -inf: the run on zeros at load refuses it
+    let e = OnnxModel::load(&elementwise(d, "Log", 0))
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("the slip value is -inf for an input of zeros (the run at load)"),
+        "{e}"
+    );
+    // Sqrt of an angle: fine on zeros, NaN on the first negative dtheta
+    let model = OnnxModel::load(&elementwise(d, "Sqrt", 30)).unwrap();
+    let e = model.slip_values(&rows()).unwrap_err().to_string();
+    assert!(e.contains("the slip value is NaN at trial "), "{e}");
+    assert!(e.contains(", sensor ") && e.contains(", frame "), "{e}");
+    // online: the frame faults, never reads as static
+    let slip = SlipModel::Onnx(model);
+    let mut classifier = tmo::online::classify::FrameClassifier::new(&slip, 1);
+    // pin 0 moves right (angle 0), the others up (pi/2): pin 0's centred angle is
+    // negative, so its square root is NaN
+    let frame = |seq: u64, step: f32| tmo_hal::PinFrame {
+        sensor: 0,
+        seq,
+        time_s: seq as f64 / 60.0,
+        pins: (0..30)
+            .map(|i| {
+                if i == 0 {
+                    [step, 10.0]
+                } else {
+                    [3.0 * i as f32, 10.0 + step]
+                }
+            })
+            .collect(),
+    };
+    assert_eq!(classifier.classify(&frame(0, 0.0)), Ok(None));
+    assert_eq!(
+        classifier.classify(&frame(1, 1.0)),
+        Err(tmo::online::classify::BadOutput::Nan)
+    );
+}
+
+#[test]
+fn operators_are_looked_up_with_their_domain_and_newer_opsets_are_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    // a custom domain's operator named like a standard one is not that operator
+    let path = edited(d, "frame_mlp.onnx", |p| {
+        let graph = p.graph.as_mut().unwrap();
+        graph
+            .node
+            .iter_mut()
+            .find(|n| n.op_type == "Relu")
+            .unwrap()
+            .domain = "com.example".into();
+        p.opset_import.push(pb::OperatorSetIdProto {
+            domain: "com.example".into(),
+            version: 1,
+        });
+    });
+    let e = OnnxModel::load(&path).unwrap_err().to_string();
+    assert!(
+        e.contains("operator(s) Relu (com.example) not supported"),
+        "{e}"
+    );
+    // an operator set from the future
+    let path = edited(d, "frame_mlp.onnx", |p| {
+        p.opset_import[0].version = 99;
+    });
+    let e = OnnxModel::load(&path).unwrap_err().to_string();
+    assert!(
+        e.contains("operator set of `ai.onnx`: expected 1..=25") && e.contains("found 99"),
         "{e}"
     );
 }

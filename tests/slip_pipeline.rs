@@ -173,7 +173,7 @@ fn stricter_strategies_never_react_earlier_on_recorded_trials() {
     for trial in test {
         let reactions: Vec<_> = strategies
             .iter()
-            .map(|s| first_reaction(&model, 3, &trial.frames, *s))
+            .map(|s| first_reaction(&model, 3, &trial.frames, *s).unwrap())
             .collect();
         let times: Vec<Option<f64>> = reactions.iter().map(|r| r.map(|r| r.time_s)).collect();
         // "Earlier" in the order the frames reached the host, which is the order a strategy

@@ -21,7 +21,8 @@ pub struct ReplayArgs {
     /// Trial logs (.mcap) or directories of them (a batch directory works).
     #[arg(required = true)]
     trials: Vec<PathBuf>,
-    /// Model files to compare (none with --live: the trials are played, not replayed).
+    /// Models to compare: model files from `tmo train` or ONNX models (`.onnx`, docs/onnx.md);
+    /// none with --live (the trials are played, not replayed).
     #[arg(long = "model", required_unless_present = "live", num_args = 1..)]
     models: Vec<PathBuf>,
     /// Strategies as NFrMSen (or the short NxM), comma-separated (default: the paper's six; those needing
@@ -197,17 +198,25 @@ pub fn replay_with(
     json: bool,
     live: Option<super::live::LiveArgs>,
 ) -> Result<bool> {
-    let models: Vec<(String, String, SlipModel)> = model_paths
+    let loaded: Vec<(String, SlipModel)> = model_paths
         .iter()
         .map(|p| {
             let bytes = std::fs::read(p).with_context(|| format!("cannot read {}", p.display()))?;
-            Ok((
-                p.display().to_string(),
-                sha256_hex(&bytes),
-                SlipModel::load(p)?,
-            ))
+            Ok((sha256_hex(&bytes), SlipModel::load(p)?))
         })
         .collect::<Result<_>>()?;
+    // each model by its name in tables (`tmo.name`, else the file's stem), as `tmo run` names them
+    let names = tmo::slip::slip_model::unique_names(
+        model_paths
+            .iter()
+            .map(PathBuf::as_path)
+            .zip(loaded.iter().map(|(_, m)| m)),
+    );
+    let models: Vec<(String, String, SlipModel)> = names
+        .into_iter()
+        .zip(loaded)
+        .map(|(name, (sha256, model))| (name, sha256, model))
+        .collect();
     let paths = expand_trial_paths(trial_paths)?;
     anyhow::ensure!(!paths.is_empty(), "no trial logs (.mcap) found");
     // Each log is read once: hashed (a copy or a folder given twice is refused) and parsed.
@@ -224,7 +233,8 @@ pub fn replay_with(
             .map(PathBuf::as_path)
             .zip(read.iter().map(|(hash, _)| hash.as_str())),
     )?;
-    for (mpath, _, m) in &models {
+    for ((_, _, m), mpath) in models.iter().zip(model_paths) {
+        let mpath = mpath.display();
         let seen = read.iter().filter(|(h, _)| m.trained_on_log(h)).count();
         if seen > 0 {
             eprintln!(
@@ -257,7 +267,8 @@ pub fn replay_with(
         paths.len()
     );
     for (tpath, t) in &trials {
-        for (mpath, _, m) in &models {
+        for ((_, _, m), mpath) in models.iter().zip(model_paths) {
+            let mpath = mpath.display();
             if let Err(e) = m.fits(usize::from(t.meta.sensors), t.meta.pins) {
                 anyhow::bail!("{mpath} cannot replay {tpath}: {e}");
             }

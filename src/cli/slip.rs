@@ -170,7 +170,7 @@ fn parse_grid(text: &str) -> Result<GridValues, String> {
 
 #[derive(clap::Args)]
 pub struct EvaluateArgs {
-    /// The model file (from `tmo train`).
+    /// The model: a model file from `tmo train`, or an ONNX model (`.onnx`, docs/onnx.md).
     model: PathBuf,
     /// Trial logs (.mcap) or directories of them.
     #[arg(required = true)]
@@ -181,6 +181,52 @@ pub struct EvaluateArgs {
     /// Print the scores as JSON (the `--out` file's contents) instead of as text.
     #[arg(long)]
     json: bool,
+    /// Also write every row's slip value and class to this CSV (trial_id, sensor, seq,
+    /// time_s, label, value, class): the model's output as the online loop reads it (an
+    /// ONNX model's slip value, a tmo model's decision value), to check against another
+    /// runtime's.
+    #[arg(long, value_name = "FILE.csv")]
+    rows: Option<PathBuf>,
+    /// Score the trials a windowed model can classify and name the others (shorter than
+    /// its window), rather than refuse them all.
+    #[arg(long)]
+    skip_short: bool,
+}
+
+/// Every row's slip value and class as CSV (`tmo evaluate --rows`): a row without a full
+/// window has an empty value and class.
+fn write_row_values(
+    path: &std::path::Path,
+    data: &tmo::slip::dataset::Dataset,
+    values: &[Option<(f32, tmo::slip::Class)>],
+) -> Result<()> {
+    let file = tmo::output::atomic::AtomicFile::create(path)
+        .with_context(|| format!("cannot write {}", path.display()))?;
+    let mut w = csv::Writer::from_writer(file);
+    w.write_record([
+        "trial_id", "sensor", "seq", "time_s", "label", "value", "class",
+    ])?;
+    let name = |c: tmo::slip::Class| match c {
+        tmo::slip::Class::Slip => "slip",
+        tmo::slip::Class::Static => "static",
+    };
+    for (i, v) in values.iter().enumerate() {
+        w.write_record([
+            data.trial_ids[data.trial[i] as usize].clone(),
+            data.sensor[i].to_string(),
+            data.seq[i].to_string(),
+            format!("{:.6}", data.time_s[i]),
+            name(data.y[i]).to_string(),
+            // shortest text that reads back as the same f32
+            v.map_or(String::new(), |(value, _)| value.to_string()),
+            v.map_or(String::new(), |(_, class)| name(class).to_string()),
+        ])?;
+    }
+    w.into_inner()
+        .map_err(|e| anyhow::anyhow!("cannot write {}: {}", path.display(), e.error()))?
+        .commit()
+        .with_context(|| format!("cannot write {}", path.display()))?;
+    Ok(())
 }
 
 /// The first of `trials` (files or directories of them), read: what defaults that depend on
@@ -655,10 +701,43 @@ pub fn evaluate(args: EvaluateArgs) -> Result<()> {
     if let Some(why) = model.features().rate_differs(&features) {
         eprintln!("warning: {}: {why}", args.model.display());
     }
-    if let Err(why) = model.fits_trials(&ds) {
-        anyhow::bail!("{}: {why}", args.model.display());
-    }
+    let short = model.short_trials(&ds);
+    let ds = if short.is_empty() {
+        ds
+    } else if args.skip_short {
+        let names: Vec<&str> = short
+            .iter()
+            .map(|(t, _)| ds.trial_ids[*t as usize].as_str())
+            .collect();
+        eprintln!(
+            "warning: {}: {} trial(s) shorter than its window of {} frames are not scored (--skip-short): {}",
+            args.model.display(),
+            short.len(),
+            model.window(),
+            shortened(&names, 5)
+        );
+        let skip: std::collections::BTreeSet<u32> = short.iter().map(|(t, _)| *t).collect();
+        let kept = ds.filter(|i| !skip.contains(&ds.trial[i]));
+        anyhow::ensure!(
+            !kept.is_empty(),
+            "{}: every trial is shorter than its window of {} frames: nothing to score",
+            args.model.display(),
+            model.window()
+        );
+        kept
+    } else {
+        let why = model.fits_trials(&ds).err().unwrap_or_default();
+        anyhow::bail!(
+            "{}: {why} ({} trial(s) too short; --skip-short scores the others)",
+            args.model.display(),
+            short.len()
+        );
+    };
     let evaluated = model.evaluate(&ds)?;
+    if let Some(path) = &args.rows {
+        write_row_values(path, &ds, &model.row_values(&ds)?)?;
+        super::output::note(format!("wrote every row's value to {}", path.display()));
+    }
     let (overall, per_sensor) = (evaluated.overall, evaluated.per_sensor);
     if evaluated.rows_without_window > 0 {
         super::output::note(format!(

@@ -53,12 +53,43 @@ impl FeatureWindow {
     }
 }
 
-/// One classified frame: its class and the norm of its mean pin velocity (px per frame, the
-/// quantity the threshold classifier and the paper's pin-speed histogram use), for logs.
+/// One classified frame: its class, the model's value it was read from, and the norm of its
+/// mean pin velocity (px per frame, the quantity the threshold classifier and the paper's
+/// pin-speed histogram use), for logs.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Classified {
     pub class: Class,
+    /// The model's slip value: an ONNX model's output as its metadata states it, a tmo
+    /// model's decision value (positive for slip; the threshold's `v - T`).
+    pub value: f32,
     pub mean_velocity_px: f32,
+}
+
+/// A model's output that is no class: a non-finite value, or a run that failed. Online, it
+/// faults the trial; it is never read as static.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum BadOutput {
+    Nan,
+    PositiveInfinity,
+    NegativeInfinity,
+    /// The runtime failed on the frame (it ran on zeros at load, so this is not expected).
+    RunFailed,
+}
+
+impl BadOutput {
+    /// What a slip value that is not finite is.
+    pub fn of(value: f32) -> Option<Self> {
+        if value.is_nan() {
+            Some(BadOutput::Nan)
+        } else if value == f32::INFINITY {
+            Some(BadOutput::PositiveInfinity)
+        } else if value == f32::NEG_INFINITY {
+            Some(BadOutput::NegativeInfinity)
+        } else {
+            None
+        }
+    }
 }
 
 impl<'m> FrameClassifier<'m> {
@@ -72,27 +103,43 @@ impl<'m> FrameClassifier<'m> {
         }
     }
 
-    /// The class of `frame`, or `None` when it cannot be classified: a sensor's first frame,
-    /// a frame whose pins do not match, a sensor the model has no classifier for, a frame
-    /// before a windowed model's window is full, or an ONNX model that failed to run.
-    pub fn classify(&mut self, frame: &PinFrame) -> Option<Class> {
+    /// The class of `frame` and the value it was read from, or `None` when it cannot be
+    /// classified: a sensor's first frame, a frame whose pins do not match, a sensor the
+    /// model has no classifier for, a frame before a windowed model's window is full. A
+    /// model that gives no finite value is an error.
+    pub fn classify(&mut self, frame: &PinFrame) -> Result<Option<(Class, f32)>, BadOutput> {
         let sensor = usize::from(frame.sensor);
-        let slot = self.previous.get_mut(sensor)?;
-        let previous = slot.replace(frame.clone())?;
+        let Some(slot) = self.previous.get_mut(sensor) else {
+            return Ok(None);
+        };
+        let Some(previous) = slot.replace(frame.clone()) else {
+            return Ok(None);
+        };
         if frame_features(self.model.features(), &previous, frame, &mut self.features).is_err() {
             self.windows[sensor].reset();
-            return None;
+            return Ok(None);
         }
         match self.model {
             SlipModel::Tmo(m) => {
-                let model = m.for_sensor(frame.sensor)?;
-                Some(model.predict(&self.features, &mut self.scratch))
+                let Some(model) = m.for_sensor(frame.sensor) else {
+                    return Ok(None);
+                };
+                let decision = model.decision(&self.features, &mut self.scratch);
+                Ok(Some((model.class_of(decision), decision as f32)))
             }
             SlipModel::Onnx(m) => {
-                let window = self.windows[sensor].push(frame.seq, &self.features, m.meta.window)?;
-                // The model was run once on load; a failure here is not expected, and
-                // counts as no class rather than stopping the control loop.
-                m.slip_value(window).ok().map(|v| m.class_of(v))
+                let Some(window) =
+                    self.windows[sensor].push(frame.seq, &self.features, m.meta.window)
+                else {
+                    return Ok(None);
+                };
+                match m.slip_value(window) {
+                    Ok(v) => Ok(Some((m.class_of(v), v))),
+                    Err(crate::slip::onnx::OnnxError::NonFinite { value, .. }) => {
+                        Err(BadOutput::of(value).unwrap_or(BadOutput::RunFailed))
+                    }
+                    Err(_) => Err(BadOutput::RunFailed),
+                }
             }
         }
     }
@@ -100,12 +147,12 @@ impl<'m> FrameClassifier<'m> {
     /// Like [`Self::classify`], with the frame's mean pin velocity beside the class (from
     /// the features `classify` just computed: replays, which need only the class, do not
     /// pay for it).
-    pub fn classify_frame(&mut self, frame: &PinFrame) -> Option<Classified> {
-        let class = self.classify(frame)?;
-        Some(Classified {
+    pub fn classify_frame(&mut self, frame: &PinFrame) -> Result<Option<Classified>, BadOutput> {
+        Ok(self.classify(frame)?.map(|(class, value)| Classified {
             class,
+            value,
             mean_velocity_px: mean_velocity_norm(&self.features),
-        })
+        }))
     }
 }
 
@@ -123,19 +170,22 @@ pub fn first_reaction(
     sensors: usize,
     frames: &[PinFrame],
     strategy: Strategy,
-) -> Option<Reaction> {
+) -> Result<Option<Reaction>, BadOutput> {
     let mut classifier = FrameClassifier::new(model, sensors);
     let mut detector = Detector::new(strategy, sensors);
-    frames.iter().find_map(|f| {
-        let class = classifier.classify(f)?;
-        detector
-            .observe(usize::from(f.sensor), class)
-            .then_some(Reaction {
+    for f in frames {
+        let Some((class, _)) = classifier.classify(f)? else {
+            continue;
+        };
+        if detector.observe(usize::from(f.sensor), class) {
+            return Ok(Some(Reaction {
                 time_s: f.time_s,
                 sensor: f.sensor,
                 seq: f.seq,
-            })
-    })
+            }));
+        }
+    }
+    Ok(None)
 }
 
 #[cfg(test)]

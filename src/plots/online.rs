@@ -352,6 +352,7 @@ mod tests {
             trial_id: "t".into(),
             object: "crisps_can".into(),
             grasp_deg: grasp,
+            model: "svm".into(),
             scope: scope.into(),
             strategy: strategy.into(),
             verdict: v,

@@ -19,6 +19,36 @@ fn group<'r, R, K: Ord>(rows: &[&'r R], key: impl Fn(&R) -> K) -> BTreeMap<K, Ve
     cells
 }
 
+/// A table of `rows` built by `build`, one block of rows per model: where the rows come
+/// from more than one model (a protocol's `models`, or batches of several), each block is
+/// built from its model's rows alone and a leading `model` column names it, so no count
+/// pools two models' trials.
+fn per_model<R>(rows: &[&R], model: impl Fn(&R) -> &str, build: impl Fn(&[&R]) -> Table) -> Table {
+    let models = group(rows, |r| model(r).to_string());
+    if models.len() <= 1 {
+        return build(rows);
+    }
+    let mut out: Option<Table> = None;
+    for (name, rs) in models {
+        let block = build(&rs);
+        let t = out.get_or_insert_with(|| {
+            let mut t = Table::new(&block.name, &block.title, &[]);
+            t.columns = std::iter::once("model".to_string())
+                .chain(block.columns.iter().cloned())
+                .collect();
+            t
+        });
+        for row in block.rows {
+            t.push(
+                std::iter::once(Cell::text(name.clone()))
+                    .chain(row)
+                    .collect(),
+            );
+        }
+    }
+    out.expect("two or more models")
+}
+
 fn rate(rows: &[&OutcomeRow], keep: impl Fn(&OutcomeRow) -> bool) -> Cell {
     Cell::Rate {
         count: rows.iter().filter(|r| keep(r)).count() as u64,
@@ -244,9 +274,18 @@ pub fn rail(inputs: &Inputs) -> Option<Table> {
         Kind::RailCatch,
         "Slip rail: catching a sliding object",
     )?;
+    Some(per_model(
+        &rows,
+        |r| &r.model,
+        |rows| rail_table(rows, &title),
+    ))
+}
+
+/// [`rail`]'s table of `rows`.
+fn rail_table(rows: &[&OutcomeRow], title: &str) -> Table {
     let mut t = Table::new(
         "rail_catch",
-        &title,
+        title,
         &[
             "N frames",
             "trials",
@@ -258,7 +297,7 @@ pub fn rail(inputs: &Inputs) -> Option<Table> {
         ],
     );
     let frames = |r: &OutcomeRow| r.strategy.parse::<Strategy>().map_or(0, |s| s.frames);
-    for (n, rs) in group(&rows, frames) {
+    for (n, rs) in group(rows, frames) {
         t.push(vec![
             Cell::Count(u64::from(n)),
             Cell::Count(rs.len() as u64),
@@ -269,7 +308,7 @@ pub fn rail(inputs: &Inputs) -> Option<Table> {
             Cell::mean_sd(&distances(&rs), 1),
         ]);
     }
-    Some(t)
+    t
 }
 
 fn catch_row(label: [String; 3], rs: &[&OutcomeRow]) -> Vec<Cell> {
@@ -293,7 +332,11 @@ pub fn hand_online(inputs: &Inputs) -> Option<Table> {
         Kind::HandRelease,
         "Whole hand: online release and regrasp",
     )?;
-    Some(hand_online_table(&rows, &title))
+    Some(per_model(
+        &rows,
+        |r| &r.model,
+        |rows| hand_online_table(rows, &title),
+    ))
 }
 
 /// [`hand_online`]'s table of `rows`.
@@ -358,12 +401,20 @@ pub fn object_label(r: &OutcomeRow) -> String {
 /// object | strategy | TP | FP | FN (whole-hand trials, all scopes and grasps).
 pub fn per_object(inputs: &Inputs) -> Option<Table> {
     let (rows, title) = completed_catches(inputs, Kind::HandRelease, "Whole hand: per object")?;
+    Some(per_model(
+        &rows,
+        |r| &r.model,
+        |rows| per_object_table(rows, &title),
+    ))
+}
+
+fn per_object_table(rows: &[&OutcomeRow], title: &str) -> Table {
     let mut t = Table::new(
         "hand_objects",
-        &title,
+        title,
         &["object", "strategy", "TP", "FP", "FN", "held no slip"],
     );
-    for ((object, strategy), rs) in group(&rows, |r| (object_label(r), r.strategy.clone())) {
+    for ((object, strategy), rs) in group(rows, |r| (object_label(r), r.strategy.clone())) {
         t.push(vec![
             Cell::text(object),
             Cell::text(strategy),
@@ -373,7 +424,7 @@ pub fn per_object(inputs: &Inputs) -> Option<Table> {
             rate(&rs, verdict(Verdict::HeldNoSlip)),
         ]);
     }
-    Some(t)
+    t
 }
 
 /// kind | trials with ground truth | marker verdict agrees (simulated catch trials only).
@@ -405,12 +456,20 @@ pub fn truth_agreement(inputs: &Inputs) -> Option<Table> {
 pub fn rice_pour(inputs: &Inputs) -> Option<Table> {
     let (rows, title) =
         completed_catches(inputs, Kind::RicePour, "Grasp destabilisation: rice pour")?;
+    Some(per_model(
+        &rows,
+        |r| &r.model,
+        |rows| rice_pour_table(rows, &title),
+    ))
+}
+
+fn rice_pour_table(rows: &[&OutcomeRow], title: &str) -> Table {
     let mut t = Table::new(
         "rice_pour",
-        &title,
+        title,
         &["object", "strategy", "trials", "responses", "dropped"],
     );
-    for ((object, strategy), rs) in group(&rows, |r| (r.object.clone(), r.strategy.clone())) {
+    for ((object, strategy), rs) in group(rows, |r| (r.object.clone(), r.strategy.clone())) {
         let responses: Vec<f64> = rs.iter().map(|r| r.responses as f64).collect();
         t.push(vec![
             Cell::text(object),
@@ -420,7 +479,7 @@ pub fn rice_pour(inputs: &Inputs) -> Option<Table> {
             rate(&rs, |r| r.dropped),
         ]);
     }
-    Some(t)
+    t
 }
 
 /// object | added mass | trials | found | g_cont | g_min | g_min - g_cont.
@@ -469,9 +528,17 @@ pub fn calibration(inputs: &Inputs) -> Option<Table> {
 /// object | added mass | trials | success | slips | lag | overgrasp, as the paper's Fig. 13.
 pub fn first_time_lift(inputs: &Inputs) -> Option<Table> {
     let (rows, title) = completed(inputs.lift_rows(), |r| r.fault.is_some(), "First-time lift")?;
+    Some(per_model(
+        &rows,
+        |r| &r.model,
+        |rows| first_time_lift_table(rows, &title),
+    ))
+}
+
+fn first_time_lift_table(rows: &[&crate::runner::score::LiftRow], title: &str) -> Table {
     let mut t = Table::new(
         "first_time_lift",
-        &title,
+        title,
         &[
             "object",
             "added mass (g)",
@@ -482,7 +549,7 @@ pub fn first_time_lift(inputs: &Inputs) -> Option<Table> {
             "overgrasp (%)",
         ],
     );
-    for ((object, mass), rs) in group(&rows, |r| (r.object.clone(), r.mass_g.to_bits())) {
+    for ((object, mass), rs) in group(rows, |r| (r.object.clone(), r.mass_g.to_bits())) {
         let slips: Vec<f64> = rs.iter().map(|r| r.slips as f64).collect();
         let lag: Vec<f64> = rs.iter().filter_map(|r| r.lag_mm).collect();
         let over: Vec<f64> = rs
@@ -503,7 +570,7 @@ pub fn first_time_lift(inputs: &Inputs) -> Option<Table> {
             Cell::mean_sd(&over, 0),
         ]);
     }
-    Some(t)
+    t
 }
 
 #[cfg(test)]
@@ -521,6 +588,7 @@ mod tests {
             trial_id: "t".into(),
             object: object.into(),
             grasp_deg: 0.0,
+            model: "svm".into(),
             scope: "global".into(),
             strategy: "2Fr2Sen".into(),
             verdict: v,

@@ -144,6 +144,18 @@ pub fn check_models_fit_rig(
     pins: usize,
 ) -> Result<(), BatchError> {
     for (path, (model, _)) in plan.models.iter().zip(models) {
+        // every fingertip of the rig (the simulator's and the real hand's TacTips) tracks
+        // pins in image pixels: a model made for other units would read nonsense
+        let units = model.features().units;
+        if units != crate::slip::features::Units::Px {
+            return Err(BatchError::ModelDoesNotFitRig {
+                path: path.clone(),
+                message: format!(
+                    "the model reads features in {}, but this rig's fingertips report pins in px; export a model for this rig's frames",
+                    units.name()
+                ),
+            });
+        }
         model
             .fits(sensors, pins)
             .map_err(|message| BatchError::ModelDoesNotFitRig {

@@ -54,6 +54,12 @@ pub enum Fault {
     NoContact {
         deformation_px: f64,
     },
+    /// The slip model gave no class for a frame (a non-finite value): never read as static.
+    ModelOutput {
+        sensor: u8,
+        seq: u64,
+        output: crate::online::classify::BadOutput,
+    },
 }
 
 /// The model and strategy of an online trial.

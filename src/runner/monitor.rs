@@ -124,8 +124,18 @@ impl<'m> FrameMonitor<'m> {
         };
         for f in frames {
             // Every frame is classified so each sensor has its previous frame ready.
-            let Some(classified) = c.classify_frame(f) else {
-                continue;
+            let classified = match c.classify_frame(f) {
+                Ok(Some(classified)) => classified,
+                Ok(None) => continue,
+                Err(output) => {
+                    let fault = Fault::ModelOutput {
+                        sensor: f.sensor,
+                        seq: f.seq,
+                        output,
+                    };
+                    events.push(event(now, "/fault", json!(fault)));
+                    return Verdict::Abort(fault);
+                }
             };
             let class = classified.class;
             // 4 decimals (0.1 mpx/frame, far below the pins' noise): the log stays small
@@ -136,6 +146,7 @@ impl<'m> FrameMonitor<'m> {
                 // the class as a label and as a number a plot can draw
                 json!({"sensor": f.sensor, "seq": f.seq, "class": class,
                        "slip": u8::from(class == crate::slip::Class::Slip),
+                       "value": classified.value,
                        "mean_velocity_px": speed}),
             ));
             if armed && d.observe(usize::from(f.sensor), class) {

@@ -15,6 +15,10 @@ pub struct OutcomeRow {
     pub trial_id: String,
     pub object: String,
     pub grasp_deg: f64,
+    /// The slip model's name (`tmo.name`, else its file's stem): each of a protocol's
+    /// models is kept apart in every table.
+    #[serde(default = "no_model")]
+    pub model: String,
     pub scope: String,
     pub strategy: String,
     pub verdict: Verdict,
@@ -57,6 +61,7 @@ pub fn score_trial(trial: &Trial, spec: &CatchSpec) -> OutcomeRow {
         trial_id: trial.meta.trial_id.clone(),
         object: trial.meta.object.clone(),
         grasp_deg: trial.meta.grasp_deg,
+        model: model_name(trial),
         scope: param("scope").unwrap_or_else(|| "-".into()),
         strategy: param("strategy").unwrap_or_else(|| "-".into()),
         verdict: o.verdict,
@@ -71,6 +76,30 @@ pub fn score_trial(trial: &Trial, spec: &CatchSpec) -> OutcomeRow {
         extra_mass_g: mass(trial),
     }
 }
+
+/// What a row without a model says (a collect trial, or an outcome file from before models
+/// were named).
+fn no_model() -> String {
+    "-".into()
+}
+
+/// The name of the model a trial ran: as the batch named it, else (a log from before
+/// names were recorded) its file's stem.
+pub fn model_name(trial: &Trial) -> String {
+    param(trial, MODEL_NAME_PARAMETER)
+        .or_else(|| {
+            let path = param(trial, "model")?;
+            Some(
+                Path::new(&path)
+                    .file_stem()
+                    .map_or(path.clone(), |s| s.to_string_lossy().into_owned()),
+            )
+        })
+        .unwrap_or_else(no_model)
+}
+
+/// The trial parameter that names the model it ran, as its batch's tables name it.
+pub const MODEL_NAME_PARAMETER: &str = "model_name";
 
 fn param(trial: &Trial, key: &str) -> Option<String> {
     trial.meta.parameters.get(key).cloned()
@@ -104,6 +133,8 @@ pub struct LiftRow {
     pub trial_id: String,
     pub object: String,
     pub mass_g: f64,
+    #[serde(default = "no_model")]
+    pub model: String,
     pub scope: String,
     pub strategy: String,
     pub success: bool,
@@ -173,6 +204,7 @@ pub fn score_first_time_lift(
         trial_id: trial.meta.trial_id.clone(),
         object: trial.meta.object.clone(),
         mass_g,
+        model: model_name(trial),
         scope: param(trial, "scope").unwrap_or_else(|| "-".into()),
         strategy: param(trial, "strategy").unwrap_or_else(|| "-".into()),
         success,

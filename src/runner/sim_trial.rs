@@ -329,6 +329,13 @@ pub(crate) fn finish_trial(
     }
     if let Some(m) = planned.model {
         put("model", plan.models[m].display().to_string());
+        let names = crate::slip::slip_model::unique_names(
+            plan.models
+                .iter()
+                .map(std::path::PathBuf::as_path)
+                .zip(models.iter().map(|(model, _)| model)),
+        );
+        put(super::score::MODEL_NAME_PARAMETER, names[m].clone());
         put("scope", format!("{:?}", models[m].0.scope()).to_lowercase());
     }
     if let Some(a) = record.armed_s {

@@ -170,6 +170,22 @@ pub struct LabelSpec {
     pub onset: OnsetSpec,
 }
 
+impl LabelSpec {
+    /// Whether the labels' numbers are ones the labeller can work with: every model (a
+    /// file of tmo's own or an ONNX model's `tmo.labels`) is checked here. The error names
+    /// the field within the spec and what was expected.
+    pub fn check(&self) -> Result<(), (&'static str, String)> {
+        let max = super::labels::MAX_N_SLIP;
+        if !(1..=max).contains(&self.n_slip) {
+            return Err((
+                "n_slip",
+                format!("expected 1..={max} slip frames, got {}", self.n_slip),
+            ));
+        }
+        self.onset.check().map_err(|why| ("onset", why))
+    }
+}
+
 /// A training trial, by id and content hash.
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct TrialRef {

@@ -112,7 +112,38 @@ impl std::fmt::Display for RateSpread {
     }
 }
 
+/// Fastest frame rate a feature spec may state, Hz: ten times the fastest tactile sensors
+/// (magnetic taxels at about 1 kHz); beyond it a rate is a mistake (a period in ms, say).
+pub const MAX_FRAME_RATE_HZ: f32 = 10_000.0;
+
 impl FeatureSpec {
+    /// Whether the spec's numbers are ones features can be computed with: every model (a
+    /// file of tmo's own or an ONNX model's `tmo.features`) is checked here. The error
+    /// names the field within the spec and what was expected.
+    pub fn check(&self) -> Result<(), (&'static str, String)> {
+        if !(1..=100_000).contains(&self.pins) {
+            return Err((
+                "pins",
+                format!("expected 1..=100000 pins, got {}", self.pins),
+            ));
+        }
+        if !(self.max_pin_step_px.is_finite() && self.max_pin_step_px > 0.0) {
+            return Err((
+                "max_pin_step_px",
+                format!("expected a positive number, got {}", self.max_pin_step_px),
+            ));
+        }
+        if let Some(rate) = self.frame_rate_hz {
+            if !(rate.is_finite() && rate > 0.0 && rate <= MAX_FRAME_RATE_HZ) {
+                return Err((
+                    "frame_rate_hz",
+                    format!("expected the frames' rate in Hz, above 0 and at most {MAX_FRAME_RATE_HZ}, got {rate}"),
+                ));
+            }
+        }
+        Ok(())
+    }
+
     pub fn new(pins: usize) -> Self {
         Self {
             pins,

@@ -15,6 +15,7 @@ pub mod slip_model;
 pub mod sweep;
 pub mod sweep_file;
 pub mod threshold;
+pub mod trees;
 pub mod tuning;
 pub mod warm;
 

@@ -186,7 +186,7 @@ impl SensorModel {
     }
 
     /// The class a decision value means.
-    fn class_of(&self, decision: f64) -> Class {
+    pub fn class_of(&self, decision: f64) -> Class {
         let slip = match self.classifier {
             Classifier::Threshold(_) => decision >= 0.0,
             _ => decision > 0.0,
@@ -497,30 +497,11 @@ impl ModelFile {
             return bad("version".into(), "expected 1 or more, got 0".into());
         }
         let f = &self.features;
-        if !(1..=100_000).contains(&f.pins) {
-            return bad(
-                "features.pins".into(),
-                format!("expected 1..=100000 pins, got {}", f.pins),
-            );
+        if let Err((field, why)) = f.check() {
+            return bad(format!("features.{field}"), why);
         }
-        if !(f.max_pin_step_px.is_finite() && f.max_pin_step_px > 0.0) {
-            return bad(
-                "features.max_pin_step_px".into(),
-                format!("expected a positive number, got {}", f.max_pin_step_px),
-            );
-        }
-        let n_slip = self.labels.n_slip;
-        if !(1..=super::labels::MAX_N_SLIP).contains(&n_slip) {
-            return bad(
-                "labels.n_slip".into(),
-                format!(
-                    "expected 1..={} slip frames, got {n_slip}",
-                    super::labels::MAX_N_SLIP
-                ),
-            );
-        }
-        if let Err(why) = self.labels.onset.check() {
-            return bad("labels.onset".into(), why);
+        if let Err((field, why)) = self.labels.check() {
+            return bad(format!("labels.{field}"), why);
         }
         if !(self.downsample.is_finite() && self.downsample > 0.0 && self.downsample <= 1.0) {
             return bad(

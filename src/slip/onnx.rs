@@ -37,7 +37,7 @@ pub enum OnnxError {
     },
     #[error("{path}: not an ONNX model ({message})")]
     Decode { path: String, message: String },
-    #[error("{path}: operator(s) {} not supported by tmo's ONNX runtime (tract {}): it runs the standard ONNX operators and, of ai.onnx.ml, LinearClassifier, LinearRegressor, Normalizer, TreeEnsembleClassifier and CategoryMapper; export the model without them (docs/onnx.md: a scikit-learn SVC's decision function as standard operators, say)", .operators.join(", "), TRACT_VERSION)]
+    #[error("{path}: operator(s) {} not supported by tmo's ONNX runtime (tract {}): it runs the standard ONNX operators and, of ai.onnx.ml, ArrayFeatureExtractor, CategoryMapper, LinearClassifier, LinearRegressor, Normalizer and TreeEnsembleClassifier; export the model without them (docs/onnx.md: a scikit-learn SVC's decision function as standard operators, say)", .operators.join(", "), TRACT_VERSION)]
     UnsupportedOperators {
         path: String,
         operators: Vec<String>,
@@ -48,6 +48,21 @@ pub enum OnnxError {
         field: String,
         expected: String,
         found: String,
+    },
+    #[error(
+        "{path}: metadata `{key}`, `{field}`: {message} (the same check as a tmo model file's)"
+    )]
+    MetadataValue {
+        path: String,
+        key: String,
+        field: String,
+        message: String,
+    },
+    #[error("{path}: the slip value is {value}{at}: a model's output must be a finite number (a non-finite value is neither slip nor static)")]
+    NonFinite {
+        path: String,
+        value: f32,
+        at: String,
     },
     #[error("{path}: {what}: expected {expected}, found {found}")]
     Shape {
@@ -77,22 +92,144 @@ pub struct OnnxMeta {
     /// The output that says slip, and the column of its last axis that does.
     pub slip_output: String,
     pub slip_column: usize,
+    /// Which row of that output is the frame's: the batch's one row, or (for a windowed
+    /// model that gives one row per frame of its window) the newest frame's.
+    pub output_rows: OutputRows,
     /// Slip where that value is at least this (a probability's 0.5, a class label's 1).
     pub threshold: f32,
     /// What the model is, for tables (`tmo.name`, else the file's stem).
     pub name: String,
 }
 
+/// How a model's slip output is laid out (`tmo.output_rows`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum OutputRows {
+    /// One row for the batch of one: `[1]`, `[1, 1]` or `[1, C]` (`one`, the default).
+    One,
+    /// One row per frame of the window, oldest first: `[1, K]` or `[1, K, C]`; the newest
+    /// frame's row is the frame's value (`per_frame`).
+    PerFrame,
+}
+
+impl OutputRows {
+    pub fn name(self) -> &'static str {
+        match self {
+            OutputRows::One => "one",
+            OutputRows::PerFrame => "per_frame",
+        }
+    }
+}
+
+/// The slip value in an output of `shape` (its values row-major), as `rows` and `column`
+/// say the model lays it out for a batch of one; `window` is K. Any other shape is an error
+/// that says what was expected: a flattened output read at its first row would score a
+/// model that answers for its newest frame by its oldest.
+pub fn slip_value_in(
+    shape: &[usize],
+    values: &[f32],
+    rows: OutputRows,
+    column: usize,
+    window: usize,
+) -> Result<f32, String> {
+    let at = match (rows, shape) {
+        (OutputRows::One, [1]) if column == 0 => Some(0),
+        (OutputRows::One, [1, c]) if column < *c => Some(column),
+        (OutputRows::PerFrame, [1, k]) if *k == window && column == 0 => Some(k - 1),
+        (OutputRows::PerFrame, [1, k, c]) if *k == window && column < *c => {
+            Some((k - 1) * c + column)
+        }
+        _ => None,
+    };
+    at.and_then(|i| values.get(i).copied()).ok_or_else(|| {
+        let expected = match rows {
+            OutputRows::One => format!(
+                "one row for the batch of one with column {column} (tmo.slip_column): [1]{}, or [1, C] with C > {column}",
+                if column == 0 { ", [1, 1]" } else { "" }
+            ),
+            OutputRows::PerFrame => format!(
+                "one row per frame of the window (tmo.output_rows = per_frame): [1, {window}]{} or [1, {window}, C] with C > {column}",
+                if column == 0 { "" } else { " (column 0 only)" }
+            ),
+        };
+        format!("{expected}; found shape {shape:?}")
+    })
+}
+
 type Plan = Arc<TypedRunnableModel>;
+
+/// What runs a model: tract, or (a graph that is one tree ensemble) tmo's own evaluator.
+#[derive(Debug, Clone)]
+enum Engine {
+    Tract {
+        plan: Plan,
+        /// Index of the slip output among the graph's outputs.
+        output: usize,
+    },
+    Trees {
+        ensemble: Arc<super::trees::TreeEnsemble>,
+        /// Whether the slip output is the ensemble's probabilities (else its label).
+        probabilities: bool,
+    },
+}
+
+impl Engine {
+    /// The engine's name, for the cost said at load.
+    pub fn name(&self) -> &'static str {
+        match self {
+            Engine::Tract { .. } => "tract",
+            Engine::Trees { .. } => "tmo's tree evaluator",
+        }
+    }
+}
 
 /// A loaded ONNX slip model, ready to classify.
 #[derive(Debug, Clone)]
 pub struct OnnxModel {
     pub path: PathBuf,
     pub meta: OnnxMeta,
-    plan: Plan,
-    /// Index of the slip output among the graph's outputs.
-    output: usize,
+    engine: Engine,
+}
+
+/// The tree ensemble a graph is, if it is one tmo evaluates itself: a single
+/// `TreeEnsembleClassifier` on the graph's input, its outputs passed on directly or through
+/// `Identity` nodes. `slip_output` names the graph output read; the flag says whether it is
+/// the probabilities (the node's second output) rather than the label.
+fn tree_engine(graph: &pb::GraphProto, input: &str, slip_output: &str) -> Option<Engine> {
+    let trees: Vec<&pb::NodeProto> = graph
+        .node
+        .iter()
+        .filter(|n| n.op_type == "TreeEnsembleClassifier")
+        .collect();
+    let [tree] = trees.as_slice() else {
+        return None;
+    };
+    let others_are_identities = graph
+        .node
+        .iter()
+        .all(|n| n.op_type == "Identity" || n.op_type == "TreeEnsembleClassifier");
+    if domain_name(&tree.domain) != "ai.onnx.ml"
+        || !others_are_identities
+        || tree.input.as_slice() != [input.to_string()]
+    {
+        return None;
+    }
+    // follow Identity nodes back from the slip output to one of the tree's outputs
+    let mut name = slip_output.to_string();
+    for _ in 0..=graph.node.len() {
+        if let Some(k) = tree.output.iter().position(|o| *o == name) {
+            let ensemble = super::trees::TreeEnsemble::from_node(tree).ok()?;
+            return Some(Engine::Trees {
+                ensemble: Arc::new(ensemble),
+                probabilities: k == 1,
+            });
+        }
+        let step = graph
+            .node
+            .iter()
+            .find(|n| n.op_type == "Identity" && n.output.first() == Some(&name))?;
+        name = step.input.first()?.clone();
+    }
+    None
 }
 
 impl OnnxModel {
@@ -115,6 +252,7 @@ impl OnnxModel {
             path: p.clone(),
             message: "no graph".into(),
         })?;
+        check_opsets(&p, &proto.opset_import)?;
         let unsupported = unsupported_operators(graph, &onnx);
         if !unsupported.is_empty() {
             return Err(OnnxError::UnsupportedOperators {
@@ -122,11 +260,7 @@ impl OnnxModel {
                 operators: unsupported,
             });
         }
-        let props: BTreeMap<&str, &str> = proto
-            .metadata_props
-            .iter()
-            .map(|e| (e.key.as_str(), e.value.as_str()))
-            .collect();
+        let props = metadata_props(&p, &proto.metadata_props)?;
         let meta = read_meta(&p, path, &props)?;
         let input = only_input(&p, graph)?;
         check_input_shape(&p, input, &meta)?;
@@ -148,34 +282,56 @@ impl OnnxModel {
                 ),
                 found: format!("`{}`", meta.slip_output),
             })?;
-        let runtime = |e: TractError| OnnxError::Runtime {
-            path: p.clone(),
-            message: format!("{e:#}"),
+        let engine = match tree_engine(graph, &input.name, &meta.slip_output) {
+            Some(trees) if meta.window == 1 => trees,
+            _ => {
+                let runtime = |e: TractError| OnnxError::Runtime {
+                    path: p.clone(),
+                    message: format!("{e:#}"),
+                };
+                let shape: TVec<usize> = if meta.window == 1 {
+                    tvec![1, meta.features.len()]
+                } else {
+                    tvec![1, meta.window, meta.features.len()]
+                };
+                let plan = onnx
+                    .model_for_proto_model(&proto)
+                    .map_err(runtime)?
+                    .with_input_fact(0, f32::fact(shape).into())
+                    .map_err(runtime)?
+                    .into_optimized()
+                    .map_err(runtime)?
+                    .into_runnable()
+                    .map_err(runtime)?;
+                Engine::Tract { plan, output }
+            }
         };
-        let shape: TVec<usize> = if meta.window == 1 {
-            tvec![1, meta.features.len()]
-        } else {
-            tvec![1, meta.window, meta.features.len()]
-        };
-        let plan = onnx
-            .model_for_proto_model(&proto)
-            .map_err(runtime)?
-            .with_input_fact(0, f32::fact(shape).into())
-            .map_err(runtime)?
-            .into_optimized()
-            .map_err(runtime)?
-            .into_runnable()
-            .map_err(runtime)?;
+        if let Engine::Trees { ensemble, .. } = &engine {
+            if ensemble.features_read > meta.features.len() {
+                return Err(OnnxError::Shape {
+                    path: p,
+                    what: "the tree ensemble's features".into(),
+                    expected: format!("at most {} (tmo.features)", meta.features.len()),
+                    found: format!("a node reading feature {}", ensemble.features_read - 1),
+                });
+            }
+        }
         let model = OnnxModel {
             path: path.to_path_buf(),
             meta,
-            plan,
-            output,
+            engine,
         };
         // One run on zeros: an output too narrow for the slip column, or a graph that fails
         // at run time, is refused here rather than at the first frame of a trial.
         let zeros = vec![0.0; model.input_len()];
-        model.slip_value(&zeros)?;
+        model.slip_value(&zeros).map_err(|e| match e {
+            OnnxError::NonFinite { path, value, .. } => OnnxError::NonFinite {
+                path,
+                value,
+                at: " for an input of zeros (the run at load)".into(),
+            },
+            e => e,
+        })?;
         Ok(model)
     }
 
@@ -193,18 +349,32 @@ impl OnnxModel {
         } else {
             vec![1, self.meta.window, self.meta.features.len()]
         };
+        let (plan, output) = match &self.engine {
+            Engine::Tract { plan, output } => (plan, *output),
+            Engine::Trees {
+                ensemble,
+                probabilities,
+            } => {
+                let out = ensemble.evaluate(input);
+                let (shape, values) = if *probabilities {
+                    (vec![1, out.probabilities.len()], out.probabilities)
+                } else {
+                    (vec![1], vec![out.label as f32])
+                };
+                return self.checked_value(&shape, &values);
+            }
+        };
         let tensor = Tensor::from_shape(&shape, input).map_err(|e| OnnxError::Runtime {
             path: p(),
             message: e.to_string(),
         })?;
-        let outputs = self
-            .plan
+        let outputs = plan
             .run(tvec![tensor.into()])
             .map_err(|e| OnnxError::Runtime {
                 path: p(),
                 message: format!("{e:#}"),
             })?;
-        let out = outputs[self.output]
+        let out = outputs[output]
             .cast_to::<f32>()
             .map_err(|e| OnnxError::Runtime {
                 path: p(),
@@ -216,20 +386,42 @@ impl OnnxModel {
                 path: p(),
                 message: e.to_string(),
             })?;
-        // a batch of one: the slip column of its row, whatever the output's rank
-        let values: Vec<f32> = view.iter().copied().collect();
-        values
-            .get(self.meta.slip_column)
-            .copied()
-            .ok_or_else(|| OnnxError::Shape {
+        let values = view.as_slice().map_or_else(
+            || view.iter().copied().collect::<Vec<f32>>(),
+            <[f32]>::to_vec,
+        );
+        self.checked_value(out.shape(), &values)
+    }
+
+    /// What runs the model: `tract`, or tmo's own tree evaluator.
+    pub fn engine(&self) -> &'static str {
+        self.engine.name()
+    }
+
+    /// The slip value in an output of `shape`, checked: where the metadata says, and finite.
+    fn checked_value(&self, shape: &[usize], values: &[f32]) -> Result<f32, OnnxError> {
+        let p = || self.path.display().to_string();
+        let value = slip_value_in(
+            shape,
+            values,
+            self.meta.output_rows,
+            self.meta.slip_column,
+            self.meta.window,
+        )
+        .map_err(|found| OnnxError::Shape {
+            path: p(),
+            what: format!("output `{}`", self.meta.slip_output),
+            expected: "the slip value where tmo.output_rows and tmo.slip_column say".into(),
+            found,
+        })?;
+        if !value.is_finite() {
+            return Err(OnnxError::NonFinite {
                 path: p(),
-                what: format!("output `{}`", self.meta.slip_output),
-                expected: format!(
-                    "a column {} (tmo.slip_column) in its one row",
-                    self.meta.slip_column
-                ),
-                found: format!("{} value(s), shape {:?}", values.len(), out.shape()),
-            })
+                value,
+                at: String::new(),
+            });
+        }
+        Ok(value)
     }
 
     /// The class a slip value means.
@@ -253,7 +445,17 @@ impl OnnxModel {
                 if !windows.fill(data, i, &mut input) {
                     return Ok(None);
                 }
-                self.slip_value(&input).map(Some)
+                self.slip_value(&input).map(Some).map_err(|e| match e {
+                    OnnxError::NonFinite { path, value, .. } => OnnxError::NonFinite {
+                        path,
+                        value,
+                        at: format!(
+                            " at trial {}, sensor {}, frame {}",
+                            data.trial_ids[data.trial[i] as usize], data.sensor[i], data.seq[i]
+                        ),
+                    },
+                    e => e,
+                })
             })
             .collect()
     }
@@ -314,18 +516,73 @@ impl Windows {
     }
 }
 
-/// The operators of `graph` (and of its subgraphs) that tract does not implement, each
-/// with its domain where that is not the standard one.
+/// The operators tract implements from the ONNX-ML domain (`ai.onnx.ml`); every other
+/// operator it registers is a standard (`ai.onnx`) one. tract registers operators by name
+/// alone, so the domain is checked here: an operator of a custom domain that shares a
+/// standard operator's name is not that operator.
+const ML_OPERATORS: [&str; 6] = [
+    "ArrayFeatureExtractor",
+    "CategoryMapper",
+    "LinearClassifier",
+    "LinearRegressor",
+    "Normalizer",
+    "TreeEnsembleClassifier",
+];
+
+/// Newest operator set of each domain this build knows (ONNX 1.20's: `ai.onnx` 25,
+/// `ai.onnx.ml` 5); a model that asks for a newer one may use operators whose meaning
+/// changed after tract was written, so it is refused rather than run by older rules.
+const NEWEST_OPSETS: [(&str, i64); 2] = [("ai.onnx", 25), ("ai.onnx.ml", 5)];
+
+/// The domain's canonical name: the standard domain is written `""` or `ai.onnx`.
+fn domain_name(domain: &str) -> &str {
+    if domain.is_empty() {
+        "ai.onnx"
+    } else {
+        domain
+    }
+}
+
+/// Refuses an operator set newer than [`NEWEST_OPSETS`] (a domain tmo knows nothing of is
+/// left to the operator check, which names its operators).
+fn check_opsets(p: &str, imports: &[pb::OperatorSetIdProto]) -> Result<(), OnnxError> {
+    for import in imports {
+        let domain = domain_name(&import.domain);
+        if let Some((_, newest)) = NEWEST_OPSETS.iter().find(|(d, _)| *d == domain) {
+            if import.version > *newest || import.version < 1 {
+                return Err(OnnxError::Shape {
+                    path: p.into(),
+                    what: format!("operator set of `{domain}`"),
+                    expected: format!(
+                        "1..={newest}, the newest this tmo's runtime knows (export with an older opset, e.g. skl2onnx's target_opset or torch.onnx.export's opset_version)"
+                    ),
+                    found: import.version.to_string(),
+                });
+            }
+        }
+    }
+    Ok(())
+}
+
+/// The operators of `graph` (and of its subgraphs) that tract does not implement, by
+/// domain and name, each named with its domain where that is not the standard one.
 fn unsupported_operators(graph: &pb::GraphProto, onnx: &tract_onnx::Onnx) -> Vec<String> {
     let mut out: Vec<String> = Vec::new();
     let mut visit = vec![graph];
     while let Some(g) = visit.pop() {
         for node in &g.node {
-            if !onnx.op_register.0.contains_key(&node.op_type) {
-                let name = if node.domain.is_empty() || node.domain == "ai.onnx" {
-                    node.op_type.clone()
+            let domain = domain_name(&node.domain);
+            let op = node.op_type.as_str();
+            let known = match domain {
+                "ai.onnx" => onnx.op_register.0.contains_key(op) && !ML_OPERATORS.contains(&op),
+                "ai.onnx.ml" => ML_OPERATORS.contains(&op),
+                _ => false,
+            };
+            if !known {
+                let name = if domain == "ai.onnx" {
+                    op.to_string()
                 } else {
-                    format!("{} ({})", node.op_type, node.domain)
+                    format!("{op} ({domain})")
                 };
                 if !out.contains(&name) {
                     out.push(name);
@@ -338,6 +595,49 @@ fn unsupported_operators(graph: &pb::GraphProto, onnx: &tract_onnx::Onnx) -> Vec
         }
     }
     out
+}
+
+/// The keys tmo reads from a model's `metadata_props`.
+const TMO_KEYS: [&str; 11] = [
+    "tmo.format",
+    "tmo.version",
+    "tmo.features",
+    "tmo.labels",
+    "tmo.sensors",
+    "tmo.window",
+    "tmo.slip_output",
+    "tmo.slip_column",
+    "tmo.output_rows",
+    "tmo.threshold",
+    "tmo.name",
+];
+
+/// The model's metadata as a map; a key given twice (which one would count?) or a `tmo.*`
+/// key tmo does not read (a misspelt `tmo.treshold` would otherwise be ignored) is refused.
+fn metadata_props<'a>(
+    p: &str,
+    props: &'a [pb::StringStringEntryProto],
+) -> Result<BTreeMap<&'a str, &'a str>, OnnxError> {
+    let mut map = BTreeMap::new();
+    for e in props {
+        if map.insert(e.key.as_str(), e.value.as_str()).is_some() {
+            return Err(OnnxError::Metadata {
+                path: p.into(),
+                field: e.key.clone(),
+                expected: "each key once".into(),
+                found: "the key twice".into(),
+            });
+        }
+        if e.key.starts_with("tmo.") && !TMO_KEYS.contains(&e.key.as_str()) {
+            return Err(OnnxError::Metadata {
+                path: p.into(),
+                field: e.key.clone(),
+                expected: format!("one of tmo's keys ({})", TMO_KEYS.join(", ")),
+                found: "a key tmo does not read".into(),
+            });
+        }
+    }
+    Ok(map)
 }
 
 /// The graph's one real input (initializers listed as inputs, as older exporters do, are
@@ -487,35 +787,56 @@ fn read_meta(p: &str, path: &Path, props: &BTreeMap<&str, &str>) -> Result<OnnxM
             version.to_string(),
         ));
     }
-    let json = |field: &str, expected: &str| -> Result<serde_json::Value, OnnxError> {
-        let text = get(field, expected)?;
-        serde_json::from_str(text).map_err(|e| bad(field, expected, format!("`{text}` ({e})")))
-    };
-    const FEATURES: &str = "a JSON feature spec (a tmo model file's `features`), like {\"pins\": 30, \"max_pin_step_px\": 20.0, \"units\": \"px\", \"frame_rate_hz\": 60.0}";
-    let features: FeatureSpec = serde_json::from_value(json("tmo.features", FEATURES)?)
-        .map_err(|e| bad("tmo.features", FEATURES, e.to_string()))?;
-    if !(1..=100_000).contains(&features.pins) {
-        return Err(bad(
-            "tmo.features",
-            "1..=100000 pins",
-            features.pins.to_string(),
-        ));
+    // Straight from the text into the spec's type: a key given twice inside the JSON is
+    // refused (through a JSON value the last one would silently win).
+    fn json<T: serde::de::DeserializeOwned>(
+        text: &str,
+        on_error: impl FnOnce(String) -> OnnxError,
+    ) -> Result<T, OnnxError> {
+        serde_json::from_str(text).map_err(|e| on_error(format!("`{text}` ({e})")))
     }
-    if !(features.max_pin_step_px.is_finite() && features.max_pin_step_px > 0.0) {
-        return Err(bad(
+    const FEATURES: &str = "a JSON feature spec (a tmo model file's `features`), like {\"pins\": 30, \"max_pin_step_px\": 20.0, \"units\": \"px\", \"frame_rate_hz\": 60.0}";
+    let features: FeatureSpec = json(get("tmo.features", FEATURES)?, |found| {
+        bad("tmo.features", FEATURES, found)
+    })?;
+    let checked = |key: &str, check: Result<(), (&'static str, String)>| {
+        check.map_err(|(field, message)| OnnxError::MetadataValue {
+            path: p.into(),
+            key: key.into(),
+            field: field.into(),
+            message,
+        })
+    };
+    checked("tmo.features", features.check())?;
+    // A model brought from elsewhere says the rate it was trained at: velocities are per
+    // frame, and the loop's deadline is one frame period.
+    if features.frame_rate_hz.is_none() {
+        checked(
             "tmo.features",
-            "a positive max_pin_step_px",
-            features.max_pin_step_px.to_string(),
-        ));
+            Err((
+                "frame_rate_hz",
+                "expected the frames' rate in Hz that the model was trained at, got none".into(),
+            )),
+        )?;
     }
     const LABELS: &str = "the JSON label spec it was trained with (a tmo model file's `labels`)";
-    let labels: LabelSpec = serde_json::from_value(json("tmo.labels", LABELS)?)
-        .map_err(|e| bad("tmo.labels", LABELS, e.to_string()))?;
+    let labels: LabelSpec = json(get("tmo.labels", LABELS)?, |found| {
+        bad("tmo.labels", LABELS, found)
+    })?;
+    checked("tmo.labels", labels.check())?;
     const SENSORS: &str = "a JSON list of the sensors it was trained on, like [0, 1, 2]";
-    let sensors: Vec<u8> = serde_json::from_value(json("tmo.sensors", SENSORS)?)
-        .map_err(|e| bad("tmo.sensors", SENSORS, e.to_string()))?;
-    if sensors.is_empty() {
-        return Err(bad("tmo.sensors", SENSORS, "[]".into()));
+    let sensors: Vec<u8> = json(get("tmo.sensors", SENSORS)?, |found| {
+        bad("tmo.sensors", SENSORS, found)
+    })?;
+    let mut listed = sensors.clone();
+    listed.sort_unstable();
+    listed.dedup();
+    if sensors.is_empty() || listed.len() != sensors.len() {
+        return Err(bad(
+            "tmo.sensors",
+            "the sensors it was trained on, each once, like [0, 1, 2]",
+            format!("{sensors:?}"),
+        ));
     }
     const WINDOW: &str = "frames per input, 1 (per frame) or more";
     let window_text = props.get("tmo.window").copied().unwrap_or("1");
@@ -539,6 +860,24 @@ fn read_meta(p: &str, path: &Path, props: &BTreeMap<&str, &str>) -> Result<OnnxM
             format!("`{column_text}`"),
         )
     })?;
+    let rows_text = props.get("tmo.output_rows").copied().unwrap_or("one");
+    let output_rows = [OutputRows::One, OutputRows::PerFrame]
+        .into_iter()
+        .find(|r| r.name() == rows_text.trim())
+        .ok_or_else(|| {
+            bad(
+                "tmo.output_rows",
+                "`one` (a row for the batch of one) or `per_frame` (a row per frame of the window; the newest is read)",
+                format!("`{rows_text}`"),
+            )
+        })?;
+    if output_rows == OutputRows::PerFrame && window == 1 {
+        return Err(bad(
+            "tmo.output_rows",
+            "`one` for a per-frame model (tmo.window 1): `per_frame` is for a window's rows",
+            "`per_frame`".into(),
+        ));
+    }
     let threshold_text = get(
         "tmo.threshold",
         "the slip value at and above which a frame is slip",
@@ -569,6 +908,7 @@ fn read_meta(p: &str, path: &Path, props: &BTreeMap<&str, &str>) -> Result<OnnxM
         window,
         slip_output,
         slip_column,
+        output_rows,
         threshold,
         name,
     })

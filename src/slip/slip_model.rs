@@ -9,6 +9,7 @@ use super::features::FeatureSpec;
 use super::metrics::Scores;
 use super::model::{ModelFile, ModelFileError};
 use super::onnx::OnnxModel;
+use super::Class;
 
 /// The classifier name of every ONNX model, in evaluations and tables.
 pub const ONNX_CLASSIFIER: &str = "onnx";
@@ -82,6 +83,14 @@ impl SlipModel {
         }
     }
 
+    /// The model's name in tables: an ONNX model's `tmo.name`, else the file's stem.
+    pub fn name(&self, path: &Path) -> String {
+        match self {
+            SlipModel::Onnx(m) => m.meta.name.clone(),
+            SlipModel::Tmo(_) => file_stem(path),
+        }
+    }
+
     /// Frames each classification reads (1 for every model of tmo's own).
     pub fn window(&self) -> usize {
         match self {
@@ -112,6 +121,24 @@ impl SlipModel {
             ));
         }
         Ok(())
+    }
+
+    /// The trials of `data` too short for the window (fewer frames with features than the
+    /// window, for some sensor), by index into `data.trial_ids`, each with that count.
+    pub fn short_trials(&self, data: &Dataset) -> Vec<(u32, usize)> {
+        let mut rows: std::collections::BTreeMap<(u32, u8), usize> = Default::default();
+        for (&t, &s) in data.trial.iter().zip(&data.sensor) {
+            *rows.entry((t, s)).or_default() += 1;
+        }
+        let mut per_trial: std::collections::BTreeMap<u32, usize> = Default::default();
+        for ((t, _), n) in rows {
+            let shortest = per_trial.entry(t).or_insert(n);
+            *shortest = (*shortest).min(n);
+        }
+        per_trial
+            .into_iter()
+            .filter(|&(_, n)| self.fits_frames(n).is_err())
+            .collect()
     }
 
     /// [`Self::fits_frames`] for every trial of `data` (each trial's frames with features,
@@ -158,6 +185,35 @@ impl SlipModel {
         }
     }
 
+    /// Each row's slip value and class, as the online loop reads them: an ONNX model's
+    /// output as its metadata states it, a tmo model's decision value (positive for slip);
+    /// `None` for a row that has no full window. A non-finite value is an error naming the
+    /// trial and frame.
+    pub fn row_values(&self, data: &Dataset) -> Result<Vec<Option<(f32, Class)>>, ModelFileError> {
+        match self {
+            SlipModel::Onnx(m) => Ok(m
+                .slip_values(data)?
+                .into_iter()
+                .map(|v| v.map(|v| (v, m.class_of(v))))
+                .collect()),
+            SlipModel::Tmo(m) => {
+                let mut scratch = Vec::new();
+                (0..data.len())
+                    .map(|i| {
+                        let model = m.for_sensor(data.sensor[i]).ok_or_else(|| {
+                            ModelFileError::NoSensor {
+                                path: "model".into(),
+                                sensor: data.sensor[i],
+                            }
+                        })?;
+                        let decision = model.decision(data.row(i), &mut scratch);
+                        Ok(Some((decision as f32, model.class_of(decision))))
+                    })
+                    .collect()
+            }
+        }
+    }
+
     /// The trials of `refs` it was trained on (an ONNX model does not say: none).
     pub fn trained_on<'a>(&self, refs: &'a [TrialRef]) -> Vec<&'a TrialRef> {
         match self {
@@ -186,6 +242,33 @@ impl SlipModel {
                 .collect(),
         }
     }
+}
+
+fn file_stem(path: &Path) -> String {
+    path.file_stem().map_or_else(
+        || path.display().to_string(),
+        |s| s.to_string_lossy().into_owned(),
+    )
+}
+
+/// Each model's name in tables ([`SlipModel::name`]), unique among them: where two share
+/// a name (`a/svm.json` and `b/svm.json`), those are named by their paths as given.
+pub fn unique_names<'a>(
+    models: impl IntoIterator<Item = (&'a Path, &'a SlipModel)>,
+) -> Vec<String> {
+    let models: Vec<(&Path, &SlipModel)> = models.into_iter().collect();
+    let names: Vec<String> = models.iter().map(|(p, m)| m.name(p)).collect();
+    names
+        .iter()
+        .zip(&models)
+        .map(|(n, (p, _))| {
+            if names.iter().filter(|o| *o == n).count() > 1 {
+                p.display().to_string()
+            } else {
+                n.clone()
+            }
+        })
+        .collect()
 }
 
 /// Whether `path` names an ONNX model (by its extension, as exporters write them).

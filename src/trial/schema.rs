@@ -75,7 +75,7 @@ pub fn event_channel_schema(topic: &str) -> (&'static str, String) {
             event_schema(
                 "tmo.Classification",
                 "The slip classifier's output for one frame",
-                r#"{"type":"object","properties":{"sensor":{"type":"integer","minimum":0},"seq":{"type":"integer","minimum":0},"class":{"type":"string","enum":["static","slip"]},"slip":{"type":"integer","minimum":0,"maximum":1,"description":"1 for slip, 0 for static (plottable)"},"mean_velocity_px":{"type":"number","description":"norm of the frame's mean pin velocity, px per frame (what the threshold classifier thresholds)"}},"required":["sensor","seq","class"],"additionalProperties":false}"#,
+                r#"{"type":"object","properties":{"sensor":{"type":"integer","minimum":0},"seq":{"type":"integer","minimum":0},"class":{"type":"string","enum":["static","slip"]},"slip":{"type":"integer","minimum":0,"maximum":1,"description":"1 for slip, 0 for static (plottable)"},"value":{"type":"number","description":"the model's slip value the class was read from: an ONNX model's output as its metadata states it, a tmo model's decision value (positive for slip)"},"mean_velocity_px":{"type":"number","description":"norm of the frame's mean pin velocity, px per frame (what the threshold classifier thresholds)"}},"required":["sensor","seq","class"],"additionalProperties":false}"#,
             ),
         ),
         "/detector" => (
@@ -91,7 +91,7 @@ pub fn event_channel_schema(topic: &str) -> (&'static str, String) {
             event_schema(
                 "tmo.Fault",
                 "Why the trial was aborted",
-                r#"{"type":"object","properties":{"fault":{"type":"string","enum":["silent_sensor","stale_frames","interrupted","no_contact"]},"sensor":{"type":"integer","minimum":0},"last_frame_s":{"type":"number"},"repeats":{"type":"integer","minimum":0},"deformation_px":{"type":"number"}},"required":["fault"],"additionalProperties":false}"#,
+                r#"{"type":"object","properties":{"fault":{"type":"string","enum":["silent_sensor","stale_frames","interrupted","no_contact","model_output"]},"sensor":{"type":"integer","minimum":0},"last_frame_s":{"type":"number"},"repeats":{"type":"integer","minimum":0},"deformation_px":{"type":"number"},"seq":{"type":"integer","minimum":0},"output":{"type":"string","enum":["nan","positive_infinity","negative_infinity","run_failed"],"description":"what the slip model gave for the frame instead of a finite value"}},"required":["fault"],"additionalProperties":false}"#,
             ),
         ),
         "/state/hand" => (
