@@ -153,11 +153,13 @@ def svm_graph(scaler, svc, features):
     return helper.make_model(graph, opset_imports=[helper.make_opsetid("", OPSET)])
 
 
-def mlp_graph(scaler, mlp, features, window):
+def mlp_graph(scaler, mlp, features, window, per_frame_rows=False):
     """An MLP (one hidden layer, ReLU, logistic output) for input [N, K, F] (K > 1: the
-    window, flattened), or [N, F] (K = 1)."""
+    window, flattened), or [N, F] (K = 1); with per_frame_rows, the per-frame MLP on each
+    frame of a window of K, output [N, K, 1] (one row per frame, oldest first)."""
     (w1, w2), (b1, b2) = mlp.coefs_, mlp.intercepts_
     input_name = "window" if window > 1 else "features"
+    output = "frame_probabilities" if per_frame_rows else "slip_probability"
     f32 = np.float32
     inits = [
         const("flat", np.array([-1, window * features], dtype=np.int64)),
@@ -168,57 +170,24 @@ def mlp_graph(scaler, mlp, features, window):
         const("w2", w2.astype(f32)),
         const("b2", b2.astype(f32)),
     ]
-    nodes = [
-        helper.make_node("Reshape", [input_name, "flat"], ["flattened"]),
-        helper.make_node("Sub", ["flattened", "mean"], ["centred"]),
+    flat = [helper.make_node("Reshape", [input_name, "flat"], ["flattened"])]
+    nodes = ([] if per_frame_rows else flat) + [
+        helper.make_node("Sub", [input_name if per_frame_rows else "flattened", "mean"], ["centred"]),
         helper.make_node("Div", ["centred", "scale"], ["scaled"]),
         helper.make_node("MatMul", ["scaled", "w1"], ["h1"]),
         helper.make_node("Add", ["h1", "b1"], ["h1b"]),
         helper.make_node("Relu", ["h1b"], ["hidden"]),
         helper.make_node("MatMul", ["hidden", "w2"], ["h2"]),
         helper.make_node("Add", ["h2", "b2"], ["logit"]),
-        helper.make_node("Sigmoid", ["logit"], ["slip_probability"]),
+        helper.make_node("Sigmoid", ["logit"], [output]),
     ]
     shape = ["N", window, features] if window > 1 else ["N", features]
     graph = helper.make_graph(
         nodes,
-        "window_mlp" if window > 1 else "frame_mlp",
+        "window_rows" if per_frame_rows else "window_mlp" if window > 1 else "frame_mlp",
         [helper.make_tensor_value_info(input_name, TensorProto.FLOAT, shape)],
-        [helper.make_tensor_value_info("slip_probability", TensorProto.FLOAT, ["N", 1])],
-        inits,
-    )
-    return helper.make_model(graph, opset_imports=[helper.make_opsetid("", OPSET)])
-
-
-def rows_graph(scaler, mlp, features, window):
-    """The frame MLP on each frame of a window: input [N, K, F], output [N, K, 1], one row
-    per frame, oldest first."""
-    (w1, w2), (b1, b2) = mlp.coefs_, mlp.intercepts_
-    f32 = np.float32
-    inits = [
-        const("mean", scaler.mean_.astype(f32)),
-        const("scale", scaler.scale_.astype(f32)),
-        const("w1", w1.astype(f32)),
-        const("b1", b1.astype(f32)),
-        const("w2", w2.astype(f32)),
-        const("b2", b2.astype(f32)),
-    ]
-    nodes = [
-        helper.make_node("Sub", ["window", "mean"], ["centred"]),
-        helper.make_node("Div", ["centred", "scale"], ["scaled"]),
-        helper.make_node("MatMul", ["scaled", "w1"], ["h1"]),
-        helper.make_node("Add", ["h1", "b1"], ["h1b"]),
-        helper.make_node("Relu", ["h1b"], ["hidden"]),
-        helper.make_node("MatMul", ["hidden", "w2"], ["h2"]),
-        helper.make_node("Add", ["h2", "b2"], ["logit"]),
-        helper.make_node("Sigmoid", ["logit"], ["frame_probabilities"]),
-    ]
-    graph = helper.make_graph(
-        nodes,
-        "window_rows",
-        [helper.make_tensor_value_info("window", TensorProto.FLOAT, ["N", window, features])],
-        [helper.make_tensor_value_info("frame_probabilities", TensorProto.FLOAT, ["N", window, 1])],
-        inits,
+        [helper.make_tensor_value_info(output, TensorProto.FLOAT, ["N", window, 1] if per_frame_rows else ["N", 1])],
+        inits if not per_frame_rows else inits[1:],
     )
     return helper.make_model(graph, opset_imports=[helper.make_opsetid("", OPSET)])
 
@@ -320,7 +289,7 @@ def main(spec_path, train_path, test_path, out):
 
     # a window of 10 frames, one output row per frame (the newest is the frame's value)
     models["window_rows"] = metadata(
-        rows_graph(fscaler, fmlp, features, ROWS_WINDOW), spec, "frame mlp on each frame of 10", "frame_probabilities", 0, 0.5,
+        mlp_graph(fscaler, fmlp, features, ROWS_WINDOW, per_frame_rows=True), spec, "frame mlp on each frame of 10", "frame_probabilities", 0, 0.5,
         ROWS_WINDOW, "per_frame",
     )
 

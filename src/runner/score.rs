@@ -88,12 +88,7 @@ fn no_model() -> String {
 pub fn model_name(trial: &Trial) -> String {
     param(trial, MODEL_NAME_PARAMETER)
         .or_else(|| {
-            let path = param(trial, "model")?;
-            Some(
-                Path::new(&path)
-                    .file_stem()
-                    .map_or(path.clone(), |s| s.to_string_lossy().into_owned()),
-            )
+            param(trial, "model").map(|p| crate::slip::slip_model::file_stem(Path::new(&p)))
         })
         .unwrap_or_else(no_model)
 }

@@ -344,11 +344,6 @@ impl OnnxModel {
     /// frames' features, oldest first, `input_len()` floats.
     pub fn slip_value(&self, input: &[f32]) -> Result<f32, OnnxError> {
         let p = || self.path.display().to_string();
-        let shape: Vec<usize> = if self.meta.window == 1 {
-            vec![1, self.meta.features.len()]
-        } else {
-            vec![1, self.meta.window, self.meta.features.len()]
-        };
         let (plan, output) = match &self.engine {
             Engine::Tract { plan, output } => (plan, *output),
             Engine::Trees {
@@ -364,7 +359,13 @@ impl OnnxModel {
                 return self.checked_value(&shape, &values);
             }
         };
-        let tensor = Tensor::from_shape(&shape, input).map_err(|e| OnnxError::Runtime {
+        let (k, f) = (self.meta.window, self.meta.features.len());
+        let tensor = if k == 1 {
+            Tensor::from_shape(&[1, f], input)
+        } else {
+            Tensor::from_shape(&[1, k, f], input)
+        }
+        .map_err(|e| OnnxError::Runtime {
             path: p(),
             message: e.to_string(),
         })?;
@@ -386,11 +387,11 @@ impl OnnxModel {
                 path: p(),
                 message: e.to_string(),
             })?;
-        let values = view.as_slice().map_or_else(
-            || view.iter().copied().collect::<Vec<f32>>(),
-            <[f32]>::to_vec,
-        );
-        self.checked_value(out.shape(), &values)
+        // a contiguous output is read in place (no copy a frame)
+        match view.as_slice() {
+            Some(values) => self.checked_value(out.shape(), values),
+            None => self.checked_value(out.shape(), &view.iter().copied().collect::<Vec<f32>>()),
+        }
     }
 
     /// What runs the model: `tract`, or tmo's own tree evaluator.

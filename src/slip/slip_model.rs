@@ -124,7 +124,8 @@ impl SlipModel {
     }
 
     /// The trials of `data` too short for the window (fewer frames with features than the
-    /// window, for some sensor), by index into `data.trial_ids`, each with that count.
+    /// window, for some sensor), by index into `data.trial_ids`, each with that count,
+    /// shortest first.
     pub fn short_trials(&self, data: &Dataset) -> Vec<(u32, usize)> {
         let mut rows: std::collections::BTreeMap<(u32, u8), usize> = Default::default();
         for (&t, &s) in data.trial.iter().zip(&data.sensor) {
@@ -135,26 +136,19 @@ impl SlipModel {
             let shortest = per_trial.entry(t).or_insert(n);
             *shortest = (*shortest).min(n);
         }
-        per_trial
+        let mut short: Vec<(u32, usize)> = per_trial
             .into_iter()
             .filter(|&(_, n)| self.fits_frames(n).is_err())
-            .collect()
+            .collect();
+        short.sort_by_key(|&(_, n)| n);
+        short
     }
 
     /// [`Self::fits_frames`] for every trial of `data` (each trial's frames with features,
     /// per sensor): the error names the shortest trial that does not fit.
     pub fn fits_trials(&self, data: &Dataset) -> Result<(), String> {
-        let mut rows: std::collections::BTreeMap<(u32, u8), usize> = Default::default();
-        for (&t, &s) in data.trial.iter().zip(&data.sensor) {
-            *rows.entry((t, s)).or_default() += 1;
-        }
-        let mut per_trial: std::collections::BTreeMap<u32, usize> = Default::default();
-        for ((t, _), n) in rows {
-            let shortest = per_trial.entry(t).or_insert(n);
-            *shortest = (*shortest).min(n);
-        }
-        match per_trial.into_iter().min_by_key(|&(_, n)| n) {
-            Some((t, n)) => self
+        match self.short_trials(data).first() {
+            Some(&(t, n)) => self
                 .fits_frames(n)
                 .map_err(|e| format!("trial {}: {e}", data.trial_ids[t as usize])),
             None => Ok(()),
@@ -244,7 +238,8 @@ impl SlipModel {
     }
 }
 
-fn file_stem(path: &Path) -> String {
+/// A file's stem (`svm` of `models/svm.json`), else the path as given.
+pub fn file_stem(path: &Path) -> String {
     path.file_stem().map_or_else(
         || path.display().to_string(),
         |s| s.to_string_lossy().into_owned(),
