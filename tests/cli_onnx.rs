@@ -29,9 +29,35 @@ fn evaluate_scores_an_onnx_model_per_frame_and_over_a_window() {
     ));
     let out = ok(&tmo(
         d,
-        &["evaluate", "logreg.onnx", "t", "--out", "eval.json"],
+        &[
+            "evaluate",
+            "logreg.onnx",
+            "t",
+            "--out",
+            "eval.json",
+            "--rows",
+            "rows.csv",
+        ],
     ));
-    assert!(out.contains("onnx (global scope) on"), "{out}");
+    // the model by its tmo.name
+    assert!(
+        out.contains("logreg (scikit-learn, skl2onnx): onnx (global scope) on"),
+        "{out}"
+    );
+    // every row's value and class: slip exactly where the value reaches the threshold 0.5
+    let mut reader = csv::Reader::from_path(d.join("rows.csv")).unwrap();
+    assert_eq!(
+        reader.headers().unwrap(),
+        vec!["trial_id", "sensor", "seq", "time_s", "label", "value", "class"]
+    );
+    let rows: Vec<csv::StringRecord> = reader.records().map(|r| r.unwrap()).collect();
+    let mut slips = 0;
+    for r in &rows {
+        let value: f32 = r[5].parse().unwrap();
+        assert_eq!(&r[6] == "slip", value >= 0.5, "{r:?}");
+        slips += usize::from(&r[6] == "slip");
+    }
+    assert!(slips > 0 && slips < rows.len(), "{slips} of {}", rows.len());
     assert!(out.contains("overall"), "{out}");
     let eval: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(d.join("eval.json")).unwrap()).unwrap();
@@ -143,6 +169,77 @@ fn each_of_a_protocols_models_is_a_row_of_its_own() {
             "{n}: {out}"
         );
     }
+}
+
+#[test]
+fn a_protocol_whose_trials_cannot_fill_the_window_is_refused_before_its_first_trial() {
+    use prost::Message;
+    use tract_onnx::pb;
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    // the per-frame-rows model over a window of 100 frames (its operators work on any K)
+    let bytes = std::fs::read(
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/onnx/window_rows.onnx"),
+    )
+    .unwrap();
+    let mut proto = pb::ModelProto::decode(bytes.as_slice()).unwrap();
+    let graph = proto.graph.as_mut().unwrap();
+    for v in graph.input.iter_mut().chain(graph.output.iter_mut()) {
+        if let Some(pb::type_proto::Value::TensorType(t)) =
+            v.r#type.as_mut().and_then(|t| t.value.as_mut())
+        {
+            t.shape.as_mut().unwrap().dim[1].value =
+                Some(pb::tensor_shape_proto::dimension::Value::DimValue(100));
+        }
+    }
+    for e in proto.metadata_props.iter_mut() {
+        if e.key == "tmo.window" {
+            e.value = "100".into();
+        }
+    }
+    std::fs::write(d.join("long.onnx"), proto.encode_to_vec()).unwrap();
+    // a rail trial lasts at most 1 s here: 60 frames
+    std::fs::write(
+        d.join("rail.toml"),
+        "kind = \"rail_catch\"\nobjects = [\"rail_object\"]\nmodels = [\"long.onnx\"]\nstrategies = [\"1x1\"]\nrepetitions = 1\nseed = 3\n[rail_catch]\nmax_duration_s = 1.0\n",
+    )
+    .unwrap();
+    let e = fails(&tmo(d, &["run", "rail.toml", "--out", "b"]));
+    assert!(
+        e.contains("the model reads a window of 100 frames (tmo.window), longer than the trial (60 frames per sensor)"),
+        "{e}"
+    );
+    assert!(
+        e.contains("this protocol's trials last at most 1 s (60 frames at 60 fps)"),
+        "{e}"
+    );
+    assert!(!d.join("b").join("trial-00000.mcap").exists());
+    // a model trained at 30 fps runs on the 60 fps rig, with a warning before the first trial
+    let bytes = std::fs::read(
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/onnx/logreg.onnx"),
+    )
+    .unwrap();
+    let mut proto = pb::ModelProto::decode(bytes.as_slice()).unwrap();
+    for e in proto.metadata_props.iter_mut() {
+        if e.key == "tmo.features" {
+            let mut spec: serde_json::Value = serde_json::from_str(&e.value).unwrap();
+            spec["frame_rate_hz"] = 30.0.into();
+            e.value = spec.to_string();
+        }
+    }
+    std::fs::write(d.join("slow.onnx"), proto.encode_to_vec()).unwrap();
+    std::fs::write(
+        d.join("rail30.toml"),
+        "kind = \"rail_catch\"\nobjects = [\"rail_object\"]\nmodels = [\"slow.onnx\"]\nstrategies = [\"1x1\"]\nrepetitions = 1\nseed = 3\n[rail_catch]\nmax_duration_s = 1.0\n",
+    )
+    .unwrap();
+    let run = tmo(d, &["run", "rail30.toml", "--out", "b30"]);
+    ok(&run);
+    let warnings = String::from_utf8_lossy(&run.stderr);
+    assert!(
+        warnings.contains("warning: slow.onnx: the rig's frame rate is 60.0 Hz, the model's training data's 30.0 Hz: velocities are per frame"),
+        "{warnings}"
+    );
 }
 
 #[test]

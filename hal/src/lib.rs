@@ -17,5 +17,6 @@ pub mod wire;
 pub use error::{Error, ErrorKind, ErrorType};
 pub use traits::{Arm, Clock, Hand, MarkerTracker, TactileSensor};
 pub use types::{
-    HandPositions, MarkerSample, PinFrame, Pose, SensorId, HAND_ACTUATORS, TMO_PINS_PER_SENSOR,
+    HandPositions, MarkerSample, PinFrame, Pose, SensorId, HAND_ACTUATORS, TMO_FRAME_RATE_HZ,
+    TMO_PINS_PER_SENSOR,
 };

@@ -5,6 +5,10 @@ use serde::{Deserialize, Serialize};
 /// Pins tracked by each TacTip fingertip of the Tactile Model O.
 pub const TMO_PINS_PER_SENSOR: usize = 30;
 
+/// Frames a second each TacTip's camera (a JeVois) streams: the rig's nominal rate, and the
+/// simulator's default.
+pub const TMO_FRAME_RATE_HZ: f64 = 60.0;
+
 /// Actuators of the Model O: three fingers (thumb first) and the coupled finger rotation.
 pub const HAND_ACTUATORS: usize = 4;
 

@@ -209,6 +209,7 @@ pub fn run(args: RunArgs) -> Result<u8> {
         shard: args.shard,
         live: live.as_ref(),
         on_trial: Some(&|line: &str| super::output::detail(&bar, line)),
+        on_warning: Some(&|line: &str| bar.suspend(|| eprintln!("warning: {line}"))),
     };
     let end = run_batch(&request, &mut rig, &stop, &bar).map_err(|e| {
         let resumable = e.is_resumable();

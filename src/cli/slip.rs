@@ -770,7 +770,8 @@ pub fn evaluate(args: EvaluateArgs) -> Result<()> {
     }
     if !json {
         outln!(
-            "{} ({} scope) on {} rows",
+            "{}: {} ({} scope) on {} rows",
+            model.name(&args.model),
             model.classifier_name(),
             model.scope().name(),
             ds.len()

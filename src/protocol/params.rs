@@ -332,6 +332,16 @@ fn masses(section: &'static str, m: &[f64]) -> Check {
 pub const RAIL_FORWARD_SPEED_MM_S: f64 = 20.0;
 
 impl KindParams {
+    /// The longest a trial of this kind runs, s, where the protocol sets one.
+    pub fn max_duration_s(&self) -> Option<f64> {
+        match self {
+            KindParams::RailCatch(p) => Some(p.max_duration_s),
+            KindParams::HandRelease(p) => Some(p.max_duration_s),
+            KindParams::RicePour(p) => Some(p.max_duration_s),
+            KindParams::FirstTimeLift(_) | KindParams::CalibrateLift(_) => None,
+        }
+    }
+
     /// Motions and forces the protocol asks for, against the safety limit each must respect:
     /// `(field, value, limit, limit's field)`. Every motion a trial may command is here, so
     /// a protocol the limits refuse is refused at load, not mid-trial.

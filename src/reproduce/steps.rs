@@ -576,6 +576,7 @@ fn run_batch_step(
         shard: None,
         live: None,
         on_trial: None,
+        on_warning: None,
     };
     let end = run_batch(&request, &mut rig, ctx.stop, ctx.bar).map_err(batch)?;
     Ok(matches!(end, BatchEnd::Finished(_)))

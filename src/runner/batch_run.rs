@@ -44,6 +44,9 @@ pub struct BatchRequest<'a> {
     pub live: Option<&'a crate::live::LiveView>,
     /// Told each finished trial as a line (`trial-0003: caught`), e.g. for a verbose log.
     pub on_trial: Option<&'a (dyn Fn(&str) + Sync)>,
+    /// Told each warning found before the first trial (a model trained at another frame
+    /// rate than the rig's).
+    pub on_warning: Option<&'a (dyn Fn(&str) + Sync)>,
 }
 
 /// The rig a batch drives: the simulator (one world per trial) or an open real rig.
@@ -136,6 +139,29 @@ fn rig_sensors(plan: &Plan, rig: &BatchRig) -> (usize, usize) {
     }
 }
 
+/// Warnings for models trained at a frame rate more than 15 % from the rig's nominal one
+/// (velocities are per frame, so they read the rig's slips at another speed per frame), as
+/// `tmo evaluate` and `tmo replay` warn for recorded trials.
+pub fn model_rate_warnings(plan: &Plan, models: &[(SlipModel, String)]) -> Vec<String> {
+    let rig = crate::slip::features::FeatureSpec {
+        frame_rate_hz: Some(tmo_hal::TMO_FRAME_RATE_HZ as f32),
+        ..crate::slip::features::FeatureSpec::new(tmo_hal::TMO_PINS_PER_SENSOR)
+    };
+    plan.models
+        .iter()
+        .zip(models)
+        .filter_map(|(path, (model, _))| {
+            let why = model.features().rate_differs(&rig)?;
+            Some(format!(
+                "{}: {} (the rig's cameras run at {} fps)",
+                path.display(),
+                why.replace("the trials' frame rate", "the rig's frame rate"),
+                tmo_hal::TMO_FRAME_RATE_HZ
+            ))
+        })
+        .collect()
+}
+
 /// Refuses, before the first trial, a model that could never classify this rig's frames.
 pub fn check_models_fit_rig(
     plan: &Plan,
@@ -155,6 +181,19 @@ pub fn check_models_fit_rig(
                     units.name()
                 ),
             });
+        }
+        // a window no trial can fill would never give a class: every trial a miss
+        if let Some(duration_s) = plan.params.max_duration_s() {
+            let frames = (duration_s * tmo_hal::TMO_FRAME_RATE_HZ).floor() as usize;
+            model
+                .fits_frames(frames)
+                .map_err(|message| BatchError::ModelDoesNotFitRig {
+                    path: path.clone(),
+                    message: format!(
+                        "{message}; this protocol's trials last at most {duration_s} s ({frames} frames at {} fps)",
+                        tmo_hal::TMO_FRAME_RATE_HZ
+                    ),
+                })?;
         }
         model
             .fits(sensors, pins)
@@ -221,6 +260,11 @@ fn prepare(req: &BatchRequest, rig: &BatchRig) -> Result<Prepared, BatchError> {
     let models = load_models(plan)?;
     let (sensors, pins) = rig_sensors(plan, rig);
     check_models_fit_rig(plan, &models, sensors, pins)?;
+    if let Some(warn) = req.on_warning {
+        model_rate_warnings(plan, &models)
+            .iter()
+            .for_each(|w| warn(w));
+    }
     let trials = match req.shard {
         Some(shard) => shard.select(expand(plan)),
         None => expand(plan),
