@@ -243,6 +243,55 @@ fn a_protocol_whose_trials_cannot_fill_the_window_is_refused_before_its_first_tr
 }
 
 #[test]
+fn a_model_that_gives_nan_on_a_recorded_frame_stops_the_replay_naming_the_frame() {
+    use prost::Message;
+    use tract_onnx::pb;
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    // the square root of the first pin's centred angle: NaN wherever that angle is negative
+    let bytes = std::fs::read(
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/onnx/logreg.onnx"),
+    )
+    .unwrap();
+    let mut proto = pb::ModelProto::decode(bytes.as_slice()).unwrap();
+    let graph = proto.graph.as_mut().unwrap();
+    graph.node = vec![pb::NodeProto {
+        op_type: "Sqrt".into(),
+        input: vec!["features".into()],
+        output: vec!["out".into()],
+        ..Default::default()
+    }];
+    graph.initializer.clear();
+    graph.output = vec![pb::ValueInfoProto {
+        name: "out".into(),
+        ..graph.input[0].clone()
+    }];
+    proto.opset_import.retain(|o| o.domain.is_empty());
+    for e in proto.metadata_props.iter_mut() {
+        match e.key.as_str() {
+            "tmo.slip_output" => e.value = "out".into(),
+            "tmo.slip_column" => e.value = "30".into(),
+            "tmo.name" => e.value = "sqrt".into(),
+            _ => {}
+        }
+    }
+    std::fs::write(d.join("sqrt.onnx"), proto.encode_to_vec()).unwrap();
+    ok(&tmo(
+        d,
+        &[
+            "-q", "sim", "collect", "--trials", "5", "--seed", "9", "--out", "t",
+        ],
+    ));
+    let e = fails(&tmo(
+        d,
+        &["replay", "t", "--model", "sqrt.onnx", "--strategy", "1x1"],
+    ));
+    assert!(e.contains("replaying t/"), "{e}");
+    assert!(e.contains("sqrt: the slip value of sensor "), "{e}");
+    assert!(e.contains(" is NaN, not a finite number"), "{e}");
+}
+
+#[test]
 fn a_windowed_model_longer_than_a_trial_is_refused_before_replaying() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();

@@ -77,6 +77,17 @@ pub enum BadOutput {
     RunFailed,
 }
 
+impl std::fmt::Display for BadOutput {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            BadOutput::Nan => "NaN",
+            BadOutput::PositiveInfinity => "inf",
+            BadOutput::NegativeInfinity => "-inf",
+            BadOutput::RunFailed => "no value (the runtime failed)",
+        })
+    }
+}
+
 impl BadOutput {
     /// What a slip value that is not finite is.
     pub fn of(value: f32) -> Option<Self> {

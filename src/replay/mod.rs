@@ -157,6 +157,21 @@ pub struct ModelRef<'m> {
     pub file: &'m SlipModel,
 }
 
+/// Why a trial could not be replayed: the replay failed, or the model gave no finite value
+/// for a frame (offline, an error, as `tmo evaluate` makes it; never an aborted replay).
+#[derive(Debug, thiserror::Error)]
+pub enum ReplayError {
+    #[error(transparent)]
+    Scenario(#[from] ScenarioError),
+    #[error("{model}: the slip value of sensor {sensor}'s frame {seq} is {output}, not a finite number: a non-finite value is neither slip nor static")]
+    ModelOutput {
+        model: String,
+        sensor: u8,
+        seq: u64,
+        output: crate::online::classify::BadOutput,
+    },
+}
+
 /// Replays and judges one trial.
 pub fn evaluate(
     trial: &Trial,
@@ -164,8 +179,21 @@ pub fn evaluate(
     model: ModelRef<'_>,
     strategy: Strategy,
     spec: &CatchSpec,
-) -> Result<ReplayOutcome, ScenarioError> {
+) -> Result<ReplayOutcome, ReplayError> {
     let (record, source) = replay_trial(trial, model.file, strategy)?;
+    if let Some(Fault::ModelOutput {
+        sensor,
+        seq,
+        output,
+    }) = record.fault
+    {
+        return Err(ReplayError::ModelOutput {
+            model: model.name.to_string(),
+            sensor,
+            seq,
+            output,
+        });
+    }
     let (verdict, latency_s, latency_frames) = judge(trial, record.reaction, record.fault, spec);
     let logged = logged_reaction(trial);
     let r = record.reaction;
