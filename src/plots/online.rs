@@ -66,12 +66,33 @@ impl Panel {
     }
 }
 
-/// Bars per panel (scope and grasp), one per strategy, from completed trials.
+/// Whether `rows` come from more than one slip model (a protocol's `models`): then each
+/// model is drawn apart, never pooled with another.
+fn several_models(rows: &[&OutcomeRow]) -> bool {
+    rows.iter().any(|r| r.model != rows[0].model)
+}
+
+/// What a row's panel or box is named by: its `what` (scope, strategy), with its model's
+/// name before it where the rows hold several models.
+fn per_model_label(r: &OutcomeRow, what: &str, several: bool) -> String {
+    if several {
+        format!("{}: {what}", r.model)
+    } else {
+        what.to_string()
+    }
+}
+
+/// Bars per panel (scope and grasp; a model's scope where there are several models), one
+/// per strategy, from completed trials.
 pub fn outcome_bars(rows: &[&OutcomeRow]) -> BTreeMap<Panel, Vec<Bar>> {
+    let several = several_models(rows);
     let mut cells: BTreeMap<Panel, BTreeMap<String, Vec<&OutcomeRow>>> = BTreeMap::new();
     for r in rows.iter().filter(|r| r.fault.is_none()) {
         cells
-            .entry(Panel::new(&r.scope, r.grasp_deg))
+            .entry(Panel::new(
+                &per_model_label(r, &r.scope, several),
+                r.grasp_deg,
+            ))
             .or_default()
             .entry(r.strategy.clone())
             .or_default()
@@ -206,12 +227,16 @@ fn count_ticks(top: usize) -> usize {
     (top + 1).min(11)
 }
 
-/// Slip distances (caught trials) per strategy, in strategy order.
+/// Slip distances (caught trials) per strategy (a model's strategy where there are several
+/// models), in strategy order.
 pub fn distances_by_strategy(rows: &[&OutcomeRow]) -> Vec<(String, Vec<f64>)> {
+    let several = several_models(rows);
     let mut by: BTreeMap<String, Vec<f64>> = BTreeMap::new();
     for r in rows.iter().filter(|r| r.fault.is_none()) {
         if let Some(d) = r.slip_distance_mm {
-            by.entry(r.strategy.clone()).or_default().push(d);
+            by.entry(per_model_label(r, &r.strategy, several))
+                .or_default()
+                .push(d);
         }
     }
     by.into_iter().collect()
@@ -411,6 +436,29 @@ mod tests {
         assert_eq!(
             d,
             vec![("1Fr1Sen".into(), vec![1.0]), ("2Fr2Sen".into(), vec![3.0])]
+        );
+    }
+
+    #[test]
+    fn each_model_has_panels_and_boxes_of_its_own() {
+        let mut a = row("global", "2Fr2Sen", 0.0, Verdict::TruePositive, Some(3.0));
+        let mut b = row("global", "2Fr2Sen", 0.0, Verdict::FalsePositive, None);
+        let mut c = row("global", "2Fr2Sen", 0.0, Verdict::TruePositive, Some(5.0));
+        a.model = "mlp".into();
+        b.model = "forest".into();
+        c.model = "forest".into();
+        let refs = vec![&a, &b, &c];
+        let bars = outcome_bars(&refs);
+        assert_eq!(bars.len(), 2);
+        let forest = &bars[&Panel::new("forest: global", 0.0)][0];
+        assert_eq!((forest.tp, forest.fp), (1, 1));
+        assert_eq!(bars[&Panel::new("mlp: global", 0.0)][0].tp, 1);
+        assert_eq!(
+            distances_by_strategy(&refs),
+            vec![
+                ("forest: 2Fr2Sen".into(), vec![5.0]),
+                ("mlp: 2Fr2Sen".into(), vec![3.0])
+            ]
         );
     }
 
