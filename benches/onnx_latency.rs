@@ -117,7 +117,7 @@ fn model_alone_against_onnxruntime(fixtures: &Path) {
         "the model alone, one row (batch of one), {} rows x 20; onnxruntime {} on the same rows ({}):",
         rows.len(),
         ort["onnxruntime"].as_str().unwrap_or("?"),
-        ort["machine"].as_str().unwrap_or("not measured: run scripts/time_onnxruntime.py")
+        ort["machine"].as_str().unwrap_or("not measured: run scripts/time_onnxruntime.py tests/fixtures/onnx/onnxruntime_timing.json")
     );
     for name in [
         "logreg",

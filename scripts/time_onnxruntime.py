@@ -5,8 +5,9 @@
     python3 scripts/time_onnxruntime.py [OUT.json]
 
 Runs each fixture of tests/fixtures/onnx on every row of rows.csv at batch 1, 20 times,
-one thread (as tmo runs a frame), and writes the median and p99 in microseconds with the
-versions and the machine to OUT.json (default: tests/fixtures/onnx/onnxruntime_timing.json).
+one thread (as tmo runs a frame), and prints the median and p99 in microseconds with the
+versions and the machine as JSON; given OUT.json it writes them there too (the committed
+anchor is tests/fixtures/onnx/onnxruntime_timing.json: name it to renew it).
 Run it on the machine the bench runs on, in the same session: the ratio is the figure.
 """
 import json
@@ -52,9 +53,11 @@ def main(out):
             "p99_us": round(float(times[int(0.99 * len(times))]), 2),
         }
         print(name, result["models"][name])
-    json.dump(result, open(out, "w"), indent=1)
-    print(f"wrote {out}")
+    print(json.dumps(result, indent=1))
+    if out:
+        json.dump(result, open(out, "w"), indent=1)
+        print(f"wrote {out}")
 
 
 if __name__ == "__main__":
-    main(sys.argv[1] if len(sys.argv) > 1 else os.path.join(HERE, "onnxruntime_timing.json"))
+    main(sys.argv[1] if len(sys.argv) > 1 else None)
