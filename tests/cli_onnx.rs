@@ -128,6 +128,59 @@ fn a_protocol_runs_an_onnx_model_on_the_simulator_and_replay_gives_the_same_reac
         );
         std::fs::remove_dir_all(d.join("r")).unwrap();
     }
+    // every frame's value through replay: each value the live loop logged, the same
+    ok(&tmo(
+        d,
+        &[
+            "replay",
+            "b",
+            "--model",
+            "logreg.onnx",
+            "--strategy",
+            "1x1",
+            "--rows",
+            "v.csv",
+        ],
+    ));
+    let mut reader = csv::Reader::from_path(d.join("v.csv")).unwrap();
+    assert_eq!(
+        reader.headers().unwrap(),
+        vec!["model", "trial_id", "sensor", "seq", "time_s", "value", "class"]
+    );
+    let mut replayed = std::collections::HashMap::new();
+    for r in reader.records().map(|r| r.unwrap()) {
+        assert_eq!(&r[0], "logreg (scikit-learn, skl2onnx)");
+        let value: f32 = r[5].parse().unwrap();
+        assert_eq!(&r[6] == "slip", value >= 0.5, "{r:?}");
+        replayed.insert(
+            (r[1].to_string(), r[2].to_string(), r[3].to_string()),
+            value,
+        );
+    }
+    let mut compared = 0;
+    for path in std::fs::read_dir(d.join("b")).unwrap() {
+        let path = path.unwrap().path();
+        if path.extension().is_none_or(|e| e != "mcap") {
+            continue;
+        }
+        let trial = tmo::trial::read_trial(&path).unwrap();
+        if trial.meta.parameters.get("model_name").map(String::as_str)
+            != Some("logreg (scikit-learn, skl2onnx)")
+        {
+            continue;
+        }
+        for e in trial.events.iter().filter(|e| e.topic == "/classifier") {
+            let key = (
+                trial.meta.trial_id.clone(),
+                e.data["sensor"].to_string(),
+                e.data["seq"].to_string(),
+            );
+            let logged = e.data["value"].as_f64().unwrap() as f32;
+            assert_eq!(replayed[&key], logged, "{key:?}");
+            compared += 1;
+        }
+    }
+    assert!(compared > 100, "{compared}");
 }
 
 #[test]

@@ -48,6 +48,11 @@ pub struct ReplayArgs {
     /// (without one by then, the trials play anyway, saying so).
     #[arg(long, requires = "live", value_name = "SECONDS", value_parser = super::live::parse_wait)]
     live_wait: Option<f64>,
+    /// Also write every frame's slip value and class, for each model, to this CSV (model,
+    /// trial_id, sensor, seq, time_s, value, class): every frame of every trial through the
+    /// online loop's own classifier, not only those before a replay's reaction.
+    #[arg(long, value_name = "FILE.csv")]
+    rows: Option<PathBuf>,
 }
 
 fn percentile(sorted: &[f64], q: f64) -> Option<f64> {
@@ -155,13 +160,73 @@ pub fn replay(args: ReplayArgs) -> Result<bool> {
         &args.trials,
         &args.models,
         &strategies,
-        args.out.as_deref(),
-        args.json,
+        ReplayOutputs {
+            dir: args.out.as_deref(),
+            json: args.json,
+            rows: args.rows.as_deref(),
+        },
         args.live.map(|addr| super::live::LiveArgs {
             addr,
             wait_s: args.live_wait,
         }),
     )
+}
+
+/// Where a replay's results go besides the table on standard output.
+#[derive(Clone, Copy, Default)]
+pub struct ReplayOutputs<'a> {
+    /// replay.csv and replay.md.
+    pub dir: Option<&'a std::path::Path>,
+    /// The table and outcomes as JSON instead of text.
+    pub json: bool,
+    /// Every frame's value per model (`--rows`).
+    pub rows: Option<&'a std::path::Path>,
+}
+
+/// Every classifiable frame of every trial through every model, as CSV at `path`.
+fn write_frame_values(
+    path: &std::path::Path,
+    trials: &[(String, Trial)],
+    models: &[(String, String, SlipModel)],
+) -> Result<()> {
+    let file = tmo::output::atomic::AtomicFile::create(path)
+        .with_context(|| format!("cannot write {}", path.display()))?;
+    let mut w = csv::Writer::from_writer(file);
+    w.write_record([
+        "model", "trial_id", "sensor", "seq", "time_s", "value", "class",
+    ])?;
+    for (name, _, model) in models {
+        let per_trial: Vec<Vec<tmo::online::classify::FrameValue>> = trials
+            .par_iter()
+            .map(|(tpath, t)| {
+                tmo::online::classify::frame_values(model, usize::from(t.meta.sensors), &t.frames)
+                    .with_context(|| format!("{name} on {tpath}"))
+            })
+            .collect::<Result<_>>()?;
+        for ((_, t), values) in trials.iter().zip(per_trial) {
+            for v in values {
+                w.write_record([
+                    name.clone(),
+                    t.meta.trial_id.clone(),
+                    v.sensor.to_string(),
+                    v.seq.to_string(),
+                    format!("{:.6}", v.time_s),
+                    // shortest text that reads back as the same f32
+                    v.value.to_string(),
+                    match v.class {
+                        tmo::slip::Class::Slip => "slip",
+                        tmo::slip::Class::Static => "static",
+                    }
+                    .to_string(),
+                ])?;
+            }
+        }
+    }
+    w.into_inner()
+        .map_err(|e| anyhow::anyhow!("cannot write {}: {}", path.display(), e.error()))?
+        .commit()
+        .with_context(|| format!("cannot write {}", path.display()))?;
+    Ok(())
 }
 
 /// Plays every trial to a live view at `live.addr`, one after another at wall-clock speed, until
@@ -194,10 +259,14 @@ pub fn replay_with(
     trial_paths: &[PathBuf],
     model_paths: &[PathBuf],
     strategies: &[Strategy],
-    out: Option<&std::path::Path>,
-    json: bool,
+    outputs: ReplayOutputs<'_>,
     live: Option<super::live::LiveArgs>,
 ) -> Result<bool> {
+    let ReplayOutputs {
+        dir: out,
+        json,
+        rows: rows_path,
+    } = outputs;
     let loaded: Vec<(String, SlipModel)> = model_paths
         .iter()
         .map(|p| {
@@ -308,6 +377,10 @@ pub fn replay_with(
                 }
             }
         }
+    }
+    if let Some(path) = rows_path {
+        write_frame_values(path, &trials, &models)?;
+        super::output::note(format!("wrote every frame's value to {}", path.display()));
     }
     let spec = CatchSpec::default();
     let bar = super::output::counting_bar("replay", "replays");

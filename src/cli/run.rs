@@ -139,8 +139,11 @@ pub fn run(args: RunArgs) -> Result<u8> {
             &args.from,
             &plan.models,
             &plan.strategies,
-            args.out.as_deref(),
-            args.json,
+            super::replay::ReplayOutputs {
+                dir: args.out.as_deref(),
+                json: args.json,
+                rows: None,
+            },
             // the recorded trials play to the viewer first, as `tmo replay --live` does
             args.live.map(|addr| super::live::LiveArgs {
                 addr,

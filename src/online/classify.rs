@@ -199,6 +199,54 @@ pub fn first_reaction(
     Ok(None)
 }
 
+/// One frame's slip value and class, as the online loop computed it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct FrameValue {
+    pub sensor: u8,
+    pub seq: u64,
+    pub time_s: f64,
+    pub value: f32,
+    pub class: Class,
+}
+
+/// A frame the model gave no finite value for.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+#[error("the slip value of sensor {sensor}'s frame {seq} is {output}, not a finite number")]
+pub struct FrameOutputError {
+    pub sensor: u8,
+    pub seq: u64,
+    pub output: BadOutput,
+}
+
+/// Every classifiable frame of recorded `frames` (in arrival order) with the model's value
+/// and class, through the online loop's own classifier (`tmo replay --rows`): frames the loop
+/// gives no class (a sensor's first, before a full window) are left out.
+pub fn frame_values(
+    model: &SlipModel,
+    sensors: usize,
+    frames: &[PinFrame],
+) -> Result<Vec<FrameValue>, FrameOutputError> {
+    let mut classifier = FrameClassifier::new(model, sensors);
+    let mut out = Vec::with_capacity(frames.len());
+    for f in frames {
+        let classified = classifier.classify(f).map_err(|output| FrameOutputError {
+            sensor: f.sensor,
+            seq: f.seq,
+            output,
+        })?;
+        if let Some((class, value)) = classified {
+            out.push(FrameValue {
+                sensor: f.sensor,
+                seq: f.seq,
+                time_s: f.time_s,
+                value,
+                class,
+            });
+        }
+    }
+    Ok(out)
+}
+
 #[cfg(test)]
 mod tests {
     use super::FeatureWindow;
