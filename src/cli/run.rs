@@ -78,6 +78,11 @@ pub struct RunArgs {
     /// instead of as text; progress and notes go to standard error.
     #[arg(long)]
     json: bool,
+    /// Run a model whose measured cost per frame exceeds its share of the rig's frame period
+    /// (refused without this). On the simulator its outcomes do not depend on this machine's
+    /// speed; on a real rig its trials fault on their deadline (docs/online.md).
+    #[arg(long)]
+    allow_slow_model: bool,
 }
 
 /// Runs `protocol` on the simulator into `out` as `tmo run PROTOCOL --out OUT [--resume]`
@@ -99,6 +104,7 @@ pub fn run_on_sim(protocol: PathBuf, out: PathBuf, resume: bool) -> Result<u8> {
         live_linger: false,
         live_wait: None,
         json: false,
+        allow_slow_model: false,
     })
 }
 
@@ -213,6 +219,8 @@ pub fn run(args: RunArgs) -> Result<u8> {
         live: live.as_ref(),
         on_trial: Some(&|line: &str| super::output::detail(&bar, line)),
         on_warning: Some(&|line: &str| bar.suspend(|| eprintln!("warning: {line}"))),
+        on_note: Some(&|line: &str| bar.suspend(|| super::output::note(line))),
+        allow_slow_model: args.allow_slow_model,
     };
     let end = run_batch(&request, &mut rig, &stop, &bar).map_err(|e| {
         let resumable = e.is_resumable();

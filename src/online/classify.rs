@@ -199,6 +199,63 @@ pub fn first_reaction(
     Ok(None)
 }
 
+/// What classifying one frame costs this machine, measured at load on frames of zeros
+/// through the online loop's own classifier (features included), every sensor's in turn.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct FrameCost {
+    pub frames: usize,
+    pub p50_ms: f64,
+    pub p99_ms: f64,
+    pub max_ms: f64,
+}
+
+/// Times `model` on `sensors` fingertips of `pins` pins, frame by frame, after a window
+/// and a few frames of warm-up: up to 300 classified frames, or as many as half a second
+/// allows (at least 5), so a slow model is found without waiting long for it.
+pub fn frame_cost(model: &SlipModel, sensors: usize, pins: usize) -> FrameCost {
+    let mut classifier = FrameClassifier::new(model, sensors);
+    let warm_up = model.window() + 3;
+    let started = std::time::Instant::now();
+    let mut costs = Vec::new();
+    for seq in 1u64.. {
+        for sensor in 0..sensors {
+            let frame = PinFrame {
+                sensor: sensor as u8,
+                seq,
+                time_s: seq as f64 / 60.0,
+                // a hair of difference between frames, as noise gives real ones
+                pins: vec![[(seq % 2) as f32 * 1e-3, 0.0]; pins],
+            };
+            let t = std::time::Instant::now();
+            // a non-finite output was refused at load; its cost is what counts here
+            let _ = classifier.classify(&frame);
+            if seq as usize > warm_up {
+                costs.push(1e3 * t.elapsed().as_secs_f64());
+            }
+        }
+        let enough = costs.len() >= 300
+            || (costs.len() >= 5 && started.elapsed().as_secs_f64() >= 0.5)
+            || seq as usize > 10_000;
+        if enough {
+            break;
+        }
+    }
+    costs.sort_by(f64::total_cmp);
+    let q = |q: f64| {
+        if costs.is_empty() {
+            0.0
+        } else {
+            super::deadline::nearest_rank(&costs, q)
+        }
+    };
+    FrameCost {
+        frames: costs.len(),
+        p50_ms: q(0.5),
+        p99_ms: q(0.99),
+        max_ms: costs.last().copied().unwrap_or(0.0),
+    }
+}
+
 /// One frame's slip value and class, as the online loop computed it.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct FrameValue {

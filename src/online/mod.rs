@@ -3,4 +3,5 @@
 
 pub mod classify;
 pub mod contact;
+pub mod deadline;
 pub mod strategy;

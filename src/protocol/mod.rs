@@ -91,6 +91,9 @@ pub struct ProtocolFile {
     /// Limits checked before any command is sent; the defaults suit the T-MO on a UR5.
     #[serde(default)]
     pub safety: SafetyLimits,
+    /// The online loop's real-time contract (docs/online.md, "The deadline").
+    #[serde(default)]
+    pub deadline: crate::online::deadline::DeadlineSpec,
     pub rail_catch: Option<RailCatch>,
     pub hand_release: Option<HandRelease>,
     pub rice_pour: Option<RicePour>,
@@ -180,6 +183,8 @@ pub struct Plan {
     pub strategies: Vec<Strategy>,
     pub outcome: Outcome,
     pub safety: SafetyLimits,
+    /// The real-time contract every online trial is held to.
+    pub deadline: crate::online::deadline::DeadlineSpec,
     pub params: KindParams,
     /// Simulator parameters set for the batch (the file's `[sim]`), checked.
     pub sim: std::collections::BTreeMap<String, f64>,
@@ -610,6 +615,9 @@ pub fn validate(
     file.safety
         .check()
         .map_err(|(section, f, m)| err(&format!("{section}.{f}"), m))?;
+    file.deadline
+        .check()
+        .map_err(|(f, m)| err(&format!("deadline.{f}"), m))?;
     // What the protocol asks of the arm must be within the limits, or every trial would be
     // refused mid-way.
     for (field, value, limit, limit_field) in params.demands(&file.safety) {
@@ -713,6 +721,7 @@ pub fn validate(
         strategies,
         outcome: file.outcome,
         safety: file.safety,
+        deadline: file.deadline,
         params,
         sim,
     })

@@ -577,6 +577,9 @@ fn run_batch_step(
         live: None,
         on_trial: None,
         on_warning: None,
+        on_note: None,
+        // lock-step outcomes do not depend on this machine's speed; a real rig's do
+        allow_slow_model: matches!(rig, BatchRig::Sim),
     };
     let end = run_batch(&request, &mut rig, ctx.stop, ctx.bar).map_err(batch)?;
     Ok(matches!(end, BatchEnd::Finished(_)))

@@ -47,6 +47,11 @@ pub struct BatchRequest<'a> {
     /// Told each warning found before the first trial (a model trained at another frame
     /// rate than the rig's).
     pub on_warning: Option<&'a (dyn Fn(&str) + Sync)>,
+    /// Told what each model costs a frame, measured before the first trial.
+    pub on_note: Option<&'a (dyn Fn(&str) + Sync)>,
+    /// Run a model too slow for the rig's frame rate (a warning instead of a refusal): its
+    /// trials on a wall clock fault on their deadline.
+    pub allow_slow_model: bool,
 }
 
 /// The rig a batch drives: the simulator (one world per trial) or an open real rig.
@@ -139,12 +144,77 @@ fn rig_sensors(plan: &Plan, rig: &BatchRig) -> (usize, usize) {
     }
 }
 
-/// Warnings for models trained at a frame rate more than 15 % from the rig's nominal one
-/// (velocities are per frame, so they read the rig's slips at another speed per frame), as
-/// `tmo evaluate` and `tmo replay` warn for recorded trials.
-pub fn model_rate_warnings(plan: &Plan, models: &[(SlipModel, String)]) -> Vec<String> {
+/// The rig's cameras' frame rate, Hz: the simulator's (as the protocol's `[sim]` may set
+/// it), or the hardware file's.
+pub fn rig_frame_rate_hz(plan: &Plan, rig: &BatchRig) -> f64 {
+    match rig {
+        BatchRig::Sim => plan
+            .sim
+            .get("tactip.frame_rate_hz")
+            .copied()
+            .unwrap_or_else(|| tmo_sim::SimConfig::default().tactip.frame_rate_hz),
+        BatchRig::Real { rig, .. } => rig.hw.cameras.frame_rate_hz,
+    }
+}
+
+/// Times each model's frame on this machine and holds it to the rig's pace: each of the
+/// rig's `sensors` fingertips gets an equal share of a frame period. Above the share a
+/// model is refused (unless `allow_slow`: then warned of), above half of it warned of.
+/// Returns a note of each model's cost and the warnings.
+pub fn check_model_costs(
+    plan: &Plan,
+    models: &[(SlipModel, String)],
+    (sensors, pins, rate_hz): (usize, usize, f64),
+    allow_slow: bool,
+) -> Result<(Vec<String>, Vec<String>), BatchError> {
+    let budget_ms = 1e3 / rate_hz / sensors.max(1) as f64;
+    let (mut notes, mut warnings) = (Vec::new(), Vec::new());
+    for (path, (model, _)) in plan.models.iter().zip(models) {
+        let cost = crate::online::classify::frame_cost(model, sensors, pins);
+        notes.push(format!(
+            "{}: {:.3} ms a frame (p50; p99 {:.3} ms, {} frames on this machine), {:.0} % of its {:.2} ms share of a frame at {rate_hz} fps",
+            path.display(),
+            cost.p50_ms,
+            cost.p99_ms,
+            cost.frames,
+            100.0 * cost.p99_ms / budget_ms,
+            budget_ms
+        ));
+        if cost.p99_ms > budget_ms {
+            let slow = BatchError::SlowModel {
+                path: path.clone(),
+                p99_ms: cost.p99_ms,
+                frames: cost.frames,
+                budget_ms,
+                rate_hz,
+                sensors,
+            };
+            if !allow_slow {
+                return Err(slow);
+            }
+            warnings.push(format!("--allow-slow-model: {slow}"));
+        } else if cost.p99_ms > 0.5 * budget_ms {
+            warnings.push(format!(
+                "{}: classifying a frame takes {:.2} ms (p99), more than half of the {:.2} ms each fingertip has at {rate_hz} fps: a busy machine may make its trials late",
+                path.display(),
+                cost.p99_ms,
+                budget_ms
+            ));
+        }
+    }
+    Ok((notes, warnings))
+}
+
+/// Warnings for models trained at a frame rate more than 15 % from the rig's (velocities
+/// are per frame, so they read the rig's slips at another speed per frame), as `tmo
+/// evaluate` and `tmo replay` warn for recorded trials.
+pub fn model_rate_warnings(
+    plan: &Plan,
+    models: &[(SlipModel, String)],
+    rate_hz: f64,
+) -> Vec<String> {
     let rig = crate::slip::features::FeatureSpec {
-        frame_rate_hz: Some(tmo_hal::TMO_FRAME_RATE_HZ as f32),
+        frame_rate_hz: Some(rate_hz as f32),
         ..crate::slip::features::FeatureSpec::new(tmo_hal::TMO_PINS_PER_SENSOR)
     };
     plan.models
@@ -153,10 +223,9 @@ pub fn model_rate_warnings(plan: &Plan, models: &[(SlipModel, String)]) -> Vec<S
         .filter_map(|(path, (model, _))| {
             let why = model.features().rate_differs(&rig)?;
             Some(format!(
-                "{}: {} (the rig's cameras run at {} fps)",
+                "{}: {} (the rig's cameras run at {rate_hz} fps)",
                 path.display(),
                 why.replace("the trials' frame rate", "the rig's frame rate"),
-                tmo_hal::TMO_FRAME_RATE_HZ
             ))
         })
         .collect()
@@ -166,8 +235,7 @@ pub fn model_rate_warnings(plan: &Plan, models: &[(SlipModel, String)]) -> Vec<S
 pub fn check_models_fit_rig(
     plan: &Plan,
     models: &[(SlipModel, String)],
-    sensors: usize,
-    pins: usize,
+    (sensors, pins, rate_hz): (usize, usize, f64),
 ) -> Result<(), BatchError> {
     for (path, (model, _)) in plan.models.iter().zip(models) {
         // every fingertip of the rig (the simulator's and the real hand's TacTips) tracks
@@ -184,14 +252,13 @@ pub fn check_models_fit_rig(
         }
         // a window no trial can fill would never give a class: every trial a miss
         if let Some(duration_s) = plan.params.max_duration_s() {
-            let frames = (duration_s * tmo_hal::TMO_FRAME_RATE_HZ).floor() as usize;
+            let frames = (duration_s * rate_hz).floor() as usize;
             model
                 .fits_frames(frames)
                 .map_err(|message| BatchError::ModelDoesNotFitRig {
                     path: path.clone(),
                     message: format!(
-                        "{message}; this protocol's trials last at most {duration_s} s ({frames} frames at {} fps)",
-                        tmo_hal::TMO_FRAME_RATE_HZ
+                        "{message}; this protocol's trials last at most {duration_s} s ({frames} frames at {rate_hz} fps)"
                     ),
                 })?;
         }
@@ -259,11 +326,20 @@ fn prepare(req: &BatchRequest, rig: &BatchRig) -> Result<Prepared, BatchError> {
     };
     let models = load_models(plan)?;
     let (sensors, pins) = rig_sensors(plan, rig);
-    check_models_fit_rig(plan, &models, sensors, pins)?;
+    let rate_hz = rig_frame_rate_hz(plan, rig);
+    check_models_fit_rig(plan, &models, (sensors, pins, rate_hz))?;
+    let (notes, mut warnings) = check_model_costs(
+        plan,
+        &models,
+        (sensors, pins, rate_hz),
+        req.allow_slow_model,
+    )?;
+    warnings.extend(model_rate_warnings(plan, &models, rate_hz));
+    if let Some(note) = req.on_note {
+        notes.iter().for_each(|n| note(n));
+    }
     if let Some(warn) = req.on_warning {
-        model_rate_warnings(plan, &models)
-            .iter()
-            .for_each(|w| warn(w));
+        warnings.iter().for_each(|w| warn(w));
     }
     let trials = match req.shard {
         Some(shard) => shard.select(expand(plan)),

@@ -38,16 +38,7 @@ pub struct ReleaseParams {
     pub watch: WatchLimits,
 }
 
-#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
-#[serde(rename_all = "snake_case")]
-enum Phase {
-    Approaching,
-    Closing,
-    Settling,
-    Lifting,
-    Releasing,
-    Reacted,
-}
+use super::TrialPhase as Phase;
 
 /// Runs one release; `stop` set (by a Ctrl-C handler) ends it safely as [`Fault::Interrupted`].
 pub fn run_release<C, H, A, M, S>(
@@ -203,6 +194,16 @@ where
             }
         }
     }
+    // A release judged without its release phase would be scored "held, no slip".
+    if fault.is_none() && phase < Phase::Releasing {
+        let f = Fault::PhaseNotReached {
+            reached: phase,
+            needed: Phase::Releasing,
+        };
+        run.log(dev.clock.now_s(), "/fault", json!(f));
+        fault = Some(f);
+        dev.hold_hand(dev.clock.now_s(), &mut run.events)?;
+    }
     dev.arm.stop().map_err(device("arm"))?;
     run.log(dev.clock.now_s(), "/command/arm", json!({"stop": true}));
     Ok(run.finish(dev.clock.now_s(), armed_s, reaction, fault))
@@ -297,20 +298,36 @@ mod tests {
         strategy: &str,
         state_period_s: Option<f64>,
     ) -> (RunRecord, Vec<HandPositions>) {
+        run_with(scripts, strategy, state_period_s, params(), 0.0)
+    }
+
+    /// [`run_sampling_state`] with other parameters, each hand command taking `command_s`
+    /// of the clock's time (a slow bus, a loop that falls behind).
+    fn run_with(
+        scripts: [Script; 3],
+        strategy: &str,
+        state_period_s: Option<f64>,
+        p: ReleaseParams,
+        command_s: f64,
+    ) -> (RunRecord, Vec<HandPositions>) {
         let clock = SharedClock::default();
         let sent = Arc::new(Mutex::new(Vec::new()));
         let mut hand = MockHand::new();
         hand.expect_present_positions()
             .returning(|| Ok([CLOSURE, CLOSURE, CLOSURE, 0.0]));
         let log = sent.clone();
+        let mut bus = clock.clone();
         hand.expect_set_targets().returning(move |t| {
             log.lock().unwrap().push(t);
+            let now = bus.now_s();
+            bus.sleep_until(now + command_s);
             Ok(())
         });
         let mut arm = MockArm::new();
         arm.expect_move_linear()
             .withf(|offset, speed| *offset == [0.0, 0.0, 10.0] && *speed == 100.0)
-            .times(1)
+            // a loop held up by its commands may fault before it lifts
+            .times(if command_s > 0.0 { 0..=1 } else { 1..=1 })
             .returning(|_, _| Ok(()));
         arm.expect_stop().times(1).returning(|| Ok(()));
         arm.expect_tcp_pose().returning(|| {
@@ -339,15 +356,87 @@ mod tests {
             model: &model,
             strategy: strategy.parse().unwrap(),
         };
-        let record = run_release(
-            &mut devices,
-            &params(),
-            Some(online),
-            &AtomicBool::new(false),
-        )
-        .unwrap();
+        let record = run_release(&mut devices, &p, Some(online), &AtomicBool::new(false)).unwrap();
         let targets = sent.lock().unwrap().clone();
         (record, targets)
+    }
+
+    fn with_deadline(p: ReleaseParams) -> ReleaseParams {
+        ReleaseParams {
+            watch: WatchLimits {
+                deadline: Some(crate::online::deadline::Deadline::at_rate(
+                    Default::default(),
+                    60.0,
+                )),
+                ..p.watch
+            },
+            ..p
+        }
+    }
+
+    #[test]
+    fn a_release_cut_short_before_it_releases_faults_naming_the_phase_it_reached() {
+        let p = ReleaseParams {
+            max_duration_s: 0.4,
+            ..params()
+        };
+        let scripts = [slips_from(99.0); 3];
+        let (record, _) = run_with(scripts, "1x1", None, p, 0.0);
+        assert_eq!(
+            record.fault,
+            Some(Fault::PhaseNotReached {
+                reached: Phase::Lifting,
+                needed: Phase::Releasing
+            })
+        );
+        assert_eq!(record.reaction, None);
+        let logged = record.events.iter().find(|e| e.topic == "/fault").unwrap();
+        assert_eq!(logged.data["fault"], "phase_not_reached");
+        assert_eq!(logged.data["reached"], "lifting");
+    }
+
+    #[test]
+    fn every_classified_frame_is_timed_and_a_loop_on_time_keeps_its_deadline() {
+        let scripts = [slips_from(1.0), slips_from(1.1), slips_from(99.0)];
+        let (record, _) = run_with(scripts, "2x2", None, with_deadline(params()), 0.0);
+        assert_eq!(record.fault, None);
+        assert!(record.reaction.is_some());
+        let timed: Vec<&serde_json::Value> = record
+            .events
+            .iter()
+            .filter(|e| e.topic == "/timing")
+            .map(|e| &e.data)
+            .collect();
+        assert!(timed.len() > 100, "{}", timed.len());
+        // the mock clock waits for the computer: every frame within its period
+        assert!(timed
+            .iter()
+            .all(|t| t["lateness_ms"].as_f64().unwrap() < 0.0));
+        // and without a deadline (replay), nothing is timed
+        let (plain, _) = run_with(scripts, "2x2", None, params(), 0.0);
+        assert!(plain.events.iter().all(|e| e.topic != "/timing"));
+        assert_eq!(plain.reaction, record.reaction);
+    }
+
+    #[test]
+    fn a_loop_held_up_by_its_commands_faults_on_its_deadline_and_is_never_scored() {
+        // each hand command takes 40 ms: closing (a command every tick), the loop falls
+        // more than two periods behind its frames
+        let scripts = [slips_from(99.0); 3];
+        let (record, _) = run_with(scripts, "1x1", None, with_deadline(params()), 0.04);
+        let Some(Fault::Deadline(crate::online::deadline::DeadlineBreach::Frame {
+            latency_ms,
+            limit_ms,
+            ..
+        })) = record.fault
+        else {
+            panic!("{:?}", record.fault);
+        };
+        assert!(latency_ms > limit_ms && (limit_ms - 33.33).abs() < 0.01);
+        assert_eq!(record.reaction, None);
+        let logged = record.events.iter().find(|e| e.topic == "/fault").unwrap();
+        assert_eq!(logged.data["fault"], "deadline");
+        assert_eq!(logged.data["breach"], "frame");
     }
 
     fn regrasps(targets: &[HandPositions]) -> usize {

@@ -30,6 +30,14 @@ pub struct Cameras {
     /// A camera silent this long is a fault, s.
     #[serde(default = "default_silent")]
     pub silent_limit_s: f64,
+    /// The cameras' frame rate, Hz: what the online loop's deadline is counted in (a
+    /// JeVois tracking pins runs at 60 fps).
+    #[serde(default = "default_frame_rate")]
+    pub frame_rate_hz: f64,
+}
+
+fn default_frame_rate() -> f64 {
+    tmo_hal::TMO_FRAME_RATE_HZ
 }
 
 fn default_pins() -> usize {
@@ -195,6 +203,15 @@ impl HardwareFile {
             return err(
                 "cameras.silent_limit_s",
                 format!("expected 0.02..=5 s, got {}", self.cameras.silent_limit_s),
+            );
+        }
+        if !(1.0..=1000.0).contains(&self.cameras.frame_rate_hz) {
+            return err(
+                "cameras.frame_rate_hz",
+                format!(
+                    "expected 1..=1000 Hz, got {}",
+                    crate::quote::number(self.cameras.frame_rate_hz)
+                ),
             );
         }
         for (field, b) in [

@@ -60,6 +60,28 @@ pub enum Fault {
         seq: u64,
         output: crate::online::classify::BadOutput,
     },
+    /// The loop fell behind its frames (docs/online.md, "The deadline"): never scored.
+    Deadline(crate::online::deadline::DeadlineBreach),
+    /// The trial ended before the phase its outcome is judged in (a release never
+    /// released): never scored as if that phase had run.
+    PhaseNotReached {
+        reached: TrialPhase,
+        needed: TrialPhase,
+    },
+}
+
+/// A runner's phases, as `/phase` names them.
+#[derive(
+    Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, serde::Serialize, serde::Deserialize,
+)]
+#[serde(rename_all = "snake_case")]
+pub enum TrialPhase {
+    Approaching,
+    Closing,
+    Settling,
+    Lifting,
+    Releasing,
+    Reacted,
 }
 
 /// The model and strategy of an online trial.

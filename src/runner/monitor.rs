@@ -8,6 +8,7 @@ use tmo_hal::PinFrame;
 
 use super::{event, Fault, Online};
 use crate::online::classify::{FrameClassifier, Reaction};
+use crate::online::deadline::{Deadline, DeadlineWatch};
 use crate::online::strategy::Detector;
 use crate::trial::TrialEvent;
 
@@ -19,6 +20,9 @@ pub struct WatchLimits {
     /// This many identical frames in a row from one sensor abort the trial (a frozen
     /// camera repeats its last frame; noise makes real frames differ).
     pub stale_limit: u32,
+    /// The real-time contract an online trial's frames are held to; `None` (replay, whose
+    /// recorded times are not this loop's) times nothing.
+    pub deadline: Option<Deadline>,
 }
 
 impl Default for WatchLimits {
@@ -26,6 +30,7 @@ impl Default for WatchLimits {
         Self {
             silent_limit_s: 0.25,
             stale_limit: 10,
+            deadline: None,
         }
     }
 }
@@ -48,6 +53,8 @@ pub struct FrameMonitor<'m> {
     /// Whether the last batch was fed armed: changes are logged, so replay arms exactly the
     /// batches the live detector saw armed.
     armed: bool,
+    /// Each classified frame against the real-time contract (online trials with one).
+    timing: Option<DeadlineWatch>,
 }
 
 impl<'m> FrameMonitor<'m> {
@@ -60,7 +67,28 @@ impl<'m> FrameMonitor<'m> {
             repeats: vec![0; sensors],
             previous_pins: vec![None; sensors],
             armed: false,
+            timing: online
+                .and(limits.deadline)
+                .map(|d| DeadlineWatch::new(d, sensors, t0)),
         }
+    }
+
+    /// The loop has acted on the frames fed so far, by `now` (rig clock): their timings go
+    /// to `/timing`; a frame past the contract's limit is the fault returned.
+    pub fn decided(&mut self, now: f64, events: &mut Vec<TrialEvent>) -> Option<Fault> {
+        let w = self.timing.as_mut()?;
+        let (timings, breach) = w.decided(now, std::time::Instant::now());
+        events.extend(
+            timings
+                .iter()
+                .map(|t| event(now, "/timing", json!(t.to_microsecond()))),
+        );
+        breach.map(Fault::Deadline)
+    }
+
+    /// At the trial's end, after [`Self::decided`]: a late-frame budget overspent.
+    pub fn share_breach(&self) -> Option<Fault> {
+        self.timing.as_ref()?.share_breach().map(Fault::Deadline)
     }
 
     /// Forgets the detector's runs, so the next reaction needs fresh evidence.
@@ -122,9 +150,17 @@ impl<'m> FrameMonitor<'m> {
         let (Some(c), Some(d)) = (self.classifier.as_mut(), self.detector.as_mut()) else {
             return Verdict::Continue;
         };
+        if let Some(w) = self.timing.as_mut() {
+            w.polled(std::time::Instant::now());
+        }
         for f in frames {
             // Every frame is classified so each sensor has its previous frame ready.
-            let classified = match c.classify_frame(f) {
+            let started = std::time::Instant::now();
+            let result = c.classify_frame(f);
+            if let Some(w) = self.timing.as_mut() {
+                w.classified(f, 1e3 * started.elapsed().as_secs_f64());
+            }
+            let classified = match result {
                 Ok(Some(classified)) => classified,
                 Ok(None) => continue,
                 Err(output) => {

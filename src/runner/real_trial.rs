@@ -36,9 +36,13 @@ pub type RealDevices =
 /// shorter silence is the runner's watchdog's business (that trial aborts, the batch goes on).
 const DISCONNECTED_FACTOR: f64 = 4.0;
 
-fn watch(hw: &HardwareFile) -> WatchLimits {
+fn watch(hw: &HardwareFile, plan: &Plan) -> WatchLimits {
     WatchLimits {
         silent_limit_s: hw.cameras.silent_limit_s,
+        deadline: Some(crate::online::deadline::Deadline::at_rate(
+            plan.deadline,
+            hw.cameras.frame_rate_hz,
+        )),
         ..Default::default()
     }
 }
@@ -163,7 +167,7 @@ pub fn run_real_trial(
     let in_flight = super::devices::InFlight::default();
     devices.in_flight = Some(in_flight.clone());
     let reference_speed = hw.hand.max_speed_per_s;
-    let watch = watch(hw);
+    let watch = watch(hw, plan);
     let result = match &plan.params {
         KindParams::HandRelease(p) => {
             // the grasp comes from contact: check_real_plan made sure the protocol gives one

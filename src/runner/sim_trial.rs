@@ -1,6 +1,8 @@
 //! Runs a planned trial on the simulated rig: the rig each protocol kind needs, the
 //! runner behind the safety limits, and the trial log with its provenance.
 
+use crate::online::deadline::Deadline;
+use crate::runner::monitor::WatchLimits;
 use rand::Rng;
 use tmo_sim::{HandSetup, ObjectStart, RigSetup, SimConfig, SimRig};
 
@@ -184,6 +186,15 @@ pub fn run_sim_trial(
     devices.live = live.map(|l| l.trial(started_unix_s.saturating_mul(1_000_000_000), true));
     // the protocols' speeds are fractions of the paper's maximum, not of the motor's
     let reference_speed = config.servo.reference_speed_per_s;
+    // Held to the contract as a real rig is: on the lock-step clock it cannot be broken
+    // (simulated time waits for the computer), but every frame's work is timed.
+    let watch = WatchLimits {
+        deadline: Some(Deadline::at_rate(
+            plan.deadline,
+            config.tactip.frame_rate_hz,
+        )),
+        ..Default::default()
+    };
     let record = match &plan.params {
         KindParams::HandRelease(p) => {
             // "Closed until stable": unless the protocol finds the grasp from contact, the
@@ -193,14 +204,7 @@ pub fn run_sim_trial(
             let safety: f64 = if hi > lo { rng.gen_range(lo..hi) } else { lo };
             let closure =
                 sim_presets::holding_closure(&base, &planned.object, planned.extra_mass_g, safety)?;
-            let params = release_params(
-                plan,
-                p,
-                &planned.object,
-                closure,
-                reference_speed,
-                Default::default(),
-            );
+            let params = release_params(plan, p, &planned.object, closure, reference_speed, watch);
             if params.contact.is_none() {
                 put("grip_safety", format!("{safety:.4}"));
                 put("closure", format!("{closure:.4}"));
@@ -213,7 +217,7 @@ pub fn run_sim_trial(
             run_release(&mut devices, &params, online, stop)?
         }
         KindParams::RailCatch(p) => {
-            let params = rail_params(plan, p, planned, Default::default());
+            let params = rail_params(plan, p, planned, watch);
             put(
                 "retract_speed_mm_s",
                 format!("{:.4}", params.retract_speed_mm_s),
@@ -225,24 +229,18 @@ pub fn run_sim_trial(
             put("total_g", format!("{:.1}", p.total_g));
             run_pour(
                 &mut devices,
-                &pour_params(
-                    plan,
-                    p,
-                    &planned.object,
-                    reference_speed,
-                    Default::default(),
-                ),
+                &pour_params(plan, p, &planned.object, reference_speed, watch),
                 online,
                 stop,
             )?
         }
         KindParams::FirstTimeLift(p) => {
-            let params = lift_params(plan, p, reference_speed, Default::default());
+            let params = lift_params(plan, p, reference_speed, watch);
             put("extra_mass_g", format!("{:.1}", planned.extra_mass_g));
             run_first_time_lift(&mut devices, &params, online, stop)?
         }
         KindParams::CalibrateLift(p) => {
-            let params = calibration_params(plan, p, reference_speed, Default::default());
+            let params = calibration_params(plan, p, reference_speed, watch);
             put("extra_mass_g", format!("{:.1}", planned.extra_mass_g));
             run_calibration(&mut devices, &params, stop)?
         }

@@ -94,6 +94,17 @@ impl<'m> TrialRun<'m> {
         M: MarkerTracker,
         S: TactileSensor,
     {
+        // The last tick's frames have been acted on (a command sent, or none needed).
+        let before = dev.clock.now_s();
+        if let Some(fault) = self.monitor.decided(before, &mut self.events) {
+            self.events
+                .push(event(before, "/fault", serde_json::json!(fault)));
+            return Ok(Step {
+                verdict: Verdict::Abort(fault),
+                now: before,
+                first_new: self.rec.frames.len(),
+            });
+        }
         let (first_new, now) = dev.tick(&mut self.rec, &mut self.events, waiting_for_slip)?;
         let armed = armed_at(now);
         let verdict = self.monitor.feed(
@@ -110,15 +121,24 @@ impl<'m> TrialRun<'m> {
         })
     }
 
-    /// The trial's record, ended at `ended_s`.
+    /// The trial's record, ended at `ended_s`. A trial that kept no other fault but broke
+    /// the real-time contract ends on that fault.
     pub fn finish(
         mut self,
         ended_s: f64,
         armed_s: Option<f64>,
         reaction: Option<Reaction>,
-        fault: Option<Fault>,
+        mut fault: Option<Fault>,
     ) -> RunRecord {
         self.finished = true;
+        let breach = self.monitor.decided(ended_s, &mut self.events);
+        if fault.is_none() {
+            fault = breach.or_else(|| self.monitor.share_breach());
+            if let Some(f) = fault {
+                self.events
+                    .push(event(ended_s, "/fault", serde_json::json!(f)));
+            }
+        }
         RunRecord {
             recording: std::mem::take(&mut self.rec),
             armed_s,

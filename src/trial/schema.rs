@@ -78,6 +78,14 @@ pub fn event_channel_schema(topic: &str) -> (&'static str, String) {
                 r#"{"type":"object","properties":{"sensor":{"type":"integer","minimum":0},"seq":{"type":"integer","minimum":0},"class":{"type":"string","enum":["static","slip"]},"slip":{"type":"integer","minimum":0,"maximum":1,"description":"1 for slip, 0 for static (plottable)"},"value":{"type":"number","description":"the model's slip value the class was read from: an ONNX model's output as its metadata states it, a tmo model's decision value (positive for slip)"},"mean_velocity_px":{"type":"number","description":"norm of the frame's mean pin velocity, px per frame (what the threshold classifier thresholds)"}},"required":["sensor","seq","class"],"additionalProperties":false}"#,
             ),
         ),
+        "/timing" => (
+            "tmo.FrameTiming",
+            event_schema(
+                "tmo.FrameTiming",
+                "One classified frame against the online loop's deadline (docs/online.md): when it arrived, when its decision was due and made, and this machine's work on it",
+                r#"{"type":"object","properties":{"sensor":{"type":"integer","minimum":0},"seq":{"type":"integer","minimum":0},"arrived_s":{"type":"number","description":"when the frame reached the host (the simulator: when it was taken), rig clock, s"},"due_s":{"type":"number","description":"when its decision was due, rig clock, s"},"decided_s":{"type":"number","description":"when the loop had acted on it, rig clock, s"},"lateness_ms":{"type":"number","description":"decided_s - due_s, ms (positive: late; negative: the slack left)"},"work_ms":{"type":"number","description":"this machine's time from the poll that brought the frame to its decision, ms"},"classify_ms":{"type":"number","description":"this machine's time for the frame's classification, ms"}},"required":["sensor","seq","arrived_s","due_s","decided_s","lateness_ms","work_ms","classify_ms"],"additionalProperties":false}"#,
+            ),
+        ),
         "/detector" => (
             "tmo.DetectorEvent",
             event_schema(
@@ -91,7 +99,7 @@ pub fn event_channel_schema(topic: &str) -> (&'static str, String) {
             event_schema(
                 "tmo.Fault",
                 "Why the trial was aborted",
-                r#"{"type":"object","properties":{"fault":{"type":"string","enum":["silent_sensor","stale_frames","interrupted","no_contact","model_output"]},"sensor":{"type":"integer","minimum":0},"last_frame_s":{"type":"number"},"repeats":{"type":"integer","minimum":0},"deformation_px":{"type":"number"},"seq":{"type":"integer","minimum":0},"output":{"type":"string","enum":["nan","positive_infinity","negative_infinity","run_failed"],"description":"what the slip model gave for the frame instead of a finite value"}},"required":["fault"],"additionalProperties":false}"#,
+                r#"{"type":"object","properties":{"fault":{"type":"string","enum":["silent_sensor","stale_frames","interrupted","no_contact","model_output","deadline","phase_not_reached","device"]},"sensor":{"type":"integer","minimum":0},"last_frame_s":{"type":"number"},"repeats":{"type":"integer","minimum":0},"deformation_px":{"type":"number"},"seq":{"type":"integer","minimum":0},"output":{"type":"string","enum":["nan","positive_infinity","negative_infinity","run_failed"],"description":"what the slip model gave for the frame instead of a finite value"},"breach":{"type":"string","enum":["frame","share"],"description":"deadline: one frame past the limit, or too many frames late"},"latency_ms":{"type":"number","description":"deadline: from when the frame was due to arrive to its decision, ms"},"limit_ms":{"type":"number"},"late":{"type":"integer","minimum":0},"frames":{"type":"integer","minimum":0},"max_late_share":{"type":"number"},"reached":{"type":"string","description":"phase_not_reached: the last phase the trial reached"},"needed":{"type":"string","description":"phase_not_reached: the phase its outcome is judged in"},"message":{"type":"string"}},"required":["fault"],"additionalProperties":false}"#,
             ),
         ),
         "/state/hand" => (

@@ -180,6 +180,15 @@ pub enum BatchError {
     Csv { path: PathBuf, message: String },
     #[error("{path}: {message}")]
     ModelDoesNotFitRig { path: PathBuf, message: String },
+    #[error("{path}: classifying a frame takes {p99_ms:.2} ms on this machine (p99 of {frames} frames at load), but at {rate_hz} fps with {sensors} fingertip(s) the online loop has {budget_ms:.2} ms a frame for each: its trials would fall behind their cameras and fault on their deadline. Use a faster model (docs/performance.md), or pass --allow-slow-model to run it anyway (on the simulator its outcomes do not depend on this machine's speed; on the real rig its trials fault as `deadline`)")]
+    SlowModel {
+        path: PathBuf,
+        p99_ms: f64,
+        frames: usize,
+        budget_ms: f64,
+        rate_hz: f64,
+        sensors: usize,
+    },
     #[error("model file {0} not found: train one from collected trials with `tmo train TRIALS --out {0}` (docs/commands.md, \"The pipeline, step by step\"), or run `tmo reproduce --preset quick`, which collects, trains and runs every protocol")]
     MissingModel(PathBuf),
     #[error("the batch has {trials} trials (objects x masses x grasps x models x strategies x repetitions); at most {MAX_TRIALS} can run in one batch")]
