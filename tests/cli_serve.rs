@@ -148,7 +148,7 @@ fn lift_protocols_run_on_the_real_backend_against_the_served_simulator() {
     assert!(out.contains("g_min.json"), "{out}");
     std::fs::write(
         d.join("lift.toml"),
-        format!("kind = \"first_time_lift\"\nobjects = [\"crisps_can\"]\nmodels = [\"global.json\"]\nrepetitions = 2\n[first_time_lift]\n{quick}calibration = \"cal/g_min.json\"\n"),
+        format!("kind = \"first_time_lift\"\nobjects = [\"crisps_can\"]\nmodels = [\"global.json\"]\nrepetitions = 2\n[first_time_lift]\n{quick}calibration = \"cal/g_min.json\"\n{}", common::LOOSE_DEADLINE),
     )
     .unwrap();
     common::ok(&run_real(d, "lift.toml", "lift"));
@@ -195,7 +195,10 @@ fn hand_release_and_rice_pour_run_on_the_real_backend_against_the_served_simulat
     );
     std::fs::write(
         d.join("release.toml"),
-        format!("{release}grasp_past_contact = {{ crisps_can = 0.03, default = 0.01 }}\n"),
+        format!(
+            "{release}grasp_past_contact = {{ crisps_can = 0.03, default = 0.01 }}\n{}",
+            common::LOOSE_DEADLINE
+        ),
     )
     .unwrap();
     common::ok(&run_real(d, "release.toml", "release"));
@@ -273,7 +276,7 @@ fn hand_release_and_rice_pour_run_on_the_real_backend_against_the_served_simulat
 
     std::fs::write(
         d.join("pour.toml"),
-        "kind = \"rice_pour\"\nrepetitions = 1\nmodels = [\"global.json\"]\nstrategies = [\"2x2\"]\n[rice_pour]\ntotal_g = 120.0\ngrasp_past_contact = 0.01\n",
+        format!("{}{}", "kind = \"rice_pour\"\nrepetitions = 1\nmodels = [\"global.json\"]\nstrategies = [\"2x2\"]\n[rice_pour]\ntotal_g = 120.0\ngrasp_past_contact = 0.01\n", common::LOOSE_DEADLINE),
     )
     .unwrap();
     common::ok(&run_real(d, "pour.toml", "pour"));
@@ -338,7 +341,7 @@ fn rail_catch_runs_on_the_real_backend_against_the_served_rail_rig() {
     assert_eq!(hw.cameras.fingertips.len(), 1, "one finger on the rail");
     std::fs::write(
         d.join("rail.toml"),
-        "kind = \"rail_catch\"\nrepetitions = 3\nmodels = [\"rail.json\"]\nstrategies = [\"1x1\"]\n[rail_catch]\nretract_speed_mm_s = [3.0, 5.0]\n",
+        format!("{}{}", "kind = \"rail_catch\"\nrepetitions = 3\nmodels = [\"rail.json\"]\nstrategies = [\"1x1\"]\n[rail_catch]\nretract_speed_mm_s = [3.0, 5.0]\n", common::LOOSE_DEADLINE),
     )
     .unwrap();
     common::ok(&run_real(d, "rail.toml", "rail_batch"));
@@ -411,7 +414,7 @@ fn an_operator_at_a_terminal_sets_each_trial_up() {
     std::fs::write(d.join("rig.toml"), &served[..cut]).unwrap();
     std::fs::write(
         d.join("pour.toml"),
-        "kind = \"rice_pour\"\nrepetitions = 2\nmodels = [\"global.json\"]\nstrategies = [\"2x2\"]\n[rice_pour]\ntotal_g = 80.0\ngrasp_past_contact = 0.01\n",
+        format!("{}{}", "kind = \"rice_pour\"\nrepetitions = 2\nmodels = [\"global.json\"]\nstrategies = [\"2x2\"]\n[rice_pour]\ntotal_g = 80.0\ngrasp_past_contact = 0.01\n", common::LOOSE_DEADLINE),
     )
     .unwrap();
     let plan = tmo::protocol::load(&d.join("pour.toml"), 3).unwrap();
@@ -528,7 +531,7 @@ fn a_device_lost_mid_trial_leaves_that_trial_as_a_faulted_log() {
     let server = common::serve_sim(d, &["--rig", "rail"]);
     std::fs::write(
         d.join("rail.toml"),
-        "kind = \"rail_catch\"\nrepetitions = 3\nmodels = [\"rail.json\"]\nstrategies = [\"1x1\"]\n[rail_catch]\nretract_speed_mm_s = [3.0, 5.0]\n",
+        format!("{}{}", "kind = \"rail_catch\"\nrepetitions = 3\nmodels = [\"rail.json\"]\nstrategies = [\"1x1\"]\n[rail_catch]\nretract_speed_mm_s = [3.0, 5.0]\n", common::LOOSE_DEADLINE),
     )
     .unwrap();
     let child = Command::new(env!("CARGO_BIN_EXE_tmo"))

@@ -289,11 +289,13 @@ pub fn run(args: RunArgs) -> Result<u8> {
 
 /// The batch's own report tables, so `tmo run` and `tmo report` never disagree.
 fn batch_tables(out: &Path, kind: Kind, summary: &mut BatchSummary) -> Vec<tmo::report::Table> {
+    let timing = std::mem::take(&mut summary.rows.timing);
     let inputs = Inputs {
         batches: vec![Batch {
             dir: out.to_path_buf(),
             manifest: summary.manifest.clone(),
             rows: std::mem::take(&mut summary.rows).into_batch_rows(kind),
+            timing,
         }],
         ..Default::default()
     };

@@ -50,6 +50,15 @@ pub struct ServeArgs {
     /// arm's state, as its devices send them.
     #[arg(long, value_name = "ADDR", num_args = 0..=1, default_missing_value = "127.0.0.1:8765")]
     live: Option<std::net::SocketAddr>,
+    /// A fault to provoke: every fingertip camera's link stalls this many seconds into each
+    /// trial (each reset's world), holding its frames back for --stall-for seconds and then
+    /// sending them at once, as a congested USB link does. For tests of the online loop's
+    /// deadline (docs/online.md).
+    #[arg(long, value_name = "SECONDS", requires = "stall_for", value_parser = serve_seconds)]
+    stall_cameras_at: Option<f64>,
+    /// How long the links stall (with --stall-cameras-at), s.
+    #[arg(long, value_name = "SECONDS", requires = "stall_cameras_at", value_parser = serve_seconds)]
+    stall_for: Option<f64>,
 }
 
 #[derive(Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
@@ -152,7 +161,14 @@ pub fn serve_cmd(args: ServeArgs) -> Result<()> {
         cameras: rig
             .tactile_sensors()
             .into_iter()
-            .map(|s| PtyCamera::open(s, "pins"))
+            .map(|s| {
+                let mut camera = PtyCamera::open(s, "pins")?;
+                camera.stall = args
+                    .stall_cameras_at
+                    .zip(args.stall_for)
+                    .map(|(from_s, for_s)| tmo_sim::serve::LinkStall { from_s, for_s });
+                Ok(camera)
+            })
             .collect::<std::io::Result<_>>()
             .context("cannot open a pseudo-terminal for a fingertip camera")?,
         markers: Some(

@@ -12,6 +12,7 @@ mod font;
 pub mod lift;
 pub mod offline;
 pub mod online;
+pub mod timing;
 
 use std::path::{Path, PathBuf};
 
@@ -129,6 +130,7 @@ pub fn caption(file_stem: &str) -> Option<String> {
         "fig8_hand_slip_distance" => "Fig. 8: slip distance D before the regrasp caught the object, by strategy, pooled over both models and both grasps (boxes: quartiles and median; n: caught trials). The paper: 16-45 mm, smallest for 1Fr2Sen. Findings wh-distance, wh-distance-sensitive-smallest, wh-distance-local-rotated.".to_string(),
         "fig12_lift_heights" => "Fig. 12: object and hand heights through a first-time lift (a lift succeeds when the object rises with the hand, after the hand has risen alone while it tightened). Findings lift-all-lifted, lift-cat.".to_string(),
         stem if stem.starts_with("fig13_lift_by_mass") => "Fig. 13: first-time lift by mass: slips per lift and overgrasp (how far past the least lifting grasp the hand closed; the paper: 39 % at 100-300 g, 105 % above). Findings lift-slips-rise-with-mass, lift-overgrasp-light, lift-overgrasp-heavy.".to_string(),
+        "loop_lateness" => "The online loop's timing (docs/online.md), one column per timed trial: the lateness of its median, p99 and worst frame, decision time minus due time (above 0: late; the limit is one more frame period, 16.7 ms at 60 fps). Ringed: a trial that broke the deadline, kept as a faulted log and never scored. On the lock-step simulator simulated time waits for the computer, so its trials sit below 0 on any machine; timing.csv's late_with_work says what this machine's work would have added.".to_string(),
         _ => return None,
     })
 }
@@ -162,6 +164,7 @@ pub fn draw_all(inputs: &Inputs, dir: &Path) -> Result<Vec<PathBuf>, PlotError> 
     }
     out.extend(online::hand_figures(inputs, dir)?);
     out.extend(lift::lift_figures(inputs, dir)?);
+    out.extend(timing::timing_figures(inputs, dir)?);
     Ok(out)
 }
 

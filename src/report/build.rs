@@ -105,7 +105,76 @@ pub fn tables(inputs: &Inputs) -> Vec<Table> {
     out.extend(calibration(inputs));
     out.extend(first_time_lift(inputs));
     out.extend(truth_agreement(inputs));
+    out.extend(loop_timing(inputs));
     out
+}
+
+/// How the online loop kept its cameras' pace, per model and backend.
+pub fn loop_timing(inputs: &Inputs) -> Option<Table> {
+    let rows: Vec<_> = inputs
+        .batches
+        .iter()
+        .flat_map(|b| b.timing.iter().cloned())
+        .collect();
+    timing_table(&rows)
+}
+
+/// The online loop's timing per model and backend, over the trials of `rows`.
+pub fn timing_table(rows: &[crate::runner::loop_timing::TimingRow]) -> Option<Table> {
+    if rows.is_empty() {
+        return None;
+    }
+    let mut t = Table::new(
+        "loop_timing",
+        "Online loop: each frame's decision against its deadline (late: after one frame period; a deadline fault is never scored)",
+        &[
+            "model",
+            "backend",
+            "trials",
+            "frames",
+            "late frames",
+            "lateness p50 (ms)",
+            "lateness p99 (ms)",
+            "lateness max (ms)",
+            "deadline faults",
+            "work p99 (ms)",
+            "late with this machine's work",
+        ],
+    );
+    let mut groups: std::collections::BTreeMap<
+        (&str, &str),
+        Vec<&crate::runner::loop_timing::TimingRow>,
+    > = Default::default();
+    for r in rows {
+        groups
+            .entry((r.model.as_str(), r.backend.as_str()))
+            .or_default()
+            .push(r);
+    }
+    for ((model, backend), rs) in groups {
+        let frames: u64 = rs.iter().map(|r| r.frames).sum();
+        let late: u64 = rs.iter().map(|r| r.late).sum();
+        // the trials' own quantiles: the median trial's median, the worst trial's p99
+        let mut p50: Vec<f64> = rs.iter().map(|r| r.lateness_p50_ms).collect();
+        p50.sort_by(f64::total_cmp);
+        let worst = |f: fn(&crate::runner::loop_timing::TimingRow) -> f64| {
+            rs.iter().map(|r| f(r)).fold(f64::MIN, f64::max)
+        };
+        t.push(vec![
+            Cell::text(model),
+            Cell::text(backend),
+            Cell::Count(rs.len() as u64),
+            Cell::Count(frames),
+            Cell::Count(late),
+            Cell::number(Some(crate::online::deadline::nearest_rank(&p50, 0.5)), 2),
+            Cell::number(Some(worst(|r| r.lateness_p99_ms)), 2),
+            Cell::number(Some(worst(|r| r.lateness_max_ms)), 2),
+            Cell::Count(rs.iter().filter(|r| r.deadline_fault).count() as u64),
+            Cell::number(Some(worst(|r| r.work_p99_ms)), 3),
+            Cell::Count(rs.iter().map(|r| r.late_with_work).sum()),
+        ]);
+    }
+    Some(t)
 }
 
 /// Best cell per classifier of each sweep (paper Fig. 5 in numbers).
@@ -666,5 +735,40 @@ mod tests {
         assert_eq!(classifier_label("threshold"), "threshold");
         let here = std::env::current_dir().unwrap().join("a/b.json");
         assert_eq!(short_label(&here), "a/b.json");
+    }
+
+    #[test]
+    fn the_loop_timing_table_has_a_line_per_model_and_backend() {
+        let row = |trial_id: &str, model: &str, late: u64, fault: bool| {
+            crate::runner::loop_timing::TimingRow {
+                trial_id: trial_id.into(),
+                model: model.into(),
+                strategy: "1Fr1Sen".into(),
+                backend: "real".into(),
+                frames: 3,
+                late,
+                lateness_p50_ms: -10.0,
+                lateness_p99_ms: 1.0,
+                lateness_max_ms: if fault { 40.0 } else { 4.0 },
+                work_p99_ms: 0.5,
+                classify_p99_ms: 0.2,
+                late_with_work: late,
+                deadline_fault: fault,
+            }
+        };
+        use super::timing_table;
+        assert_eq!(timing_table(&[]), None);
+        let t = timing_table(&[
+            row("t1", "a", 1, false),
+            row("t2", "a", 2, true),
+            row("t3", "b", 0, false),
+        ])
+        .unwrap();
+        let text = t.markdown();
+        assert!(
+            text.contains("| a | real | 2 | 6 | 3 | -10.00 | 1.00 | 40.00 | 1 |"),
+            "{text}"
+        );
+        assert!(text.contains("| b | real | 1 | 3 | 0 |"), "{text}");
     }
 }

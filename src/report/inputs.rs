@@ -20,6 +20,8 @@ pub struct Batch {
     pub dir: PathBuf,
     pub manifest: Manifest,
     pub rows: BatchRows,
+    /// Each online trial's loop timing (`timing.csv`; empty for batches without one).
+    pub timing: Vec<crate::runner::loop_timing::TimingRow>,
 }
 
 #[derive(Debug, Clone, PartialEq)]
@@ -124,10 +126,18 @@ fn load_batch(dir: &Path) -> Result<Batch, InputError> {
             BatchRows::Catch(rows)
         }
     };
+    let timing_path = dir.join(crate::runner::loop_timing::TIMING_CSV);
+    let timing = crate::runner::loop_timing::read_csv(&timing_path).map_err(|message| {
+        InputError::Format {
+            path: timing_path,
+            message,
+        }
+    })?;
     Ok(Batch {
         dir: dir.to_path_buf(),
         manifest,
         rows,
+        timing,
     })
 }
 
@@ -347,6 +357,8 @@ fn join_shards(batches: Vec<Batch>) -> Result<Vec<Batch>, InputError> {
             }
             _ => unreachable!("parts of one kind hold rows of one kind"),
         }
+        joined.timing.extend(b.timing);
+        joined.timing.sort_by(|x, y| x.trial_id.cmp(&y.trial_id));
     }
     for (b, p) in out.iter().zip(&parts) {
         if let Some((count, seen)) = p {

@@ -20,6 +20,7 @@ use super::batch::{
     PlannedTrial,
 };
 use crate::protocol::{Kind, KindParams, Plan};
+use crate::runner::loop_timing::TimingRow;
 use crate::runner::real_trial::{run_real_trial, RealRig};
 use crate::runner::score::{self, CalibrationRow, GMinTable, LiftRow, OutcomeRow};
 use crate::runner::sim_trial::run_sim_trial;
@@ -543,7 +544,7 @@ fn score_chunk(
     tally: &mut Tally,
 ) -> Result<(), BatchError> {
     let plan = req.plan;
-    let scored: Vec<Result<Scored, BatchError>> = chunk
+    let scored: Vec<Result<(Scored, Option<TimingRow>), BatchError>> = chunk
         .par_iter()
         .map(|t| {
             let path = trial_path(req.out, t);
@@ -551,7 +552,9 @@ fn score_chunk(
         })
         .collect();
     for (t, result) in chunk.iter().zip(scored) {
-        let message = match result? {
+        let (scored, timing) = result?;
+        tally.rows.timing.extend(timing);
+        let message = match scored {
             Scored::Lift(row) => {
                 let m = if row.success { "lifted" } else { "not lifted" };
                 tally.rows.lift.push(row);
@@ -597,6 +600,17 @@ fn write_results(
     let json_path = out.join("outcomes.json");
     tally.rows.write(&csv_path, &json_path)?;
     let mut outputs = vec![csv_path, json_path];
+    if !tally.rows.timing.is_empty() {
+        let path = out.join(crate::runner::loop_timing::TIMING_CSV);
+        let bytes = crate::runner::loop_timing::to_csv(&tally.rows.timing).map_err(|message| {
+            BatchError::Csv {
+                path: path.clone(),
+                message,
+            }
+        })?;
+        write_atomic(&path, &bytes)?;
+        outputs.push(path);
+    }
     if plan.kind == Kind::CalibrateLift {
         let table = GMinTable::from_rows(&tally.rows.calibration);
         let path = out.join("g_min.json");
@@ -637,7 +651,7 @@ fn score_kept(
     path: &Path,
     spec: &crate::outcome::CatchSpec,
     g_min: Option<&GMinTable>,
-) -> Result<Scored, BatchError> {
+) -> Result<(Scored, Option<TimingRow>), BatchError> {
     let trial = read_trial_for_scoring(path)?;
     let m = &trial.meta;
     let foreign = if m.trial_id != t.trial_id {
@@ -665,7 +679,8 @@ fn score_kept(
         });
     }
     let onset_mm = plan.outcome.onset_threshold_mm;
-    Ok(match &plan.params {
+    let timing = crate::runner::loop_timing::timing_row(&trial);
+    let scored = match &plan.params {
         KindParams::FirstTimeLift(_) => {
             Scored::Lift(score::score_first_time_lift(&trial, onset_mm, g_min))
         }
@@ -673,5 +688,6 @@ fn score_kept(
             Scored::Calibration(score::score_calibration(&trial, onset_mm, p.max_slide_mm))
         }
         _ => Scored::Catch(score::score_trial(&trial, spec)),
-    })
+    };
+    Ok((scored, timing))
 }

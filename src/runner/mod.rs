@@ -9,6 +9,7 @@ pub mod devices;
 pub mod hand_release;
 pub mod hardware;
 pub mod lift;
+pub mod loop_timing;
 #[cfg(test)]
 pub(crate) mod mocks;
 pub mod monitor;

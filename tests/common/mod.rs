@@ -4,6 +4,7 @@
 
 pub mod live;
 pub mod logs;
+pub mod slow_model;
 
 use std::path::Path;
 use std::process::{Child, Command, Output, Stdio};
@@ -111,6 +112,11 @@ impl Drop for Server {
         let _ = self.0.wait();
     }
 }
+
+/// A `[deadline]` for protocols run against the served simulator by tests of something
+/// else than the loop's pace: tests share this machine, and a starved runner is no fault of
+/// the backend under test (the contract itself: tests/cli_deadline.rs).
+pub const LOOSE_DEADLINE: &str = "\n[deadline]\nlimit_periods = 600.0\nmax_late_share = 1.0\n";
 
 /// `tmo sim serve --hardware hardware/tmo.toml --out served.toml` in `d` (plus `extra`),
 /// once its served hardware file is written. A loaded CI machine can starve the emulator's

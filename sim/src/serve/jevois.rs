@@ -24,6 +24,19 @@ pub struct PtyCamera {
     /// Lines the client was too slow to take (the terminal buffer was full).
     pub dropped_lines: u64,
     pub sent_lines: u64,
+    /// A link that stalls: from this time of each world's clock, for this long, s, frames
+    /// are held back, then sent at once (a fault to provoke, for tests of the online
+    /// loop's deadline).
+    pub stall: Option<LinkStall>,
+    held: std::collections::VecDeque<PinFrame>,
+}
+
+/// When a served camera's link stalls, on each world's clock (every trial's reset starts
+/// one at zero), s.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LinkStall {
+    pub from_s: f64,
+    pub for_s: f64,
 }
 
 /// Writes a line; a camera does not wait for its host, so a full terminal drops it.
@@ -53,18 +66,30 @@ impl PtyCamera {
             id: id.to_string(),
             dropped_lines: 0,
             sent_lines: 0,
+            stall: None,
+            held: Default::default(),
         })
     }
 
     /// Serves another world's sensor (after a reset) on the same terminal.
     pub fn rebind(&mut self, sensor: SimTactileSensor) {
         self.sensor = sensor;
+        self.held.clear();
     }
 
-    /// Sends every frame the simulated sensor produced since the last call.
-    /// Sends the frames the sensor has made since the last step; `sent` sees each.
-    pub fn step(&mut self, mut sent: impl FnMut(&PinFrame)) -> std::io::Result<()> {
+    /// Sends the frames the sensor has made since the last step (those a stalled link
+    /// holds at `world_s`, once it ends); `sent` sees each.
+    pub fn step(&mut self, world_s: f64, mut sent: impl FnMut(&PinFrame)) -> std::io::Result<()> {
         while let Ok(Some(f)) = self.sensor.next_frame() {
+            self.held.push_back(f);
+        }
+        let stalled = self
+            .stall
+            .is_some_and(|s| world_s >= s.from_s && world_s < s.from_s + s.for_s);
+        if stalled {
+            return Ok(());
+        }
+        while let Some(f) = self.held.pop_front() {
             let line = format_fine2(None, &self.id, &f.pins);
             send_line(
                 &mut self.master,

@@ -20,7 +20,7 @@ use dynamixel::PtyServoBus;
 use tmo_hal::types::{HandPositions, MarkerSample, PinFrame, Pose};
 use tmo_hal::{Arm, Clock, Hand};
 
-pub use jevois::{PtyCamera, PtyMarkerCamera};
+pub use jevois::{LinkStall, PtyCamera, PtyMarkerCamera};
 pub use pty::open_pty;
 pub use ur::{UrEmulator, UrServeStats};
 
@@ -113,8 +113,9 @@ pub fn serve_controlled(
         if let Some(ur) = devices.ur.as_mut() {
             ur.step(now, &mut arm)?;
         }
+        let world_s = clock.now_s();
         for c in devices.cameras.iter_mut() {
-            c.step(|f| {
+            c.step(world_s, |f| {
                 if let Some(t) = tap.as_deref_mut() {
                     t.frame(now, f);
                 }

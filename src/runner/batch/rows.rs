@@ -21,6 +21,8 @@ pub struct ScoredRows {
     pub catch: Vec<OutcomeRow>,
     pub lift: Vec<LiftRow>,
     pub calibration: Vec<CalibrationRow>,
+    /// Each online trial's loop timing (`timing.csv`).
+    pub timing: Vec<crate::runner::loop_timing::TimingRow>,
 }
 
 fn write_rows<T: serde::Serialize>(
