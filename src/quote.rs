@@ -14,9 +14,30 @@ pub fn number(x: f64) -> String {
     }
 }
 
+/// A list as a message quotes it: the first `at_most` items joined by commas, then how many
+/// more (`a, b, c and 12 more`), so a list of a thousand is one short line.
+pub fn list<S: AsRef<str>>(items: &[S], at_most: usize) -> String {
+    let shown: Vec<&str> = items.iter().take(at_most).map(AsRef::as_ref).collect();
+    match items.len().saturating_sub(at_most) {
+        0 => shown.join(", "),
+        more => format!("{} and {more} more", shown.join(", ")),
+    }
+}
+
+/// How many items a message lists before it counts the rest.
+pub const LISTED: usize = 5;
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn long_lists_are_folded_after_a_few() {
+        assert_eq!(list(&["a", "b"], 5), "a, b");
+        let many: Vec<String> = (1..=999).map(|k| format!("{k}/1000")).collect();
+        assert_eq!(list(&many, 3), "1/1000, 2/1000, 3/1000 and 996 more");
+        assert_eq!(list::<&str>(&[], 3), "");
+    }
 
     #[test]
     fn numbers_of_any_size_are_quoted_short() {

@@ -140,7 +140,11 @@ fn a_collection_never_adds_to_another_collections_directory() {
 fn a_search_range_that_is_not_one_is_refused_naming_the_option() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    for (option, range) in [("--c-range", "5:1"), ("--gamma-range", "0:1")] {
+    for (option, range) in [
+        ("--c-range", "5:1"),
+        ("--gamma-range", "0:1"),
+        ("--c-range", "1:1e308"),
+    ] {
         for command in ["train", "sweep"] {
             let err = fails(&tmo(
                 d,
@@ -149,10 +153,40 @@ fn a_search_range_that_is_not_one_is_refused_naming_the_option() {
                 ],
             ));
             assert!(
-                err.contains(option) && err.contains("expected LOW:HIGH with 0 < LOW < HIGH"),
+                err.contains(option)
+                    && err.contains("expected LOW:HIGH with 0.000001 <= LOW < HIGH <= 1000000"),
                 "{command} {option} {range}: {err}"
             );
         }
+    }
+    // a grid point beyond what a fit can search, refused at once (C 1e308 once ran for minutes)
+    let err = fails(&tmo(
+        d,
+        &[
+            "train", "t", "--search", "grid", "--c-grid", "1,1e308", "--out", "m.json",
+        ],
+    ));
+    assert!(
+        err.contains("--c-grid")
+            && err.contains("expected numbers in 0.000001..=1000000")
+            && err.contains("\"1e308\""),
+        "{err}"
+    );
+    // a gamma axis nothing reads is refused rather than ignored
+    for (extra, why) in [
+        (
+            &["--search", "grid", "--classifier", "svm-linear"][..],
+            "the svm-linear classifier has no gamma",
+        ),
+        (
+            &["--search", "bayes"][..],
+            "--gamma-grid is the gamma axis of --search grid",
+        ),
+    ] {
+        let mut args = vec!["train", "t", "--gamma-grid", "0.1,1", "--out", "m.json"];
+        args.extend_from_slice(extra);
+        let err = fails(&tmo(d, &args));
+        assert!(err.contains(why), "{extra:?}: {err}");
     }
 }
 

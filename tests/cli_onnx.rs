@@ -475,3 +475,46 @@ fn a_reproduction_judges_a_users_model_as_the_hands_global_model() {
     );
     assert!(!d.join("r").exists());
 }
+
+#[test]
+fn a_directory_or_a_model_with_external_data_is_refused_saying_what_it_is() {
+    use prost::Message;
+    use tract_onnx::pb;
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::create_dir(d.join("models")).unwrap();
+    let e = fails(&tmo(
+        d,
+        &["reproduce", "--hand-model", "models", "--out", "r"],
+    ));
+    assert!(
+        e.contains("models is a directory; a model is one file"),
+        "{e}"
+    );
+    // logreg with its first weights moved to a file beside it, as onnx.save_model's
+    // save_as_external_data writes them
+    let bytes = std::fs::read(
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/onnx/logreg.onnx"),
+    )
+    .unwrap();
+    let mut proto = pb::ModelProto::decode(bytes.as_slice()).unwrap();
+    let t = &mut proto.graph.as_mut().unwrap().initializer[0];
+    t.float_data.clear();
+    t.raw_data.clear();
+    t.data_location = Some(pb::tensor_proto::DataLocation::External as i32);
+    t.external_data = vec![pb::StringStringEntryProto {
+        key: "location".into(),
+        value: "weights.bin".into(),
+    }];
+    std::fs::write(d.join("external.onnx"), proto.encode_to_vec()).unwrap();
+    let e = fails(&tmo(
+        d,
+        &["reproduce", "--hand-model", "external.onnx", "--out", "r"],
+    ));
+    assert!(
+        e.contains("external.onnx")
+            && e.contains("kept in external data files beside it (ONNX external data)"),
+        "{e}"
+    );
+    assert!(!d.join("r").exists());
+}

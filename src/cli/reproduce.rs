@@ -152,7 +152,7 @@ pub fn run(args: ReproduceArgs) -> Result<u8> {
         Some(dir) => Some(second_stage(dir)?),
         None => args
             .sensitivity
-            .then(|| args.sensitivity_parameters.clone()),
+            .then(|| reproduce::sensitivity::parameters_named(&args.sensitivity_parameters)),
     };
     // read and checked before anything runs: a model that cannot stand in fails now
     let hand_model = args

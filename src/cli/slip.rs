@@ -153,10 +153,11 @@ fn parse_grid(text: &str) -> Result<GridValues, String> {
             v.trim()
                 .parse::<f64>()
                 .ok()
-                .filter(|x| x.is_finite() && *x > 0.0)
+                .filter(|x| tmo::slip::search_range::searchable(*x))
                 .ok_or_else(|| {
+                    let [lo, hi] = tmo::slip::search_range::SEARCHABLE;
                     format!(
-                        "expected positive numbers separated by commas, got {:?}",
+                        "expected numbers in {lo}..={hi} separated by commas, got {:?}",
                         v.trim()
                     )
                 })
@@ -324,7 +325,7 @@ pub fn load_dataset(
         super::output::note(format!(
             "note: no slip onset (in the marker track or slip labels) in {} trial(s): {}",
             ds.trials_without_onset.len(),
-            ds.trials_without_onset.join(", ")
+            tmo::quote::list(&ds.trials_without_onset, tmo::quote::LISTED)
         ));
     }
     // Imported trials' rates were said at import: again only when asked (-v).
@@ -440,6 +441,18 @@ fn check_model_out(out: &std::path::Path) -> Result<()> {
 
 pub fn train(args: TrainArgs) -> Result<()> {
     check_model_out(&args.out)?;
+    // a grid axis nothing reads would be ignored without a word
+    if args.gamma_grid.is_some() {
+        anyhow::ensure!(
+            args.search == SearchMethod::Grid,
+            "--gamma-grid is the gamma axis of --search grid; add --search grid or leave it out"
+        );
+        anyhow::ensure!(
+            args.classifier.uses_gamma(),
+            "--gamma-grid: the {} classifier has no gamma (only svm-rbf has); leave it out",
+            args.classifier.name()
+        );
+    }
     // one writer per model file: two trainings aimed at one path would leave the last's
     let _lock = tmo::output::lock::OutputLock::acquire(&args.out)?;
     let labels = label_spec(&args.labels, &args.trials)?;

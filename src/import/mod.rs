@@ -278,7 +278,10 @@ pub(crate) fn build_trial(
     if let Some(onset) = rows.onset_s.flatten().map(f64::from_bits) {
         if !(t_first..=t_last).contains(&onset) {
             return Err(format!(
-                "trial `{name}`: onset_s {onset} is outside its frames' times ({t_first} to {t_last} s); an onset is a frame time of the trial's slip (leave onset_s empty for a trial without slip)"
+                "trial `{name}`: onset_s {} is outside its frames' times ({} to {} s); an onset is a frame time of the trial's slip (leave onset_s empty for a trial without slip)",
+                crate::quote::number(onset),
+                crate::quote::number(t_first),
+                crate::quote::number(t_last)
             ));
         }
     }

@@ -369,7 +369,9 @@ pub fn read_interchange(path: &Path, opts: &ImportOptions) -> Result<ImportSumma
             };
             // compared bit for bit, said as the numbers they are (T4-12)
             let show = |bits: Option<u64>| {
-                bits.map_or("empty".to_string(), |b| f64::from_bits(b).to_string())
+                bits.map_or("empty".to_string(), |b| {
+                    crate::quote::number(f64::from_bits(b))
+                })
             };
             match trial.onset_s {
                 Some(old) if old != onset.map(f64::to_bits) => {
@@ -743,6 +745,11 @@ mod tests {
         for onset in ["-0.5", "1e308", "0.03"] {
             let e = message(read(&row("a", "0", "0.02", onset), &opts()).unwrap_err());
             assert!(e.contains("outside its frames' times"), "{onset}: {e}");
+            // quoted as written, not as 309 digits
+            assert!(
+                e.len() < 400 && e.contains(&format!("onset_s {onset} ")),
+                "{e}"
+            );
         }
         assert!(read(&row("a", "0", "0.02", "0.02"), &opts()).is_ok());
     }

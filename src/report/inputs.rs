@@ -371,7 +371,7 @@ fn join_shards(batches: Vec<Batch>) -> Result<Vec<Batch>, InputError> {
                     path: b.dir.clone(),
                     message: format!(
                         "a part of a batch split with --shard; shard(s) {} not given",
-                        missing.join(", ")
+                        crate::quote::list(&missing, crate::quote::LISTED)
                     ),
                 });
             }

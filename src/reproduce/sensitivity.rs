@@ -145,6 +145,15 @@ pub fn variable(records: &[ParameterRecord]) -> Vec<String> {
 
 /// The variants to run: both ends of every varied parameter, or of the parameters named
 /// in `only` (an unknown or unvaried name is an error naming it).
+/// The parameters a study names, each once and in one order: `x,x` is the study `x`, and
+/// `y,x` the study `x,y` (shards of one study named either way merge).
+pub fn parameters_named(given: &[String]) -> Vec<String> {
+    let mut named = given.to_vec();
+    named.sort();
+    named.dedup();
+    named
+}
+
 pub fn variants(records: &[ParameterRecord], only: &[String]) -> Result<Vec<Variant>, String> {
     let settable = settable();
     for name in only {
@@ -342,17 +351,28 @@ pub fn markdown(baseline: &[Judged], outcomes: &[Outcome]) -> String {
         .collect();
     let varied: Vec<&Outcome> = outcomes.iter().filter(|o| !o.variant.reseeded).collect();
     let reference = outcomes.iter().find(|o| o.variant.reseeded);
+    let parameters = varied
+        .iter()
+        .map(|o| o.variant.parameter.as_str())
+        .collect::<std::collections::BTreeSet<_>>()
+        .len();
+    // "1 parameter", "2 parameters": the count as a reader says it
+    let parameters_varied = match parameters {
+        1 => "the 1 parameter varied".to_string(),
+        n => format!("the {n} parameters varied"),
+    };
     let mut s = if varied.is_empty() {
         "# Sensitivity: which verdicts change with the seeds alone\n\nOnly the noise reference was run (`--sensitivity-parameters reseeded`): no parameter was varied, so this says how firmly each verdict is decided at this many replicates, not what it hinges on. A cell gives the verdict there (baseline -> reference).\n\n".to_string()
     } else {
         format!(
-            "# Sensitivity: which verdicts change within the parameters' plausible ranges\n\n{} variants ({} parameters at each end of their range{}) were run with the baseline's seeds; {} changed at least one verdict. A cell gives the verdict there (baseline -> variant).\n\n",
+            "# Sensitivity: which verdicts change within the parameters' plausible ranges\n\n{} variants ({} at each end of {} range{}) were run with the baseline's seeds; {} changed at least one verdict. A cell gives the verdict there (baseline -> variant).\n\n",
             varied.len(),
-            varied
-                .iter()
-                .map(|o| o.variant.parameter.as_str())
-                .collect::<std::collections::BTreeSet<_>>()
-                .len(),
+            if parameters == 1 {
+                "1 parameter".to_string()
+            } else {
+                format!("{parameters} parameters")
+            },
+            if parameters == 1 { "its" } else { "their" },
             match varied.iter().filter(|o| o.variant.end == SWITCH).count() {
                 0 => String::new(),
                 n => format!(
@@ -426,6 +446,7 @@ pub fn markdown(baseline: &[Judged], outcomes: &[Outcome]) -> String {
         "Not decided at this many replicates (other seeds alone change the verdict)",
         Standing::Undecided,
     );
+    let robust = format!("Robust to {parameters_varied}");
     let classes: &[(&str, Standing)] = if !varied.iter().any(|o| o.variant.in_range()) {
         &[
             UNDECIDED,
@@ -438,7 +459,7 @@ pub fn markdown(baseline: &[Judged], outcomes: &[Outcome]) -> String {
         &[
             ("Fragile", Standing::Fragile),
             UNDECIDED,
-            ("Robust", Standing::Robust),
+            (robust.as_str(), Standing::Robust),
         ]
     };
     for &(label, class) in classes {
@@ -705,6 +726,21 @@ mod tests {
             .find(|j| j.finding.id == "sf-offline-order")
             .unwrap();
         assert_eq!(standing(robust), Some(Standing::Robust));
+        // robust to what was varied, counted as a reader says it
+        let md = markdown(&baseline, &outcomes);
+        assert!(
+            md.contains("(1 parameter at each end of its range)"),
+            "{md}"
+        );
+        assert!(md.contains("\nRobust to the 1 parameter varied ("), "{md}");
+    }
+
+    #[test]
+    fn a_parameter_named_twice_or_in_another_order_is_the_same_study() {
+        let s = |v: &[&str]| v.iter().map(|x| x.to_string()).collect::<Vec<_>>();
+        assert_eq!(parameters_named(&s(&["x", "x"])), s(&["x"]));
+        assert_eq!(parameters_named(&s(&["y", "x", "y"])), s(&["x", "y"]));
+        assert_eq!(parameters_named(&[]), Vec::<String>::new());
     }
 
     #[test]

@@ -393,7 +393,10 @@ pub(crate) fn check_records<R: PartRecord>(
         .map(|k| format!("{k}/{count}"))
         .collect();
     if !missing.is_empty() {
-        return Err(MergeError::Missing(missing.join(", ")));
+        return Err(MergeError::Missing(crate::quote::list(
+            &missing,
+            crate::quote::LISTED,
+        )));
     }
     parts.sort_by_key(|(_, s, _)| s.index);
     Ok(parts)

@@ -368,6 +368,8 @@ pub enum ModelFileError {
     },
     #[error("{path}: not a tmo model file: {message}")]
     Parse { path: String, message: String },
+    #[error("{path} is a directory; a model is one file: a model file from `tmo train` (.json) or an ONNX model (.onnx)")]
+    Directory { path: String },
     #[error("{path}: model format `{found}`, expected `{MODEL_FORMAT}`")]
     WrongFormat { path: String, found: String },
     #[error("{path}: model version {found} is newer than this tmo understands ({MODEL_FORMAT_VERSION}); upgrade tmo")]

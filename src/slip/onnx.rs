@@ -232,6 +232,32 @@ fn tree_engine(graph: &pb::GraphProto, input: &str, slip_output: &str) -> Option
     None
 }
 
+/// A model whose weights live in files beside it (ONNX external data) is refused by name:
+/// the SHA-256 each trial records would not cover them, and the runtime's own words ("no
+/// model path was specified in the parsing context") do not say what is wrong.
+fn refuse_external_data(path: &str, bytes: &[u8]) -> Result<(), OnnxError> {
+    use prost::Message;
+    let Ok(raw) = tract_onnx::pb::ModelProto::decode(bytes) else {
+        return Ok(()); // the runtime's decode says what is wrong
+    };
+    let external = tract_onnx::pb::tensor_proto::DataLocation::External as i32;
+    let outside = raw
+        .graph
+        .iter()
+        .flat_map(|g| &g.initializer)
+        .find(|t| t.data_location == Some(external) || !t.external_data.is_empty());
+    match outside {
+        Some(t) => Err(OnnxError::Decode {
+            path: path.to_string(),
+            message: format!(
+                "its weights (`{}` and maybe more) are kept in external data files beside it (ONNX external data); tmo reads a model whole from one file, whose SHA-256 every trial records: save it with its weights inside (in Python: onnx.save_model(model, path, save_as_external_data=False))",
+                t.name
+            ),
+        }),
+        None => Ok(()),
+    }
+}
+
 impl OnnxModel {
     /// Reads, checks and prepares `path`: every refusal names the file, what was expected
     /// and what was found.
@@ -241,6 +267,7 @@ impl OnnxModel {
             path: p.clone(),
             source,
         })?;
+        refuse_external_data(&p, &bytes)?;
         let onnx = tract_onnx::onnx();
         let proto = onnx
             .proto_model_for_read(&mut bytes.as_slice())

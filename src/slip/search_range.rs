@@ -103,15 +103,29 @@ pub fn parse_search_rows(text: &str) -> Result<usize, String> {
 
 /// Parses a search range `LOW:HIGH` (both positive, finite, `LOW < HIGH`).
 pub fn parse_range(text: &str) -> Result<[f64; 2], String> {
-    let expected =
-        || format!("expected LOW:HIGH with 0 < LOW < HIGH (e.g. 0.01:1000), got {text:?}");
+    let expected = || {
+        format!(
+            "expected LOW:HIGH with {} <= LOW < HIGH <= {} (e.g. 0.01:1000), got {text:?}",
+            SEARCHABLE[0], SEARCHABLE[1]
+        )
+    };
     let (low, high) = text.split_once(':').ok_or_else(expected)?;
     let parse = |v: &str| v.trim().parse::<f64>().map_err(|_| expected());
     let (low, high) = (parse(low)?, parse(high)?);
-    if !(low > 0.0 && high > low && high.is_finite()) {
+    if !(searchable(low) && searchable(high) && high > low) {
         return Err(expected());
     }
     Ok([low, high])
+}
+
+/// The values a search may try for C or gamma. Beyond them an SVM fit does not end in
+/// useful time (a grid point of C 1e308 ran past two minutes) or its kernel underflows; no
+/// scale of features puts a useful value there.
+pub const SEARCHABLE: [f64; 2] = [1e-6, 1e6];
+
+/// Whether `v` is a value a search may try (finite, within [`SEARCHABLE`]).
+pub fn searchable(v: f64) -> bool {
+    v.is_finite() && (SEARCHABLE[0]..=SEARCHABLE[1]).contains(&v)
 }
 
 #[cfg(test)]
@@ -122,7 +136,9 @@ mod tests {
     fn ranges_parse_and_bad_ones_say_what_was_expected() {
         assert_eq!(parse_range("0.01:1000"), Ok([0.01, 1000.0]));
         assert_eq!(parse_range(" 1e-3 : 2 "), Ok([1e-3, 2.0]));
-        for bad in ["1:1", "2:1", "0:1", "-1:1", "1", "a:b", "1:inf", "nan:1"] {
+        for bad in [
+            "1:1", "2:1", "0:1", "-1:1", "1", "a:b", "1:inf", "nan:1", "1:1e308", "1e-9:1",
+        ] {
             let e = parse_range(bad).unwrap_err();
             assert!(e.contains("LOW:HIGH") && e.contains(bad), "{bad}: {e}");
         }

@@ -38,6 +38,11 @@ pub struct Evaluated {
 impl SlipModel {
     /// Reads `path`: an ONNX model by its `.onnx` extension, else a model file of tmo's own.
     pub fn load(path: &Path) -> Result<Self, ModelFileError> {
+        if path.is_dir() {
+            return Err(ModelFileError::Directory {
+                path: path.display().to_string(),
+            });
+        }
         if is_onnx(path) {
             Ok(SlipModel::Onnx(OnnxModel::load(path)?))
         } else {
