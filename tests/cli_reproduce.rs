@@ -148,7 +148,8 @@ fn the_quick_preset_writes_every_step_and_the_findings_report() {
         assert!(variant.join("07_hand_online/pruned.json").is_file());
         assert!(variant.join("07_hand_online/outcomes.json").is_file());
     }
-    // the pruned variants are still finished: a resume of the study runs nothing
+    // the pruned variants are still finished: the study again runs nothing (a finished
+    // baseline is built on without --resume)
     let again = ok(&tmo(
         d,
         &[
@@ -157,7 +158,6 @@ fn the_quick_preset_writes_every_step_and_the_findings_report() {
             "quick",
             "--out",
             "paper",
-            "--resume",
             "--sensitivity",
             "--sensitivity-parameters",
             "rail.rail_mu",
@@ -169,7 +169,10 @@ fn the_quick_preset_writes_every_step_and_the_findings_report() {
         "{again}"
     );
     let table = std::fs::read_to_string(d.join("paper/sensitivity.md")).unwrap();
-    assert!(table.contains("2 variants (1 parameters"), "{table}");
+    assert!(
+        table.contains("2 variants (1 parameter at each end of its range)"),
+        "{table}"
+    );
     // beside them the noise reference: the baseline's parameters with other seeds, every
     // step run again
     assert!(table.contains("The noise reference (`reseeded`"), "{table}");

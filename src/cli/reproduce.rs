@@ -160,7 +160,7 @@ pub fn run(args: ReproduceArgs) -> Result<u8> {
         .as_deref()
         .map(reproduce::hand_model::HandModel::read)
         .transpose()?;
-    let options = Options {
+    let mut options = Options {
         hand_model,
         out: args.out.clone(),
         preset,
@@ -179,6 +179,29 @@ pub fn run(args: ReproduceArgs) -> Result<u8> {
             |j| j as usize,
         ),
     };
+    // The study builds on a baseline: right after `tmo reproduce`, `tmo reproduce
+    // --sensitivity` finds that finished baseline in the same directory and keeps it, as
+    // --resume would, rather than stop at "already holds a reproduction".
+    if options.sensitivity.is_some()
+        && !options.resume
+        && !args.findings_only
+        && reproduce::replicate_dir(&options.out, 1).is_dir()
+    {
+        let problems = reproduce::check::check_plan(
+            &options.out,
+            &options.preset,
+            options.replicates,
+            &[],
+            &options.backend,
+        )?;
+        if problems.iter().all(|p| !p.is_fatal()) {
+            super::output::note(format!(
+                "{} holds this plan's finished baseline: the sensitivity study builds on it (as with --resume)",
+                options.out.display()
+            ));
+            options.resume = true;
+        }
+    }
     if args.findings_only {
         let first = reproduce::replicate_dir(&options.out, 1);
         if !first.is_dir() {
