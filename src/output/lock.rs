@@ -58,12 +58,30 @@ fn alive(pid: u32) -> bool {
     }
 }
 
+/// Where `target`'s lock lives: `<name>.lock` beside it, for the target as it is on disk,
+/// so that `d`, `d/`, `./d` and a symlink to `d` take the same lock, and the lock is never
+/// inside the output (where `d/` + `.lock` would put it).
+pub fn lock_path(target: &Path) -> PathBuf {
+    // components() drops a trailing slash and `.`s
+    let clean: PathBuf = target.components().collect();
+    let on_disk = std::fs::canonicalize(&clean).ok().or_else(|| {
+        // not there yet: its parent as it is on disk
+        let parent = match clean.parent() {
+            Some(p) if !p.as_os_str().is_empty() => p,
+            _ => Path::new("."),
+        };
+        Some(std::fs::canonicalize(parent).ok()?.join(clean.file_name()?))
+    });
+    let target = on_disk.unwrap_or(clean);
+    let mut name = target.as_os_str().to_owned();
+    name.push(".lock");
+    PathBuf::from(name)
+}
+
 impl OutputLock {
     /// Locks `target` (a directory or a file) for this process.
     pub fn acquire(target: &Path) -> Result<Self, LockError> {
-        let mut name = target.as_os_str().to_owned();
-        name.push(".lock");
-        let path = PathBuf::from(name);
+        let path = lock_path(target);
         if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
             std::fs::create_dir_all(dir).map_err(|source| LockError::Io {
                 path: dir.to_path_buf(),
@@ -146,6 +164,31 @@ impl Drop for OutputLock {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_target_named_with_a_slash_or_through_a_symlink_takes_the_lock_beside_it() {
+        let dir = tempfile::tempdir().unwrap();
+        let d = dir.path().canonicalize().unwrap();
+        std::fs::create_dir(d.join("out")).unwrap();
+        let beside = d.join("out.lock");
+        assert_eq!(lock_path(&d.join("out")), beside);
+        assert_eq!(
+            lock_path(Path::new(&format!("{}/out/", d.display()))),
+            beside
+        );
+        assert_eq!(lock_path(&d.join("./out")), beside);
+        #[cfg(unix)]
+        {
+            std::os::unix::fs::symlink(d.join("out"), d.join("link")).unwrap();
+            assert_eq!(lock_path(&d.join("link")), beside);
+        }
+        // not made yet: beside where it will be
+        assert_eq!(lock_path(&d.join("new/")), d.join("new.lock"));
+        let held = OutputLock::acquire(&d.join("out/")).unwrap();
+        assert!(beside.exists() && !d.join("out/.lock").exists());
+        drop(held);
+        assert!(!beside.exists());
+    }
 
     #[test]
     fn a_second_writer_is_refused_and_a_dead_ones_lock_is_taken_over() {
