@@ -23,22 +23,6 @@ fn rows(d: &Path, batch: &str, file: &str) -> Vec<std::collections::HashMap<Stri
     r.deserialize().map(|row| row.unwrap()).collect()
 }
 
-/// `tmo run PROTOCOL --backend real --hardware served.toml --out OUT` plus `extra`, in `d`.
-fn run_real(d: &Path, protocol: &str, out: &str, extra: &[&str]) -> std::process::Output {
-    let mut args = vec![
-        "run",
-        protocol,
-        "--backend",
-        "real",
-        "--hardware",
-        "served.toml",
-        "--out",
-        out,
-    ];
-    args.extend_from_slice(extra);
-    tmo(d, &args)
-}
-
 /// Rail catches with the logreg model (the rail's one fingertip, 3 to 4 s a trial).
 fn rail_protocol(d: &Path, name: &str, model: &str, repetitions: u32) {
     std::fs::write(

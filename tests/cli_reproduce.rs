@@ -15,7 +15,7 @@ fn the_quick_preset_writes_every_step_and_the_findings_report() {
     let d = dir.path();
     // with a sensitivity study of one parameter, whose two variants rerun only what it
     // touches
-    let out = ok(&tmo(
+    let run = tmo(
         d,
         &[
             "reproduce",
@@ -27,7 +27,14 @@ fn the_quick_preset_writes_every_step_and_the_findings_report() {
             "--sensitivity-parameters",
             "rail.rail_mu",
         ],
-    ));
+    );
+    let out = ok(&run);
+    // standard error is no terminal here: each step says itself as it ends
+    let err = String::from_utf8_lossy(&run.stderr);
+    assert!(
+        err.contains("reproduce: replicate-01/rail_collect: ran ("),
+        "{err}"
+    );
     assert!(
         out.contains("evidence (pre-registered or never-seen findings): "),
         "{out}"

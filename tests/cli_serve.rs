@@ -101,23 +101,6 @@ fn the_real_backends_drive_the_served_simulator() {
     assert!(q[..3].iter().all(|v| (v - 0.3).abs() < 2e-3), "{q:?}");
 }
 
-/// `tmo run PROTOCOL --backend real --hardware served.toml --out OUT` in `d`.
-fn run_real(d: &Path, protocol: &str, out: &str) -> std::process::Output {
-    common::tmo(
-        d,
-        &[
-            "run",
-            protocol,
-            "--backend",
-            "real",
-            "--hardware",
-            "served.toml",
-            "--out",
-            out,
-        ],
-    )
-}
-
 fn outcome_rows(d: &Path, batch: &str) -> Vec<serde_json::Value> {
     serde_json::from_str(&std::fs::read_to_string(d.join(batch).join("outcomes.json")).unwrap())
         .unwrap()
@@ -144,14 +127,14 @@ fn lift_protocols_run_on_the_real_backend_against_the_served_simulator() {
         format!("kind = \"calibrate_lift\"\nobjects = [\"crisps_can\"]\n[calibrate_lift]\n{quick}"),
     )
     .unwrap();
-    let out = common::ok(&run_real(d, "cal.toml", "cal"));
+    let out = common::ok(&common::run_real(d, "cal.toml", "cal", &[]));
     assert!(out.contains("g_min.json"), "{out}");
     std::fs::write(
         d.join("lift.toml"),
         format!("kind = \"first_time_lift\"\nobjects = [\"crisps_can\"]\nmodels = [\"global.json\"]\nrepetitions = 2\n[first_time_lift]\n{quick}calibration = \"cal/g_min.json\"\n{}", common::LOOSE_DEADLINE),
     )
     .unwrap();
-    common::ok(&run_real(d, "lift.toml", "lift"));
+    common::ok(&common::run_real(d, "lift.toml", "lift", &[]));
     let rows = outcome_rows(d, "lift");
     assert_eq!(rows.len(), 2);
     // Served like the simulated rig: the can slips off the contact grasp and the hand sees
@@ -188,7 +171,7 @@ fn hand_release_and_rice_pour_run_on_the_real_backend_against_the_served_simulat
     let release = "kind = \"hand_release\"\nrepetitions = 2\nobjects = [\"crisps_can\", \"banana\"]\ngrasps_deg = [0]\nmodels = [\"global.json\"]\nstrategies = [\"2x2\"]\n[outcome]\ndrop_limit_mm = 30.0\n[hand_release]\nlift_mm = 40.0\nrelease_speed_of_max = 0.02\nmax_duration_s = 12.0\n";
     // without a grasp the real backend has nothing to close to: refused before any device
     std::fs::write(d.join("bare.toml"), release).unwrap();
-    let err = common::fails(&run_real(d, "bare.toml", "bare"));
+    let err = common::fails(&common::run_real(d, "bare.toml", "bare", &[]));
     assert!(
         err.contains("grasp_past_contact") && err.contains("crisps_can"),
         "{err}"
@@ -201,7 +184,7 @@ fn hand_release_and_rice_pour_run_on_the_real_backend_against_the_served_simulat
         ),
     )
     .unwrap();
-    common::ok(&run_real(d, "release.toml", "release"));
+    common::ok(&common::run_real(d, "release.toml", "release", &[]));
     let rows = outcome_rows(d, "release");
     assert_eq!(rows.len(), 4);
     for r in &rows {
@@ -279,7 +262,7 @@ fn hand_release_and_rice_pour_run_on_the_real_backend_against_the_served_simulat
         format!("{}{}", "kind = \"rice_pour\"\nrepetitions = 1\nmodels = [\"global.json\"]\nstrategies = [\"2x2\"]\n[rice_pour]\ntotal_g = 120.0\ngrasp_past_contact = 0.01\n", common::LOOSE_DEADLINE),
     )
     .unwrap();
-    common::ok(&run_real(d, "pour.toml", "pour"));
+    common::ok(&common::run_real(d, "pour.toml", "pour", &[]));
     let rows = outcome_rows(d, "pour");
     assert_eq!(rows.len(), 1);
     // held or dropped is the experiment's outcome; a fault would be the rig's
@@ -309,7 +292,7 @@ fn hand_release_and_rice_pour_run_on_the_real_backend_against_the_served_simulat
         "kind = \"first_time_lift\"\nobjects = [\"crisps_can\"]\nmodels = [\"global.json\"]\n[first_time_lift]\nlift_speed_mm_s = 40\nmasses_g = [0]\n",
     )
     .unwrap();
-    let err = common::fails(&run_real(d, "fast.toml", "fast"));
+    let err = common::fails(&common::run_real(d, "fast.toml", "fast", &[]));
     assert!(
         err.contains("first_time_lift.lift_speed_mm_s = 40") && err.contains("20"),
         "{err}"
@@ -323,7 +306,7 @@ fn hand_release_and_rice_pour_run_on_the_real_backend_against_the_served_simulat
         .find("[served_simulator]")
         .expect("served file names its control port");
     std::fs::write(d.join("served.toml"), &served[..cut]).unwrap();
-    let err = common::fails(&run_real(d, "release.toml", "release2"));
+    let err = common::fails(&common::run_real(d, "release.toml", "release2", &[]));
     assert!(
         err.contains("operator") && err.contains("--unattended"),
         "{err}"
@@ -344,7 +327,7 @@ fn rail_catch_runs_on_the_real_backend_against_the_served_rail_rig() {
         format!("{}{}", "kind = \"rail_catch\"\nrepetitions = 3\nmodels = [\"rail.json\"]\nstrategies = [\"1x1\"]\n[rail_catch]\nretract_speed_mm_s = [3.0, 5.0]\n", common::LOOSE_DEADLINE),
     )
     .unwrap();
-    common::ok(&run_real(d, "rail.toml", "rail_batch"));
+    common::ok(&common::run_real(d, "rail.toml", "rail_batch", &[]));
     let rows = outcome_rows(d, "rail_batch");
     assert_eq!(rows.len(), 3);
     assert!(rows.iter().all(|r| r["fault"].is_null()), "{rows:?}");

@@ -124,6 +124,28 @@ impl ColorWhen {
 }
 
 /// Whether `path` is `-`: standard output, where a command writes one file.
+/// A CSV writer onto a file that appears at `path` whole or not at all.
+pub fn atomic_csv(
+    path: &std::path::Path,
+) -> anyhow::Result<csv::Writer<tmo::output::atomic::AtomicFile>> {
+    use anyhow::Context;
+    let file = tmo::output::atomic::AtomicFile::create(path)
+        .with_context(|| format!("cannot write {}", path.display()))?;
+    Ok(csv::Writer::from_writer(file))
+}
+
+/// Flushes `w` and puts its file in place at `path`.
+pub fn commit_csv(
+    w: csv::Writer<tmo::output::atomic::AtomicFile>,
+    path: &std::path::Path,
+) -> anyhow::Result<()> {
+    use anyhow::Context;
+    w.into_inner()
+        .map_err(|e| anyhow::anyhow!("cannot write {}: {}", path.display(), e.error()))?
+        .commit()
+        .with_context(|| format!("cannot write {}", path.display()))
+}
+
 pub fn is_stdout(path: &std::path::Path) -> bool {
     path.as_os_str() == "-"
 }

@@ -189,9 +189,7 @@ fn write_frame_values(
     trials: &[(String, Trial)],
     models: &[(String, String, SlipModel)],
 ) -> Result<()> {
-    let file = tmo::output::atomic::AtomicFile::create(path)
-        .with_context(|| format!("cannot write {}", path.display()))?;
-    let mut w = csv::Writer::from_writer(file);
+    let mut w = super::output::atomic_csv(path)?;
     w.write_record([
         "model", "trial_id", "sensor", "seq", "time_s", "value", "class",
     ])?;
@@ -222,11 +220,7 @@ fn write_frame_values(
             }
         }
     }
-    w.into_inner()
-        .map_err(|e| anyhow::anyhow!("cannot write {}: {}", path.display(), e.error()))?
-        .commit()
-        .with_context(|| format!("cannot write {}", path.display()))?;
-    Ok(())
+    super::output::commit_csv(w, path)
 }
 
 /// Plays every trial to a live view at `live.addr`, one after another at wall-clock speed, until

@@ -274,7 +274,14 @@ pub fn run(args: ReproduceArgs) -> Result<u8> {
             .expect("valid template")
             .progress_chars("=> "),
     );
-    let progress = Progress { steps, work };
+    let progress = Progress {
+        steps,
+        work,
+        step_lines: !super::output::quiet() && {
+            use std::io::IsTerminal;
+            !std::io::stderr().is_terminal()
+        },
+    };
     let started = std::time::Instant::now();
     let end = reproduce::reproduce(&options, &stop, &progress);
     progress.work.finish_and_clear();

@@ -18,12 +18,20 @@ pub enum SimCommand {
     Objects,
     /// Lists the simulator's parameters: value, unit, plausible range, where the value
     /// comes from, and the findings it was calibrated against (sim/data/parameters.toml).
-    Parameters,
+    /// A table on a terminal; tab-separated values (every field whole) when piped.
+    Parameters(ParametersArgs),
     /// Records collect-mode trials (no reaction to slip) as training data.
     Collect(CollectArgs),
     /// Serves the simulated rig over the real rig's wire protocols (cameras and hand bus on
     /// pseudo-terminals, the UR controller on loopback TCP).
     Serve(super::serve::ServeArgs),
+}
+
+#[derive(clap::Args)]
+pub struct ParametersArgs {
+    /// Tab-separated values with every field whole, also on a terminal.
+    #[arg(long)]
+    tsv: bool,
 }
 
 #[derive(clap::Args)]
@@ -93,7 +101,11 @@ pub fn run(command: SimCommand) -> Result<()> {
             list_objects()?;
             Ok(())
         }
-        SimCommand::Parameters => list_parameters().context("cannot write to standard output"),
+        SimCommand::Parameters(args) => {
+            use std::io::IsTerminal;
+            let table = !args.tsv && std::io::stdout().is_terminal();
+            list_parameters(table).context("cannot write to standard output")
+        }
         SimCommand::Trace(args) => sim_trace(args),
         // a collection's trials run as `tmo run` runs them (its exit codes too)
         SimCommand::Collect(args) => sim_collect(args).map(|_| ()),
@@ -101,10 +113,81 @@ pub fn run(command: SimCommand) -> Result<()> {
     }
 }
 
-fn list_parameters() -> std::io::Result<()> {
+/// The parameters as a table a terminal shows: one line each, the source cut to its first
+/// words (`--tsv` gives it whole).
+fn parameter_table(records: &[tmo_sim::parameters::ParameterRecord]) -> String {
+    const SOURCE_CHARS: usize = 48;
+    let rows: Vec<[String; 6]> = records
+        .iter()
+        .map(|r| {
+            let source: String = if r.source.chars().count() > SOURCE_CHARS {
+                let cut: String = r.source.chars().take(SOURCE_CHARS - 1).collect();
+                format!("{}…", cut.trim_end())
+            } else {
+                r.source.clone()
+            };
+            [
+                r.name.clone(),
+                r.value.map_or("per object".to_string(), tmo::quote::number),
+                r.unit.clone(),
+                format!(
+                    "{}..{}",
+                    tmo::quote::number(r.range[0]),
+                    tmo::quote::number(r.range[1])
+                ),
+                if r.calibrated_against.is_empty() {
+                    "-".to_string()
+                } else {
+                    format!("{} finding(s)", r.calibrated_against.len())
+                },
+                source,
+            ]
+        })
+        .collect();
+    let header = [
+        "parameter",
+        "value",
+        "unit",
+        "range",
+        "calibrated",
+        "source",
+    ];
+    let width = |k: usize| {
+        rows.iter()
+            .map(|r| r[k].chars().count())
+            .chain([header[k].len()])
+            .max()
+            .unwrap_or(0)
+    };
+    let widths: Vec<usize> = (0..5).map(width).collect();
+    let line = |cells: [&str; 6]| {
+        let mut s = String::new();
+        for (k, cell) in cells.iter().enumerate().take(5) {
+            s += &format!("{cell:<w$}  ", w = widths[k]);
+        }
+        s += cells[5];
+        s.trim_end().to_string() + "\n"
+    };
+    let mut out = line(header);
+    for r in &rows {
+        out += &line([&r[0], &r[1], &r[2], &r[3], &r[4], &r[5]]);
+    }
+    out
+}
+
+fn list_parameters(table: bool) -> std::io::Result<()> {
     use std::io::Write;
     let records = tmo_sim::parameters::built_in();
     let mut out = std::io::stdout().lock();
+    if table {
+        write!(out, "{}", parameter_table(&records))?;
+        out.flush()?;
+        eprintln!(
+            "{} parameters (sim/data/parameters.toml); `tmo sim parameters --tsv` gives every field whole, with the basis and the findings each was calibrated against",
+            records.len()
+        );
+        return Ok(());
+    }
     writeln!(
         out,
         "parameter\tvalue\tunit\trange\tbasis\tcalibrated against\tsource"
@@ -376,4 +459,22 @@ fn sim_table(config: &SimConfig) -> Result<String> {
         .map(|(k, v)| format!("\"{k}\" = {v:?}\n"))
         .collect();
     Ok(format!("\n[sim]\n{lines}"))
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn the_parameter_table_is_one_short_line_a_parameter() {
+        let records = tmo_sim::parameters::built_in();
+        let table = super::parameter_table(&records);
+        let lines: Vec<&str> = table.lines().collect();
+        assert_eq!(lines.len(), records.len() + 1);
+        assert!(lines[0].starts_with("parameter"), "{}", lines[0]);
+        let longest = lines.iter().map(|l| l.chars().count()).max().unwrap();
+        assert!(longest < 200, "{longest}");
+        assert!(
+            table.contains("physics.finger_stiffness_n_per_mm"),
+            "{table}"
+        );
+    }
 }

@@ -201,9 +201,7 @@ fn write_row_values(
     data: &tmo::slip::dataset::Dataset,
     values: &[Option<(f32, tmo::slip::Class)>],
 ) -> Result<()> {
-    let file = tmo::output::atomic::AtomicFile::create(path)
-        .with_context(|| format!("cannot write {}", path.display()))?;
-    let mut w = csv::Writer::from_writer(file);
+    let mut w = super::output::atomic_csv(path)?;
     w.write_record([
         "trial_id", "sensor", "seq", "time_s", "label", "value", "class",
     ])?;
@@ -223,11 +221,7 @@ fn write_row_values(
             v.map_or(String::new(), |(_, class)| name(class).to_string()),
         ])?;
     }
-    w.into_inner()
-        .map_err(|e| anyhow::anyhow!("cannot write {}: {}", path.display(), e.error()))?
-        .commit()
-        .with_context(|| format!("cannot write {}", path.display()))?;
-    Ok(())
+    super::output::commit_csv(w, path)
 }
 
 /// The first of `trials` (files or directories of them), read: what defaults that depend on

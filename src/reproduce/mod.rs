@@ -137,6 +137,9 @@ pub struct StepRecord {
 pub struct Progress {
     pub steps: indicatif::ProgressBar,
     pub work: indicatif::ProgressBar,
+    /// Also say each step as it ends, one line on standard error: where the bars draw
+    /// nothing (a log file, CI, a cluster job), a long reproduction still shows it runs.
+    pub step_lines: bool,
 }
 
 impl Progress {
@@ -145,6 +148,17 @@ impl Progress {
         Self {
             steps: indicatif::ProgressBar::hidden(),
             work: indicatif::ProgressBar::hidden(),
+            step_lines: false,
+        }
+    }
+
+    /// One line for a step that ended: its name, what became of it, the time so far.
+    fn step_ended(&self, name: &str, what: &str) {
+        if self.step_lines {
+            eprintln!(
+                "reproduce: {name}: {what} ({:.0} s)",
+                self.steps.elapsed().as_secs_f64()
+            );
         }
     }
 }
@@ -691,6 +705,15 @@ fn run_replicate(
             t.ran.contains(&baseline_name) || t.kept.contains(&baseline_name)
         };
         let end = run_step(&ctx, step, bar, reuse_checked)?;
+        progress.step_ended(
+            &name,
+            match &end {
+                StepEnd::Ran => "ran",
+                StepEnd::Remade(_) => "ran again",
+                StepEnd::Kept => "already done",
+                StepEnd::Interrupted => "interrupted",
+            },
+        );
         let mut t = tally.lock().expect("no worker panicked");
         match end {
             StepEnd::Ran => t.ran.push(name),

@@ -113,6 +113,23 @@ impl Drop for Server {
     }
 }
 
+/// `tmo run PROTOCOL --backend real --hardware served.toml --out OUT` plus `extra`, in `d`
+/// (beside a [`serve_sim`]).
+pub fn run_real(d: &Path, protocol: &str, out: &str, extra: &[&str]) -> Output {
+    let mut args = vec![
+        "run",
+        protocol,
+        "--backend",
+        "real",
+        "--hardware",
+        "served.toml",
+        "--out",
+        out,
+    ];
+    args.extend_from_slice(extra);
+    tmo(d, &args)
+}
+
 /// A `[deadline]` for protocols run against the served simulator by tests of something
 /// else than the loop's pace: tests share this machine, and a starved runner is no fault of
 /// the backend under test (the contract itself: tests/cli_deadline.rs).
