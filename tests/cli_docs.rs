@@ -55,3 +55,22 @@ fn the_help_lists_the_exit_codes() {
     }
     assert!(help.contains("Exit codes"), "{help}");
 }
+
+/// The README's screenshot shows the headline the README quotes: the screenshot script
+/// writes the headline it rendered beside the PNG (`scripts/screenshot-findings.sh`), and
+/// the README's quoted result holds it word for word; it is at most 150 lines.
+#[test]
+fn the_readme_screenshot_shows_the_headline_the_readme_quotes() {
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
+    let readme = std::fs::read_to_string(root.join("README.md")).unwrap();
+    let shown = std::fs::read_to_string(root.join("docs/img/findings.headline.txt")).unwrap();
+    let shown = shown.trim_end();
+    assert!(shown.starts_with("evidence ("), "{shown}");
+    assert!(
+        readme.lines().any(|l| l.trim() == shown),
+        "README.md does not quote the screenshot's headline (run scripts/screenshot-findings.sh on the run it quotes):\n{shown}"
+    );
+    assert!(readme.contains("](docs/img/findings.png)"));
+    let lines = readme.lines().count();
+    assert!(lines <= 150, "README.md is {lines} lines (at most 150)");
+}

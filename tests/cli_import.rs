@@ -54,6 +54,125 @@ fn macro_f1(evaluate_output: &str) -> f64 {
         .unwrap()
 }
 
+/// A committed scikit-learn reference (`scripts/sklearn_grid_reference.py`) from the Xela
+/// fixture's folder.
+fn sklearn_reference(name: &str) -> serde_json::Value {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/fixtures/xela")
+        .join(name);
+    serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap()
+}
+
+/// One axis of a reference's grid (its points' distinct values, in order), comma-separated.
+fn grid_axis(reference: &serde_json::Value, axis: &str) -> String {
+    let mut values = Vec::<f64>::new();
+    for p in reference["points"].as_array().unwrap() {
+        let v = p[axis].as_f64().unwrap();
+        if !values.contains(&v) {
+            values.push(v);
+        }
+    }
+    let values: Vec<String> = values.iter().map(|v| v.to_string()).collect();
+    values.join(",")
+}
+
+/// With `--fold-assignment group-k-fold`, every point of a grid search over all four trials
+/// (three folds, so one fold holds two trials and the assignment matters) scores what
+/// `GridSearchCV(cv=GroupKFold(3))` scores, to 1e-6 macro F1 (identical when written),
+/// and the pick is scikit-learn's (its best beats the runner-up by 0.006). The
+/// default, shuffled by the seed, splits the trials another way.
+#[test]
+fn group_k_fold_folds_score_every_grid_point_as_scikit_learn() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let fixture = fixture();
+    ok(&tmo(
+        d,
+        &[
+            "import",
+            "csv",
+            fixture.to_str().unwrap(),
+            "--out",
+            "all",
+            "--units",
+            "counts",
+            "--sensor-name",
+            "xela-uskin-4x4",
+        ],
+    ));
+    let reference = sklearn_reference("sklearn_group_k_fold_reference.json");
+    let (cs, gammas) = (grid_axis(&reference, "C"), grid_axis(&reference, "gamma"));
+    let train = |assignment: &str, out: &str| -> serde_json::Value {
+        ok(&tmo(
+            d,
+            &[
+                "train",
+                "all",
+                "--n-slip",
+                "30",
+                "--downsample",
+                "1",
+                "--search",
+                "grid",
+                "--c-grid",
+                &cs,
+                "--gamma-grid",
+                &gammas,
+                "--folds",
+                "3",
+                "--fold-assignment",
+                assignment,
+                "--out",
+                out,
+            ],
+        ));
+        serde_json::from_str(&std::fs::read_to_string(d.join(out)).unwrap()).unwrap()
+    };
+    let scores = |model: &serde_json::Value| -> Vec<f64> {
+        let evaluations = model["search"]["evaluations"].as_array().unwrap();
+        evaluations
+            .iter()
+            .map(|e| e["score"].as_f64().unwrap())
+            .collect()
+    };
+    let expected: Vec<f64> = reference["points"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|p| p["cv_macro_f1"].as_f64().unwrap())
+        .collect();
+
+    let model = train("group-k-fold", "gkf.json");
+    let got = scores(&model);
+    assert_eq!(got.len(), expected.len());
+    for (i, (t, s)) in got.iter().zip(&expected).enumerate() {
+        assert!(
+            (t - s).abs() <= 1e-6,
+            "point {i}: tmo {t}, scikit-learn {s}\n{got:?}\n{expected:?}"
+        );
+    }
+    let best = &reference["best"];
+    assert_eq!(model["hyperparameters"]["c"], best["C"], "{model}");
+    assert_eq!(model["hyperparameters"]["gamma"], best["gamma"]);
+    assert!(
+        model["search"]["method"]
+            .as_str()
+            .unwrap()
+            .ends_with("as GroupKFold"),
+        "{}",
+        model["search"]["method"]
+    );
+
+    let shuffled = scores(&train("shuffled", "shuffled.json"));
+    assert!(
+        shuffled
+            .iter()
+            .zip(&expected)
+            .any(|(t, s)| (t - s).abs() > 0.01),
+        "the seed's shuffle is another split: {shuffled:?}"
+    );
+}
+
 /// `tmo train --search grid` on another lab's taxel data picks the point scikit-learn's
 /// GridSearchCV picks over the same grid and folds (one training trial per fold, by
 /// trial), and its model scores the test trial as scikit-learn's does, within 0.01 macro
@@ -63,32 +182,8 @@ fn a_grid_search_on_a_new_sensors_data_agrees_with_scikit_learns() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     import(d);
-    let reference: serde_json::Value = serde_json::from_str(
-        &std::fs::read_to_string(
-            Path::new(env!("CARGO_MANIFEST_DIR"))
-                .join("tests/fixtures/xela/sklearn_grid_reference.json"),
-        )
-        .unwrap(),
-    )
-    .unwrap();
-    let list = |axis: &str| {
-        reference["points"]
-            .as_array()
-            .unwrap()
-            .iter()
-            .map(|p| p[axis].as_f64().unwrap())
-            .fold(Vec::<f64>::new(), |mut v, x| {
-                if !v.contains(&x) {
-                    v.push(x);
-                }
-                v
-            })
-            .iter()
-            .map(|x| x.to_string())
-            .collect::<Vec<_>>()
-            .join(",")
-    };
-    let (cs, gammas) = (list("C"), list("gamma"));
+    let reference = sklearn_reference("sklearn_grid_reference.json");
+    let (cs, gammas) = (grid_axis(&reference, "C"), grid_axis(&reference, "gamma"));
     let said = ok(&tmo(
         d,
         &[

@@ -106,7 +106,24 @@ fn the_quick_preset_writes_every_step_and_the_findings_report() {
         html.contains("<table>") && html.contains("<svg"),
         "html has tables and figures"
     );
+    // the page leads with the evidence: each prediction stated once, linked from its rows,
+    // before the central claims (the Markdown in the same order)
+    let at = |text: &str, what: &str| {
+        text.find(what)
+            .unwrap_or_else(|| panic!("no {what:?} in the page"))
+    };
+    assert!(at(&html, "<h2>Evidence") < at(&html, "<h2>Central claims"));
+    assert!(html.contains("counts as evidence all the same"), "{html}");
+    let link = "href=\"#prediction-";
+    let after = &html[at(&html, link) + link.len()..];
+    let n = &after[..after.find('"').unwrap()];
+    assert!(html.contains(&format!("id=\"prediction-{n}\"")), "{html}");
     let md = std::fs::read_to_string(d.join("paper/findings.md")).unwrap();
+    assert!(at(&md, "## Evidence") < at(&md, "## Every finding"));
+    assert!(
+        md.contains(&format!("[prediction {n}](#prediction-{n})")),
+        "{md}"
+    );
     assert!(md.contains("| sf-offline-order |"), "{md}");
     assert!(md.contains("| rule | finding | value | paper |"), "{md}");
     // nothing names where the reproduction was made: a copy of it reads the same (X-b)

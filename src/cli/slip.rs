@@ -120,6 +120,11 @@ pub struct TrainArgs {
     /// scikit-learn's BayesSearchCV scores a training set down-sampled before the search).
     #[arg(long, value_enum, value_name = "ROWS", default_value = "every")]
     held_out_rows: tmo::slip::tuning::HeldOutRows,
+    /// How whole trials are assigned to the folds: shuffled by --seed and dealt out in turn,
+    /// or as scikit-learn's GroupKFold (the most rows first, each to the lightest fold; no
+    /// seed), so that --search grid picks what GridSearchCV(cv=GroupKFold(k)) picks.
+    #[arg(long, value_enum, value_name = "HOW", default_value = "shuffled")]
+    fold_assignment: tmo::slip::tuning::FoldAssignment,
     /// Cap on the SVM solver's iterations: SMO pair steps for svm-rbf (default libsvm's,
     /// max(100 x rows, 10,000,000)), Newton steps for svm-linear (default 200).
     #[arg(long)]
@@ -483,6 +488,7 @@ pub fn train(args: TrainArgs) -> Result<()> {
                 },
                 max_fit_rows: args.search_rows,
                 held_out: args.held_out_rows,
+                assignment: args.fold_assignment,
             };
             let point = |h: &Hyperparameters| {
                 let gamma = if args.classifier.uses_gamma() {
@@ -651,6 +657,7 @@ fn cross_validate_fixed(
         max_fit_rows: None,
         // What the model will meet: every row of unseen trials.
         held_out: tuning::HeldOutRows::Every,
+        assignment: args.fold_assignment,
     };
     let bar = super::output::progress_bar("cross-validating by trial {spinner} {elapsed}");
     bar.enable_steady_tick(std::time::Duration::from_millis(200));

@@ -187,7 +187,10 @@ fn heatmap<DB: DrawingBackend>(
     let steps = 100;
     bar.draw_series((0..steps).map(|k| {
         let a = lo + span * k as f64 / steps as f64;
-        let b = lo + span * (k + 1) as f64 / steps as f64;
+        // Each step reaches into the next, which is drawn over it: steps that only met
+        // edge to edge left hairline gaps where a browser rounds the SVG's coordinates,
+        // and the bar read as stripes.
+        let b = lo + span * ((k + 2).min(steps)) as f64 / steps as f64;
         Rectangle::new(
             [(0.0, a), (1.0, b)],
             viridis(k as f64 / steps as f64).filled(),

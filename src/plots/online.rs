@@ -6,6 +6,7 @@ use std::path::{Path, PathBuf};
 
 use plotters::coord::Shift;
 use plotters::prelude::*;
+use plotters::style::text_anchor::{HPos, Pos, VPos};
 
 use super::{clear, DrawResult, PlotError, FN_COLOUR, FONT, FP_COLOUR, SIZE, TP_COLOUR};
 use crate::outcome::Verdict;
@@ -253,14 +254,20 @@ fn boxes<DB: DrawingBackend>(
         .filter(|(_, v)| !v.is_empty())
         .map(|(_, v)| f64::from(Quartiles::new(v).values()[4]))
         .fold(1.0, f64::max);
-    let labels: Vec<String> = groups
+    // Each box's label in lines under it (strategy, then n), and a model's name once under
+    // its boxes: "global: 1Fr1Sen (n=2)" side by side, a box apart, ran into each other.
+    let parts: Vec<(Option<&str>, &str)> = groups
         .iter()
-        .map(|(s, v)| format!("{s} (n={})", v.len()))
+        .map(|(s, _)| match s.split_once(": ") {
+            Some((model, strategy)) => (Some(model), strategy),
+            None => (None, s.as_str()),
+        })
         .collect();
+    let models = parts.iter().any(|(m, _)| m.is_some());
     let mut chart = ChartBuilder::on(root)
         .caption("Slip distance D before the regrasp held", (FONT, 20))
         .margin(12)
-        .x_label_area_size(40)
+        .x_label_area_size(if models { 62 } else { 44 })
         .y_label_area_size(55)
         .build_cartesian_2d(-0.5..(groups.len() as f64 - 0.5), 0.0..top * 1.1)?;
     chart
@@ -268,11 +275,37 @@ fn boxes<DB: DrawingBackend>(
         .light_line_style(TRANSPARENT)
         .disable_x_mesh()
         .x_labels(groups.len())
-        .x_label_formatter(&|v| category(&labels, *v))
+        .x_label_formatter(&|_| String::new())
         .y_desc("D (mm), caught trials")
         .label_style((FONT, 13))
         .axis_desc_style((FONT, 14))
         .draw()?;
+    let line = |text: String, x: f64, dy: i32, size: f64| {
+        EmptyElement::at((x, 0.0))
+            + Text::new(
+                text,
+                (0, dy),
+                TextStyle::from((FONT, size).into_font()).pos(Pos::new(HPos::Center, VPos::Top)),
+            )
+    };
+    for (i, ((_, strategy), (_, v))) in parts.iter().zip(groups).enumerate() {
+        let x = i as f64;
+        chart.draw_series([
+            line(strategy.to_string(), x, 6, 12.0),
+            line(format!("n={}", v.len()), x, 20, 11.0),
+        ])?;
+    }
+    // a model's name centred under its run of boxes
+    let mut i = 0;
+    while i < parts.len() {
+        let model = parts[i].0;
+        let run = parts[i..].iter().take_while(|(m, _)| *m == model).count();
+        if let Some(model) = model {
+            let centre = i as f64 + (run as f64 - 1.0) / 2.0;
+            chart.draw_series([line(format!("{model} model"), centre, 36, 13.0)])?;
+        }
+        i += run;
+    }
     let colour = RGBColor(59, 81, 139);
     for (i, (_, v)) in groups.iter().enumerate() {
         if v.is_empty() {
@@ -332,9 +365,41 @@ fn paper_object(rows: Vec<&OutcomeRow>) -> Vec<&OutcomeRow> {
     rows.into_iter().filter(|r| label(r) == chosen).collect()
 }
 
+/// The hand-release rows Figs. 7 and 8 draw, of the inputs' batches ([`release_rows`]).
+fn release_rows_of(inputs: &Inputs) -> Vec<&OutcomeRow> {
+    use crate::report::inputs::BatchRows;
+    release_rows(
+        inputs
+            .batches_of(Kind::HandRelease, crate::protocol::Mode::Online)
+            .map(|b| match &b.rows {
+                BatchRows::Catch(r) => r.iter().collect(),
+                _ => Vec::new(),
+            })
+            .collect(),
+    )
+}
+
+/// The rows Figs. 7 and 8 draw of hand-release batches' rows: the batches that release
+/// one object (the paper's release and regrasp), leaving out a batch of several objects
+/// (the objects experiment), whose trials of the same object would otherwise be pooled into
+/// the panels of its one model and grasp; of those, one object's ([`paper_object`]). Only
+/// objects batches given: one object's rows of them.
+fn release_rows(batches: Vec<Vec<&OutcomeRow>>) -> Vec<&OutcomeRow> {
+    let label = crate::report::build::object_label;
+    let (one_object, several): (Vec<Vec<&OutcomeRow>>, Vec<Vec<&OutcomeRow>>) = batches
+        .into_iter()
+        .partition(|rows| rows.iter().all(|r| label(r) == label(rows[0])));
+    let one_object: Vec<&OutcomeRow> = one_object.into_iter().flatten().collect();
+    if one_object.is_empty() {
+        paper_object(several.into_iter().flatten().collect())
+    } else {
+        paper_object(one_object)
+    }
+}
+
 /// The whole-hand figures, when the inputs hold online hand-release batches.
 pub fn hand_figures(inputs: &Inputs, dir: &Path) -> Result<Vec<PathBuf>, PlotError> {
-    let rows = paper_object(inputs.catch_rows(Kind::HandRelease));
+    let rows = release_rows_of(inputs);
     if rows.is_empty() {
         return Ok(Vec::new());
     }
@@ -370,6 +435,23 @@ mod tests {
         softball.object = "softball".into();
         let kept = paper_object(vec![&softball, &banana]);
         assert!(kept.iter().all(|r| r.object == "banana") && kept.len() == 1);
+    }
+
+    /// The objects batch's crisps can trials are not pooled into the release's panels:
+    /// beside a batch of one object, a batch of several is left out.
+    #[test]
+    fn an_objects_batch_is_not_pooled_into_the_release() {
+        let release = row("global", "2Fr2Sen", 180.0, Verdict::TruePositive, Some(4.0));
+        let objects_can = row("global", "2Fr2Sen", 0.0, Verdict::FalsePositive, None);
+        let mut banana = objects_can.clone();
+        banana.object = "banana".into();
+        let kept = release_rows(vec![vec![&release, &release], vec![&objects_can, &banana]]);
+        assert_eq!(kept.len(), 2);
+        assert!(kept.iter().all(|r| r.grasp_deg == 180.0));
+        // the objects batch alone: its crisps can rows
+        let kept = release_rows(vec![vec![&objects_can, &banana]]);
+        assert_eq!(kept.len(), 1);
+        assert_eq!(kept[0].object, "crisps_can");
     }
 
     fn row(scope: &str, strategy: &str, grasp: f64, v: Verdict, d: Option<f64>) -> OutcomeRow {
@@ -524,14 +606,16 @@ mod tests {
             let root = SVGBackend::with_string(&mut svg, (900, 600)).into_drawing_area();
             boxes(&root, &groups).unwrap();
         }
-        let boxes_drawn: Vec<String> = texts(&svg)
-            .into_iter()
-            .filter(|t| t.contains("(n="))
-            .collect();
-        assert_eq!(boxes_drawn, ["1Fr2Sen (n=4)", "2Fr2Sen (n=4)"]);
+        // each box named in lines under it: its strategy whole, then its n
+        let drawn = texts(&svg);
+        let at = |t: &str| drawn.iter().position(|d| d == t);
+        for strategy in ["1Fr2Sen", "2Fr2Sen"] {
+            let named = at(strategy).unwrap_or_else(|| panic!("{drawn:?}"));
+            assert_eq!(drawn[named + 1], "n=4", "{drawn:?}");
+        }
         let fig8 = crate::plots::caption("fig8_hand_slip_distance").unwrap();
         assert!(
-            fig8.contains("by strategy, pooled over both models and both grasps"),
+            fig8.contains("by strategy (and by model where the batch ran several), pooled over both grasps"),
             "{fig8}"
         );
     }

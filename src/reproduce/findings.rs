@@ -395,6 +395,9 @@ pub struct Judged {
     /// The verdict a prediction committed before the run expected, if one did.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub predicted: Option<String>,
+    /// The prediction that pre-registered it (a pre-registered row).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub prediction: Option<super::standing::PredictionRef>,
     /// Replicates in which the claim held at the point, and replicates that measured it.
     pub held_in: (u32, u32),
     /// The rule on the paper's own counts, where it gives them.
@@ -433,6 +436,7 @@ pub fn judge_all(findings: &[Finding], m: &Measures, replicates: &[Measures]) ->
                 standing: super::standing::Standing::NeverSeen,
                 standing_why: String::new(),
                 predicted: None,
+                prediction: None,
                 held_in: (
                     counted.iter().filter(|r| f.rule.holds_at_point(r)).count() as u32,
                     counted.len() as u32,
@@ -535,6 +539,9 @@ pub fn mark_standings(judged: &mut [Judged], records: &super::standing::Records)
         j.standing = standing;
         j.standing_why = why;
         j.predicted = super::standing::predicted(&j.finding.id, records).map(str::to_string);
+        j.prediction = (standing == super::standing::Standing::PreRegistered)
+            .then(|| super::standing::pre_registered_by(&j.finding.id, records))
+            .flatten();
     }
 }
 

@@ -16,6 +16,7 @@ pub mod findings;
 pub mod hand_model;
 pub mod measure;
 pub mod page;
+pub mod page_evidence;
 pub mod screen;
 pub mod sensitivity;
 pub mod shards;

@@ -2,7 +2,7 @@
 //! self-contained `findings.html`. Each row gives the verdict first, then the paper's value
 //! and ours (pooled over the replicates, with its 95 % interval), in how many replicates
 //! the claim held, whether the paper's own effect was clear at its n, and whether a
-//! simulator value was calibrated against the row; central claims come first. Then the
+//! simulator value was calibrated against the row; the evidence comes first (each prediction stated once), then the central claims. Then the
 //! paper's tables and figures as `tmo report` makes them from the first replicate.
 
 use std::path::{Path, PathBuf};
@@ -12,6 +12,7 @@ use super::findings::{
     Measures, Reproduced, StandingTally, Tally,
 };
 use super::measure::{measure, Observations};
+use super::page_evidence::{self, verdict_class};
 use super::show::ours;
 use super::standing::Standing;
 use super::steps::{read_sweep, Preset, Step, Timing};
@@ -267,12 +268,46 @@ fn load(out: &Path) -> Loaded {
     }
 }
 
-/// The metric keys, the rule and the calibrated parameters, for the details line.
+/// The rule, its source and the standing's record, for the details line (Markdown); a
+/// pre-registered row links its prediction, which the Evidence section states once.
 fn details(j: &Judged) -> String {
     let mut s = format!("rule `{}` ({})", j.rule_text, j.finding.source);
     s += &format!("; {}", j.standing.label());
-    if !j.standing_why.is_empty() {
-        s += &format!(": {}", j.standing_why);
+    match (&j.prediction, &j.predicted) {
+        (Some(p), Some(expected)) => {
+            let n = p.number;
+            s += &format!(
+                ": expected `{expected}` under [prediction {n}](#{})",
+                page_evidence::anchor(n)
+            );
+        }
+        _ if !j.standing_why.is_empty() => s += &format!(": {}", j.standing_why),
+        _ => {}
+    }
+    s
+}
+
+/// [`details`] as HTML: the prediction's link a real anchor.
+fn details_html(j: &Judged) -> String {
+    let mut s = html::inline_markdown(&format!(
+        "rule `{}` ({}); {}",
+        j.rule_text,
+        j.finding.source,
+        j.standing.label()
+    ));
+    match (&j.prediction, &j.predicted) {
+        (Some(p), Some(expected)) => {
+            let n = p.number;
+            s += &format!(
+                ": expected <code>{}</code> under <a href=\"#{}\">prediction {n}</a>",
+                html::escape(expected),
+                page_evidence::anchor(n)
+            );
+        }
+        _ if !j.standing_why.is_empty() => {
+            s += &format!(": {}", html::inline_markdown(&j.standing_why))
+        }
+        _ => {}
     }
     s
 }
@@ -325,11 +360,13 @@ fn decided_at_point(j: &Judged) -> bool {
     }
 }
 
-/// Central claims first; within each, the evidence first (standings in their order), then
-/// the findings file's order.
+/// The evidence first (pre-registered and never-seen rows, as the page's first section
+/// lists them), then the central claims, then the rest; within each, standings in their
+/// order, then the findings file's order. The Markdown's table and the HTML's sections
+/// alike.
 fn ordered(judged: &[Judged]) -> Vec<&Judged> {
     let mut rows: Vec<&Judged> = judged.iter().collect();
-    rows.sort_by_key(|j| (!j.finding.central, j.standing));
+    rows.sort_by_key(|j| (!j.standing.is_evidence(), !j.finding.central, j.standing));
     rows
 }
 
@@ -455,20 +492,19 @@ fn markdown(preset: Preset, judged: &[Judged], w: &Written, tables: &str) -> Str
     for line in w.lead_paragraphs() {
         out += &format!("{line}\n\n");
     }
+    out += &page_evidence::markdown(judged);
+    out += "## How to read the verdicts\n\n";
     for c in caveats(preset, judged, w) {
         out += &format!("- {c}\n");
     }
+    out += "\n";
     let columns = shown(&COLUMNS, judged);
     out += &format!(
-        "\n| {} | details |\n|{}\n",
+        "## Every finding\n\n| {} | details |\n|{}\n",
         columns.join(" | "),
         " --- |".repeat(columns.len() + 1)
     );
-    let mut central = true;
     for j in ordered(judged) {
-        if central && !j.finding.central {
-            central = false;
-        }
         let mut row: Vec<String> = shown(&cells(j), judged);
         if j.finding.central {
             row[1] = format!("**{}**", row[1]);
@@ -482,19 +518,9 @@ fn markdown(preset: Preset, judged: &[Judged], w: &Written, tables: &str) -> Str
                 .join(" | ")
         );
     }
-    out += "\nCentral claims (in bold) come first.\n\n## The paper's tables, from the first replicate\n\n";
+    out += "\nThe evidence comes first (the section above states each prediction once), then the central claims (in bold), then the rest.\n\n## The paper's tables, from the first replicate\n\n";
     out += tables;
     out
-}
-
-fn verdict_class(v: Reproduced) -> &'static str {
-    match v {
-        Reproduced::Yes => "yes",
-        Reproduced::Partly => "partly",
-        Reproduced::No => "no",
-        Reproduced::NotResolved => "not_resolved",
-        Reproduced::NotMeasured => "not_measured",
-    }
 }
 
 fn html_page(
@@ -516,12 +542,16 @@ fn html_page(
     for line in w.lead_paragraphs() {
         body += &format!("<p>{}</p>\n", html::inline_markdown(&line));
     }
-    body += "<ul>\n";
+    body += &page_evidence::html_section(judged);
+    body += "<h2>How to read the verdicts</h2>\n<ul>\n";
     for c in caveats(preset, judged, w) {
         body += &format!("<li>{}</li>\n", html::inline_markdown(&c));
     }
     body += "</ul>\n";
     let table = |title: &str, rows: &[&Judged]| {
+        if rows.is_empty() {
+            return String::new();
+        }
         let mut t = format!("<h2>{title}</h2>\n<table>\n<tr>");
         for c in shown(&COLUMNS, judged) {
             t += &format!("<th>{}</th>", html::escape(c));
@@ -534,7 +564,7 @@ fn html_page(
                 verdict_class(j.reproduced),
                 html::escape(&c[0]),
                 html::escape(&c[1]),
-                html::inline_markdown(&details(j))
+                details_html(j)
             );
             // the value lens's cell in its verdict's colour, as the rule's
             let value_class = j.value_verdict.map_or("", verdict_class);
@@ -549,8 +579,19 @@ fn html_page(
         }
         t + "</table>\n"
     };
-    let (central, rest): (Vec<&Judged>, Vec<&Judged>) =
-        judged.iter().partition(|j| j.finding.central);
+    // the Markdown's order, in three sections
+    let rows = ordered(judged);
+    let evidence: Vec<&Judged> = rows
+        .iter()
+        .copied()
+        .filter(|j| j.standing.is_evidence())
+        .collect();
+    let (central, rest): (Vec<&Judged>, Vec<&Judged>) = rows
+        .iter()
+        .copied()
+        .filter(|j| !j.standing.is_evidence())
+        .partition(|j| j.finding.central);
+    body += &table("The evidence rows in full", &evidence);
     body += &table("Central claims", &central);
     body += &table("Details", &rest);
     body += "<h2>The paper's tables, from the first replicate</h2>\n";

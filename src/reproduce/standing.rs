@@ -186,7 +186,11 @@ pub struct Records {
 impl Records {
     /// The predictions that pre-register `id`, the latest first: those that expect a
     /// verdict of it, leaving out an expectation of the verdict it already had.
-    fn pre_registering<'a>(&'a self, id: &'a str) -> impl Iterator<Item = &'a Prediction> + 'a {
+    /// Each with its number (counting from 1 in the file's order).
+    fn pre_registering_numbered<'a>(
+        &'a self,
+        id: &'a str,
+    ) -> impl Iterator<Item = (usize, &'a Prediction)> + 'a {
         self.prediction
             .iter()
             .enumerate()
@@ -198,7 +202,7 @@ impl Records {
                         .iter()
                         .any(|u| u.prediction == i + 1 && u.findings.iter().any(|f| f == id))
             })
-            .map(|(_, p)| p)
+            .map(|(i, p)| (i + 1, p))
     }
 }
 
@@ -355,10 +359,14 @@ pub fn of(id: &str, parameters: &[String], records: &Records) -> (Standing, Stri
             format!("chosen to move it: {}", by.join("; ")),
         );
     }
-    if let Some(p) = records.pre_registering(id).next() {
+    if let Some((number, p)) = records.pre_registering_numbered(id).next() {
+        // the change itself is stated once, where the page lists the predictions
         return (
             Standing::PreRegistered,
-            format!("expected `{}` under: {}", p.expect[id], p.change),
+            format!(
+                "expected `{}` under prediction {number} (docs/standings.toml)",
+                p.expect[id]
+            ),
         );
     }
     let seen: Vec<String> = records
@@ -383,6 +391,25 @@ pub fn of(id: &str, parameters: &[String], records: &Records) -> (Standing, Stri
         );
     }
     (Standing::NeverSeen, String::new())
+}
+
+/// The prediction that pre-registers `id` (the latest), as the page states it once: its
+/// number and the change it expected of the simulator.
+pub fn pre_registered_by(id: &str, records: &Records) -> Option<PredictionRef> {
+    records
+        .pre_registering_numbered(id)
+        .next()
+        .map(|(number, p)| PredictionRef {
+            number,
+            change: p.change.clone(),
+        })
+}
+
+/// A `[[prediction]]` of docs/standings.toml by number, with its change in words.
+#[derive(Debug, Clone, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+pub struct PredictionRef {
+    pub number: usize,
+    pub change: String,
 }
 
 /// The expected verdict the latest prediction committed for `id`, if any.
@@ -491,7 +518,14 @@ why = "both verdicts as in the run before"
         // expectation
         let (standing, said) = of("b", &[], &r);
         assert_eq!(standing, Standing::PreRegistered);
-        assert!(said.contains("first"), "{said}");
+        assert!(said.contains("under prediction 1"), "{said}");
+        assert_eq!(
+            pre_registered_by("b", &r),
+            Some(PredictionRef {
+                number: 1,
+                change: "first".into()
+            })
+        );
         assert_eq!(predicted("b", &r), Some("no"));
         let wrong = |u: &str| {
             parse(

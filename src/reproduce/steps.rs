@@ -739,6 +739,7 @@ fn rail_model(ctx: &Context, c: &Counts, dir: &Path) -> Result<(), ReproduceErro
                 ranges: Default::default(),
                 max_fit_rows: None,
                 held_out: Default::default(),
+                assignment: Default::default(),
             };
             let (h, record) =
                 tuning::search(&ds, &spec).map_err(|e| ReproduceError::step(step, e))?;

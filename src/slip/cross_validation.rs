@@ -31,6 +31,52 @@ pub struct TuneSpec {
     /// every row.
     pub max_fit_rows: Option<usize>,
     pub held_out: HeldOutRows,
+    pub assignment: FoldAssignment,
+}
+
+/// How whole trials are assigned to a cross-validation's folds.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, clap::ValueEnum)]
+pub enum FoldAssignment {
+    /// Trials shuffled by the seed and dealt out in turn (fold sizes differ by at most one
+    /// trial): a replicate with another seed splits the trials another way.
+    #[default]
+    Shuffled,
+    /// As scikit-learn's `GroupKFold` (unshuffled) assigns groups: the trial with the most
+    /// rows first, each to the fold with the fewest rows so far, ties by trial id; no seed.
+    /// A grid search then picks what `GridSearchCV(cv=GroupKFold(k))` picks on the same rows.
+    GroupKFold,
+}
+
+impl FoldAssignment {
+    /// How a search record names it.
+    pub fn describe(self) -> &'static str {
+        match self {
+            FoldAssignment::Shuffled => "trials shuffled into folds by the seed",
+            FoldAssignment::GroupKFold => "trials assigned to folds as GroupKFold",
+        }
+    }
+
+    /// The fold of each trial index of `data` (indexed by the index).
+    fn assign(
+        self,
+        data: &Dataset,
+        folds: usize,
+        seed: u64,
+    ) -> Result<Vec<usize>, tmo_learn::cross_validation::FoldError> {
+        use tmo_learn::cross_validation::{group_folds, group_k_fold};
+        match self {
+            FoldAssignment::Shuffled => group_folds(&data.trial, folds, seed ^ 0x5eed),
+            FoldAssignment::GroupKFold => {
+                // GroupKFold's tie order is that of the trial ids' sorted labels
+                let mut present: Vec<u32> = data.trial.clone();
+                present.sort_unstable();
+                present.dedup();
+                present
+                    .sort_by(|a, b| data.trial_ids[*a as usize].cmp(&data.trial_ids[*b as usize]));
+                group_k_fold(&data.trial, folds, &present)
+            }
+        }
+    }
 }
 
 /// The rows of a held-out fold that a search scores its models on.
@@ -87,14 +133,15 @@ struct Fold {
 }
 
 impl Folds {
-    /// `spec.folds` folds of whole trials (shuffled by the seed): each fold's held-out rows
+    /// `spec.folds` folds of whole trials (as `spec.assignment` says): each fold's held-out rows
     /// (every row, or as `spec.held_out` says) and the rest's rows for training (sampled
     /// to `spec.max_fit_rows`, then split and down-sampled as the models train).
     pub fn new(data: &Dataset, spec: &TuneSpec) -> Result<Self, TuneError> {
-        // whole trials in each fold, dealt out by `tmo_learn`'s group folds
-        let fold_by_trial =
-            tmo_learn::cross_validation::group_folds(&data.trial, spec.folds, spec.seed ^ 0x5eed)
-                .map_err(|e| match e {
+        // whole trials in each fold, assigned by `tmo_learn`'s group folds
+        let fold_by_trial = spec
+            .assignment
+            .assign(data, spec.folds, spec.seed)
+            .map_err(|e| match e {
                 tmo_learn::cross_validation::FoldError::Folds(f) => TuneError::Folds(f),
                 tmo_learn::cross_validation::FoldError::TooFewGroups { folds, groups } => {
                     TuneError::TooFewTrials {

@@ -385,6 +385,8 @@ fn fit_cell(
                 ranges,
                 max_fit_rows,
                 held_out,
+                // a sweep's replicates vary the split by seed
+                assignment: Default::default(),
             };
             let (h, record) = tuning::search(&train, &tune)
                 .map_err(|source| SweepError::Tune { cell, source })?;

@@ -3,7 +3,7 @@
 
 use super::bayes::{best, BayesSearch, Evaluation};
 use super::cross_validation::Folds;
-pub use super::cross_validation::{HeldOutRows, TuneError, TuneSpec};
+pub use super::cross_validation::{FoldAssignment, HeldOutRows, TuneError, TuneSpec};
 use super::dataset::Dataset;
 use super::metrics::Scores;
 use super::model::{ClassifierKind, Hyperparameters, SearchRecord};
@@ -138,10 +138,15 @@ fn search_record(
 ) -> SearchRecord {
     SearchRecord {
         method: format!(
-            "{method}{}, {}",
+            "{method}{}, {}{}",
             spec.max_fit_rows
                 .map_or(String::new(), |cap| format!(", fits on at most {cap} rows")),
-            spec.held_out.describe()
+            spec.held_out.describe(),
+            // named only when not the default, so that existing records read as before
+            match spec.assignment {
+                FoldAssignment::Shuffled => String::new(),
+                other => format!(", {}", other.describe()),
+            }
         ),
         folds: spec.folds,
         parameters,
@@ -339,7 +344,61 @@ mod tests {
             ranges: SearchRanges::default(),
             max_fit_rows: None,
             held_out: HeldOutRows::Every,
+            assignment: FoldAssignment::Shuffled,
         }
+    }
+
+    /// GroupKFold's folds are the trials' sizes' alone: another seed, the same split (the
+    /// shuffled folds move with it), and the search record says which was used.
+    #[test]
+    fn group_k_fold_folds_do_not_move_with_the_seed() {
+        let data = blobs();
+        let hyper = Hyperparameters {
+            c: 1.0,
+            gamma: 0.0,
+            max_iterations: None,
+        };
+        let held_out_f1 = |assignment, seed| -> Vec<f64> {
+            let s = TuneSpec {
+                assignment,
+                seed,
+                ..spec(ClassifierKind::Logreg, 1, 3)
+            };
+            cross_validate(&data, &s, hyper)
+                .unwrap()
+                .iter()
+                .map(|s| s.macro_f1)
+                .collect()
+        };
+        for seed in [4, 5, 6] {
+            assert_eq!(
+                held_out_f1(FoldAssignment::GroupKFold, 3),
+                held_out_f1(FoldAssignment::GroupKFold, seed)
+            );
+        }
+        assert!(
+            [4, 5, 6]
+                .iter()
+                .any(|seed| held_out_f1(FoldAssignment::Shuffled, 3)
+                    != held_out_f1(FoldAssignment::Shuffled, *seed)),
+            "the shuffled folds move with the seed"
+        );
+        let (_, record) = grid_search_reporting(
+            &data,
+            &TuneSpec {
+                assignment: FoldAssignment::GroupKFold,
+                ..spec(ClassifierKind::Logreg, 0, 3)
+            },
+            &[1.0],
+            &[],
+            |_, _, _| {},
+        )
+        .unwrap();
+        assert!(
+            record.method.ends_with("as GroupKFold"),
+            "{}",
+            record.method
+        );
     }
 
     #[test]
