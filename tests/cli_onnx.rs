@@ -374,6 +374,7 @@ fn a_windowed_model_longer_than_a_trial_is_refused_before_replaying() {
     );
 }
 
+/// On the smoke preset: the model's path through the steps is under test, not the findings.
 #[test]
 fn a_reproduction_judges_a_users_model_as_the_hands_global_model() {
     let dir = tempfile::tempdir().unwrap();
@@ -384,7 +385,7 @@ fn a_reproduction_judges_a_users_model_as_the_hands_global_model() {
         &[
             "reproduce",
             "--preset",
-            "quick",
+            "smoke",
             "--hand-model",
             "logreg.onnx",
             "--out",
@@ -436,7 +437,7 @@ fn a_reproduction_judges_a_users_model_as_the_hands_global_model() {
         &[
             "reproduce",
             "--preset",
-            "quick",
+            "smoke",
             "--out",
             "q",
             "--findings-only",
@@ -446,7 +447,7 @@ fn a_reproduction_judges_a_users_model_as_the_hands_global_model() {
     // without the model, the hand's steps are made again with tmo's own; the rail's kept
     let resumed = ok(&tmo(
         d,
-        &["reproduce", "--preset", "quick", "--out", "q", "--resume"],
+        &["reproduce", "--preset", "smoke", "--out", "q", "--resume"],
     ));
     assert!(
         resumed.contains("5 step(s) run, 6 already done"),
@@ -462,7 +463,7 @@ fn a_reproduction_judges_a_users_model_as_the_hands_global_model() {
         &[
             "reproduce",
             "--preset",
-            "quick",
+            "smoke",
             "--hand-model",
             "svm_skl2onnx.onnx",
             "--out",

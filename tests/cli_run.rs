@@ -351,10 +351,10 @@ fn a_batch_killed_mid_run_resumes_to_the_same_trials() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     setup(d);
-    let args = |out: &'static str| vec!["run", "release.toml", "--repeat", "25", "--out", out];
+    let args = |out: &'static str| vec!["run", "release.toml", "--repeat", "10", "--out", out];
     ok(&tmo(d, &args("whole")));
     let whole = std::fs::read_to_string(d.join("whole/outcomes.csv")).unwrap();
-    assert_eq!(whole.lines().count(), 101);
+    assert_eq!(whole.lines().count(), 41);
 
     let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_tmo"))
         .current_dir(d)
@@ -372,7 +372,7 @@ fn a_batch_killed_mid_run_resumes_to_the_same_trials() {
     child.wait().unwrap();
     let survivors = sorted_logs(&killed).len();
     assert!(
-        (5..100).contains(&survivors),
+        (5..40).contains(&survivors),
         "killed after {survivors} trials"
     );
     assert!(!killed.join("outcomes.csv").exists());
@@ -381,7 +381,7 @@ fn a_batch_killed_mid_run_resumes_to_the_same_trials() {
     assert!(
         stdout.contains(&format!(
             "({} run, {survivors} already there)",
-            100 - survivors
+            40 - survivors
         )),
         "{stdout}"
     );
@@ -392,12 +392,12 @@ fn a_batch_killed_mid_run_resumes_to_the_same_trials() {
     );
 }
 
-/// Starts a 100-trial batch in `d/out_name`, waits for three finished trials and sends
+/// Starts a 40-trial batch in `d/out_name`, waits for three finished trials and sends
 /// Ctrl-C (SIGINT); returns the logs left and the exit's stderr.
 fn interrupt_a_batch(d: &Path, out_name: &str) -> (Vec<String>, String) {
     let child = std::process::Command::new(env!("CARGO_BIN_EXE_tmo"))
         .current_dir(d)
-        .args(["run", "release.toml", "--repeat", "25", "--out", out_name])
+        .args(["run", "release.toml", "--repeat", "10", "--out", out_name])
         .stdout(std::process::Stdio::null())
         .stderr(std::process::Stdio::piped())
         .spawn()
@@ -463,7 +463,7 @@ fn ctrl_c_keeps_finished_trials_and_the_batch_resumes() {
             "run",
             "release.toml",
             "--repeat",
-            "25",
+            "10",
             "--out",
             &out_name,
             "--resume",
@@ -474,7 +474,7 @@ fn ctrl_c_keeps_finished_trials_and_the_batch_resumes() {
         "{stdout}"
     );
     let csv = std::fs::read_to_string(out.join("outcomes.csv")).unwrap();
-    assert_eq!(csv.lines().count(), 101);
+    assert_eq!(csv.lines().count(), 41);
 }
 
 #[test]

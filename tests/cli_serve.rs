@@ -131,12 +131,12 @@ fn lift_protocols_run_on_the_real_backend_against_the_served_simulator() {
     assert!(out.contains("g_min.json"), "{out}");
     std::fs::write(
         d.join("lift.toml"),
-        format!("kind = \"first_time_lift\"\nobjects = [\"crisps_can\"]\nmodels = [\"global.json\"]\nrepetitions = 2\n[first_time_lift]\n{quick}calibration = \"cal/g_min.json\"\n{}", common::LOOSE_DEADLINE),
+        format!("kind = \"first_time_lift\"\nobjects = [\"crisps_can\"]\nmodels = [\"global.json\"]\nrepetitions = 1\n[first_time_lift]\n{quick}calibration = \"cal/g_min.json\"\n{}", common::LOOSE_DEADLINE),
     )
     .unwrap();
     common::ok(&common::run_real(d, "lift.toml", "lift", &[]));
     let rows = outcome_rows(d, "lift");
-    assert_eq!(rows.len(), 2);
+    assert_eq!(rows.len(), 1);
     // Served like the simulated rig: the can slips off the contact grasp and the hand sees
     // it and tightens. (Whether it is then carried is the simulator's physics, not this
     // path's: a slow steady slide at a light grip barely moves the pins; issue 14's note.)
@@ -166,9 +166,10 @@ fn hand_release_and_rice_pour_run_on_the_real_backend_against_the_served_simulat
     );
     let _server = common::serve_sim(d, &[]);
     // A trial the detector misses runs to its max_duration_s in real time (the object's
-    // onset comes some 5 s in): 12 s, not the default 60, keeps the four trials well inside
-    // the served simulator's 300 s (they took 240 s at 60).
-    let release = "kind = \"hand_release\"\nrepetitions = 2\nobjects = [\"crisps_can\", \"banana\"]\ngrasps_deg = [0]\nmodels = [\"global.json\"]\nstrategies = [\"2x2\"]\n[outcome]\ndrop_limit_mm = 30.0\n[hand_release]\nlift_mm = 40.0\nrelease_speed_of_max = 0.02\nmax_duration_s = 12.0\n";
+    // onset comes some 5 s in): 12 s, not the default 60, keeps the trials well inside the
+    // served simulator's 300 s (four took 240 s at 60). One trial an object: the served
+    // rig runs in real time, and the reset between two objects is what is under test.
+    let release = "kind = \"hand_release\"\nrepetitions = 1\nobjects = [\"crisps_can\", \"banana\"]\ngrasps_deg = [0]\nmodels = [\"global.json\"]\nstrategies = [\"2x2\"]\n[outcome]\ndrop_limit_mm = 30.0\n[hand_release]\nlift_mm = 40.0\nrelease_speed_of_max = 0.02\nmax_duration_s = 12.0\n";
     // without a grasp the real backend has nothing to close to: refused before any device
     std::fs::write(d.join("bare.toml"), release).unwrap();
     let err = common::fails(&common::run_real(d, "bare.toml", "bare", &[]));
@@ -186,7 +187,7 @@ fn hand_release_and_rice_pour_run_on_the_real_backend_against_the_served_simulat
     .unwrap();
     common::ok(&common::run_real(d, "release.toml", "release", &[]));
     let rows = outcome_rows(d, "release");
-    assert_eq!(rows.len(), 4);
+    assert_eq!(rows.len(), 2);
     for r in &rows {
         assert!(r["fault"].is_null(), "{rows:?}");
         assert!(
@@ -205,7 +206,7 @@ fn hand_release_and_rice_pour_run_on_the_real_backend_against_the_served_simulat
         );
     }
     // each trial met its own object: the reset brought the banana in
-    for (k, object) in [(0, "crisps_can"), (2, "banana")] {
+    for (k, object) in [(0, "crisps_can"), (1, "banana")] {
         let trial = tmo::trial::read_trial(&d.join(format!("release/trial-0000{k}.mcap"))).unwrap();
         assert_eq!(
             (trial.meta.backend.as_str(), trial.meta.object.as_str()),

@@ -4,7 +4,7 @@
 # machine with a generated slurm.conf in a scratch directory, then
 #   1. shards a small `tmo sweep` grid with submit-sweep.sh and checks the merged CSV has
 #      the cells of a single run (all but the timing column), and
-#   2. runs a two-replicate quick `tmo reproduce` with submit-reproduce.sh in two stages
+#   2. runs a two-replicate smoke-preset `tmo reproduce` with submit-reproduce.sh in two stages
 #      (the sweeps in three parts, the steps in two shards) and checks the merged findings
 #      equal a single run's (all but the time to classify a frame, which
 #      is measured anew in every run).
@@ -132,15 +132,16 @@ sweep_args="--downsample 0.5,1 --n-slip 1,5,9"
 ids="$(SHARDS=3 TMO="$TMO" TRIALS=train TEST=test OUT=sweep/sweep.csv SWEEP_ARGS="$sweep_args" \
     bash "$here/submit-sweep.sh" | tail -1)"
 sweep_merge="${ids##* }"
-# The reproduction: two quick replicates, their sweeps in three parts, then their steps in
-# two shards and the merge, submitted at once.
+# The reproduction: two replicates of the smoke preset (every step on the fewest trials: the
+# scripts, not the findings, are under test), their sweeps in three parts, then their steps
+# in two shards and the merge, submitted at once.
 ids="$(SHARDS=2 SWEEP_SHARDS=3 TMO="$TMO" OUT=reproduce \
-    REPRODUCE_ARGS="--preset quick --replicates 2" bash "$here/submit-reproduce.sh" | tail -1)"
+    REPRODUCE_ARGS="--preset smoke --replicates 2" bash "$here/submit-reproduce.sh" | tail -1)"
 reproduce_merge="${ids##* }"
 # the single runs to compare with, meanwhile
 # shellcheck disable=SC2086
 "$TMO" sweep train --test test $sweep_args --out single/sweep.csv >/dev/null
-"$TMO" reproduce --preset quick --replicates 2 --out single/reproduce >/dev/null
+"$TMO" reproduce --preset smoke --replicates 2 --out single/reproduce >/dev/null
 
 wait_for "$sweep_merge"
 strip_timing() { cut -d, -f1-"$(($(head -1 "$1" | tr ',' '\n' | wc -l) - 1))" "$1"; }

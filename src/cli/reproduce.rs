@@ -12,6 +12,9 @@ use super::run::EXIT_INTERRUPTED;
 
 #[derive(Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 pub enum PresetArg {
+    /// The fewest trials that run every step, a few seconds: checks an install, a
+    /// cluster's setup or the pipeline's plumbing; its verdicts mean nothing.
+    Smoke,
     /// Scaled down: about 20 s on two cores, one replicate.
     Quick,
     /// The paper's counts and grids.
@@ -30,8 +33,9 @@ pub enum BackendArg {
 pub struct ReproduceArgs {
     #[command(subcommand)]
     command: Option<ReproduceCommand>,
-    /// How much to run: `quick` (a few trials a cell, one replicate, about 20 s) or `paper`
-    /// (the paper's counts, five replicates, about 20 minutes on 2 cores).
+    /// How much to run: `quick` (a few trials a cell, one replicate, about 20 s), `paper`
+    /// (the paper's counts, five replicates, about 20 minutes on 2 cores), or `smoke` (every
+    /// step on the fewest trials, to check a setup; its verdicts mean nothing).
     #[arg(long, value_enum, default_value = "quick")]
     preset: PresetArg,
     /// Independent replicates of every step, each with its own trial and learner seeds
@@ -145,6 +149,7 @@ pub fn run(args: ReproduceArgs) -> Result<u8> {
         }
     };
     let preset = match args.preset {
+        PresetArg::Smoke => Preset::Smoke,
         PresetArg::Quick => Preset::Quick,
         PresetArg::Paper => Preset::Paper,
     };

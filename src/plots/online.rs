@@ -615,7 +615,9 @@ mod tests {
         }
         let fig8 = crate::plots::caption("fig8_hand_slip_distance").unwrap();
         assert!(
-            fig8.contains("by strategy (and by model where the batch ran several), pooled over both grasps"),
+            fig8.contains(
+                "by strategy (and by model where the batch ran several), pooled over both grasps"
+            ),
             "{fig8}"
         );
     }

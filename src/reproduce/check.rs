@@ -185,7 +185,7 @@ pub fn preset_that_fits(
     variants: &[Variant],
     backend: &Backend,
 ) -> Result<Option<Preset>, ReproduceError> {
-    for other in [Preset::Quick, Preset::Paper] {
+    for other in Preset::ALL {
         if other == *asked {
             continue;
         }

@@ -473,6 +473,9 @@ fn caveats(preset: Preset, judged: &[Judged], w: &Written) -> Vec<String> {
             ));
         }
     }
+    if preset == Preset::Smoke {
+        out.push("The smoke preset runs the fewest trials that run every step: it checks a setup, and its verdicts mean nothing. `--preset quick` is a first look, `--preset paper` the paper's counts.".to_string());
+    }
     if preset == Preset::Quick {
         out.push("The quick preset runs a few trials a cell: its online rows are mostly not resolved, and its verdicts are a first look, not evidence. `--preset paper` runs the paper's counts with five replicates.".to_string());
     }

@@ -233,13 +233,14 @@ pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<Merged, ReproduceError> {
         .map_err(|e| ReproduceError::step("merge", e))?;
     let parts = check_parts(dirs)?;
     let plan = parts[0].1.plan.clone();
-    let preset = match plan.preset.as_str() {
-        "paper" => super::Preset::Paper,
-        "quick" => super::Preset::Quick,
-        other => {
-            return Err(
-                MergeError::Plan("preset".into(), format!("unknown preset `{other}`")).into(),
+    let preset = match super::Preset::from_name(&plan.preset) {
+        Some(preset) => preset,
+        None => {
+            return Err(MergeError::Plan(
+                "preset".into(),
+                format!("unknown preset `{}`", plan.preset),
             )
+            .into())
         }
     };
     let variants = match &plan.sensitivity {

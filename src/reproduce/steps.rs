@@ -36,6 +36,10 @@ const TMO_GLOBAL: &str = "global.json";
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Preset {
+    /// The fewest trials that run every step (a few seconds): checks an install, a
+    /// cluster's setup or the pipeline's plumbing (resume, shards, merges); its verdicts
+    /// mean nothing.
+    Smoke,
     /// A scaled-down run for a first look (about 20 s on two cores).
     Quick,
     /// The paper's counts.
@@ -71,18 +75,26 @@ pub struct Counts {
 }
 
 impl Preset {
+    pub const ALL: [Preset; 3] = [Preset::Smoke, Preset::Quick, Preset::Paper];
+
     pub fn name(self) -> &'static str {
         match self {
+            Preset::Smoke => "smoke",
             Preset::Quick => "quick",
             Preset::Paper => "paper",
         }
+    }
+
+    /// The preset a plan or record names, if it is one.
+    pub fn from_name(name: &str) -> Option<Preset> {
+        Preset::ALL.into_iter().find(|p| p.name() == name)
     }
 
     /// Replicates when none are asked for: five for the paper's counts, so that its
     /// verdicts rest on their spread; one for a first look.
     pub fn default_replicates(self) -> u32 {
         match self {
-            Preset::Quick => 1,
+            Preset::Smoke | Preset::Quick => 1,
             Preset::Paper => 5,
         }
     }
@@ -103,6 +115,21 @@ impl Preset {
                 pour: 5,
                 calibrate: 3,
                 lift: 10,
+            },
+            Preset::Smoke => Counts {
+                rail_collect: 8,
+                sweep_downsample: vec![0.4, 1.0],
+                sweep_n_slip: vec![5, 11],
+                sweep_search: None,
+                search_iterations: 4,
+                search_folds: 3,
+                rail_online: 6,
+                hand_collect: 2,
+                hand_online: 1,
+                objects: 1,
+                pour: 1,
+                calibrate: 1,
+                lift: 1,
             },
             Preset::Quick => Counts {
                 rail_collect: 25,

@@ -386,12 +386,11 @@ fn check_rows_file(dir: &Path, job: &PartJob) -> Result<PathBuf, SweepPartError>
 }
 
 fn preset_of(plan: &ShardPlan) -> Result<super::Preset, SweepPartError> {
-    match plan.preset.as_str() {
-        "paper" => Ok(super::Preset::Paper),
-        "quick" => Ok(super::Preset::Quick),
-        other => Err(SweepPartError::Parts(MergeError::Plan(
+    match super::Preset::from_name(&plan.preset) {
+        Some(preset) => Ok(preset),
+        None => Err(SweepPartError::Parts(MergeError::Plan(
             "preset".into(),
-            format!("unknown preset `{other}`"),
+            format!("unknown preset `{}`", plan.preset),
         ))),
     }
 }

@@ -184,8 +184,11 @@ fn parse(path: &Path, buf: &[u8], channels: Channels) -> Result<Trial, TrialErro
     }
     // The metadata's sensor count is what strategies and local models are checked
     // against: every sensor it names must have sent frames (a log with none at all is
-    // unusable, said by `Trial::unusable`, not an error).
-    if !frames.is_empty() {
+    // unusable, said by `Trial::unusable`, not an error). A trial that ended in a fault
+    // (Ctrl-C in its first frames, a device lost) may stop before every sensor's first
+    // frame: it is kept to be read, and scored as faulted, never as a detection.
+    let faulted = events.iter().any(|e| e.topic == "/fault");
+    if !frames.is_empty() && !faulted {
         let silent: Vec<String> = (0..meta.sensors)
             .filter(|s| !frames.iter().any(|f| f.sensor == *s))
             .map(|s| s.to_string())
@@ -438,6 +441,16 @@ mod tests {
             err.contains("sensors = 3") && err.contains("sensor(s) 2 sent no frame"),
             "{err}"
         );
+        // unless the trial ended in a fault before that sensor's first frame (Ctrl-C
+        // early in a trial: CI saw an aborted log refused so)
+        let mut aborted = three.clone();
+        aborted.events.push(TrialEvent {
+            time_s: 0.01,
+            topic: "/fault".into(),
+            data: serde_json::json!({"fault": "interrupted"}),
+        });
+        write_trial(&path, &aborted).unwrap();
+        assert!(read_trial(&path).is_ok());
         // a log with no frames at all is read, and called unusable where it is used
         let mut none = sample_trial();
         none.frames.clear();
