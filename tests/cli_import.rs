@@ -76,6 +76,31 @@ fn grid_axis(reference: &serde_json::Value, axis: &str) -> String {
     values.join(",")
 }
 
+/// `tmo train TRIALS --search grid` over a reference's grid and folds, on the rows the
+/// reference script read (`--n-slip 30 --downsample 1`), writing `out`.
+fn grid_search(trials: &str, reference: &serde_json::Value, out: &str) -> Vec<String> {
+    [
+        "train",
+        trials,
+        "--n-slip",
+        "30",
+        "--downsample",
+        "1",
+        "--search",
+        "grid",
+        "--c-grid",
+        &grid_axis(reference, "C"),
+        "--gamma-grid",
+        &grid_axis(reference, "gamma"),
+        "--folds",
+        &reference["folds"].to_string(),
+        "--out",
+        out,
+    ]
+    .map(str::to_string)
+    .to_vec()
+}
+
 /// With `--fold-assignment group-k-fold`, every point of a grid search over all four trials
 /// (three folds, so one fold holds two trials and the assignment matters) scores what
 /// `GridSearchCV(cv=GroupKFold(3))` scores, to 1e-6 macro F1 (identical when written),
@@ -101,31 +126,11 @@ fn group_k_fold_folds_score_every_grid_point_as_scikit_learn() {
         ],
     ));
     let reference = sklearn_reference("sklearn_group_k_fold_reference.json");
-    let (cs, gammas) = (grid_axis(&reference, "C"), grid_axis(&reference, "gamma"));
     let train = |assignment: &str, out: &str| -> serde_json::Value {
-        ok(&tmo(
-            d,
-            &[
-                "train",
-                "all",
-                "--n-slip",
-                "30",
-                "--downsample",
-                "1",
-                "--search",
-                "grid",
-                "--c-grid",
-                &cs,
-                "--gamma-grid",
-                &gammas,
-                "--folds",
-                "3",
-                "--fold-assignment",
-                assignment,
-                "--out",
-                out,
-            ],
-        ));
+        let grid = grid_search("all", &reference, out);
+        let mut args: Vec<&str> = grid.iter().map(String::as_str).collect();
+        args.extend(["--fold-assignment", assignment]);
+        ok(&tmo(d, &args));
         serde_json::from_str(&std::fs::read_to_string(d.join(out)).unwrap()).unwrap()
     };
     let scores = |model: &serde_json::Value| -> Vec<f64> {
@@ -183,27 +188,10 @@ fn a_grid_search_on_a_new_sensors_data_agrees_with_scikit_learns() {
     let d = dir.path();
     import(d);
     let reference = sklearn_reference("sklearn_grid_reference.json");
-    let (cs, gammas) = (grid_axis(&reference, "C"), grid_axis(&reference, "gamma"));
+    let grid = grid_search("xela/train", &reference, "grid.json");
     let said = ok(&tmo(
         d,
-        &[
-            "train",
-            "xela/train",
-            "--n-slip",
-            "30",
-            "--downsample",
-            "1",
-            "--search",
-            "grid",
-            "--c-grid",
-            &cs,
-            "--gamma-grid",
-            &gammas,
-            "--folds",
-            &reference["folds"].to_string(),
-            "--out",
-            "grid.json",
-        ],
+        &grid.iter().map(String::as_str).collect::<Vec<_>>(),
     ));
     let best = &reference["best"];
     let picked = said
