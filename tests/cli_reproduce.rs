@@ -181,19 +181,17 @@ fn the_quick_preset_writes_every_step_and_the_findings_report() {
 fn a_sensitivity_study_reruns_only_what_its_parameter_touches() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    ok(&tmo(
-        d,
-        &[
-            "reproduce",
-            "--preset",
-            "smoke",
-            "--out",
-            "paper",
-            "--sensitivity",
-            "--sensitivity-parameters",
-            "rail.rail_mu",
-        ],
-    ));
+    let study = [
+        "reproduce",
+        "--preset",
+        "smoke",
+        "--out",
+        "paper",
+        "--sensitivity",
+        "--sensitivity-parameters",
+        "rail.rail_mu",
+    ];
+    ok(&tmo(d, &study));
     let json: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(d.join("paper/findings.json")).unwrap())
             .unwrap();
@@ -240,19 +238,7 @@ fn a_sensitivity_study_reruns_only_what_its_parameter_touches() {
     }
     // the pruned variants are still finished: the study again runs nothing (a finished
     // baseline is built on without --resume)
-    let again = ok(&tmo(
-        d,
-        &[
-            "reproduce",
-            "--preset",
-            "smoke",
-            "--out",
-            "paper",
-            "--sensitivity",
-            "--sensitivity-parameters",
-            "rail.rail_mu",
-        ],
-    ));
+    let again = ok(&tmo(d, &study));
     assert!(again.contains("0 step(s) run, 44 already done"), "{again}");
     assert!(
         again.contains("Other seeds alone (the noise reference"),
