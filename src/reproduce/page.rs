@@ -2,8 +2,9 @@
 //! self-contained `findings.html`. Each row gives the verdict first, then the paper's value
 //! and ours (pooled over the replicates, with its 95 % interval), in how many replicates
 //! the claim held, whether the paper's own effect was clear at its n, and whether a
-//! simulator value was calibrated against the row; the evidence comes first (each prediction stated once), then the central claims. Then the
-//! paper's tables and figures as `tmo report` makes them from the first replicate.
+//! simulator value was calibrated against the row. The evidence comes first (each
+//! prediction stated once), then the central claims. Then the paper's tables and figures
+//! as `tmo report` makes them from the first replicate.
 
 use std::path::{Path, PathBuf};
 
@@ -268,46 +269,47 @@ fn load(out: &Path) -> Loaded {
     }
 }
 
-/// The rule, its source and the standing's record, for the details line (Markdown); a
-/// pre-registered row links its prediction, which the Evidence section states once.
+/// The details line's head: the rule, its source and the standing.
+fn details_head(j: &Judged) -> String {
+    format!(
+        "rule `{}` ({}); {}",
+        j.rule_text,
+        j.finding.source,
+        j.standing.label()
+    )
+}
+
+/// A pre-registered row's expected verdict and its prediction's number: the details line
+/// links the prediction, which the Evidence section states once.
+fn prediction_link(j: &Judged) -> Option<(&str, usize)> {
+    Some((j.predicted.as_deref()?, j.prediction.as_ref()?.number))
+}
+
+/// The rule, its source and the standing's record, for the details line (Markdown).
 fn details(j: &Judged) -> String {
-    let mut s = format!("rule `{}` ({})", j.rule_text, j.finding.source);
-    s += &format!("; {}", j.standing.label());
-    match (&j.prediction, &j.predicted) {
-        (Some(p), Some(expected)) => {
-            let n = p.number;
-            s += &format!(
-                ": expected `{expected}` under [prediction {n}](#{})",
-                page_evidence::anchor(n)
-            );
-        }
-        _ if !j.standing_why.is_empty() => s += &format!(": {}", j.standing_why),
-        _ => {}
+    let mut s = details_head(j);
+    if let Some((expected, n)) = prediction_link(j) {
+        s += &format!(
+            ": expected `{expected}` under [prediction {n}](#{})",
+            page_evidence::anchor(n)
+        );
+    } else if !j.standing_why.is_empty() {
+        s += &format!(": {}", j.standing_why);
     }
     s
 }
 
 /// [`details`] as HTML: the prediction's link a real anchor.
 fn details_html(j: &Judged) -> String {
-    let mut s = html::inline_markdown(&format!(
-        "rule `{}` ({}); {}",
-        j.rule_text,
-        j.finding.source,
-        j.standing.label()
-    ));
-    match (&j.prediction, &j.predicted) {
-        (Some(p), Some(expected)) => {
-            let n = p.number;
-            s += &format!(
-                ": expected <code>{}</code> under <a href=\"#{}\">prediction {n}</a>",
-                html::escape(expected),
-                page_evidence::anchor(n)
-            );
-        }
-        _ if !j.standing_why.is_empty() => {
-            s += &format!(": {}", html::inline_markdown(&j.standing_why))
-        }
-        _ => {}
+    let mut s = html::inline_markdown(&details_head(j));
+    if let Some((expected, n)) = prediction_link(j) {
+        s += &format!(
+            ": expected <code>{}</code> under <a href=\"#{}\">prediction {n}</a>",
+            html::escape(expected),
+            page_evidence::anchor(n)
+        );
+    } else if !j.standing_why.is_empty() {
+        s += &format!(": {}", html::inline_markdown(&j.standing_why));
     }
     s
 }

@@ -56,19 +56,23 @@ pub fn groups(judged: &[Judged]) -> Vec<EvidenceGroup<'_>> {
     out
 }
 
+/// Whether a pre-registered row's expectation came true (`None`: no prediction).
+fn came_true(j: &Judged) -> Option<bool> {
+    match (&j.predicted, j.standing) {
+        (Some(expected), Standing::PreRegistered) => Some(expected == j.reproduced.label()),
+        _ => None,
+    }
+}
+
 /// What came of one evidence row: the verdict expected and found, and whether the
 /// expectation came true.
 pub fn outcome(j: &Judged) -> String {
     let found = j.reproduced.label();
-    match (&j.predicted, j.standing) {
-        (Some(expected), Standing::PreRegistered) => format!(
-            "expected {expected}, found {found}: {}",
-            if expected == found {
-                "came true"
-            } else {
-                "did not come true"
-            }
-        ),
+    match (came_true(j), &j.predicted) {
+        (Some(true), Some(expected)) => format!("expected {expected}, found {found}: came true"),
+        (Some(false), Some(expected)) => {
+            format!("expected {expected}, found {found}: did not come true")
+        }
         _ => format!("no prediction; found {found}"),
     }
 }
@@ -86,11 +90,8 @@ fn heading(g: &EvidenceGroup) -> String {
 }
 
 fn tally(rows: &[&Judged]) -> String {
-    let came_true = rows
-        .iter()
-        .filter(|j| j.predicted.as_deref() == Some(j.reproduced.label()))
-        .count();
-    format!("{came_true} of {} expectations came true", rows.len())
+    let held = rows.iter().filter(|j| came_true(j) == Some(true)).count();
+    format!("{held} of {} expectations came true", rows.len())
 }
 
 /// The section as Markdown (empty when there is no evidence row).
@@ -143,12 +144,10 @@ pub fn html_section(judged: &[Judged]) -> String {
         }
         out += "<ul>\n";
         for j in &g.rows {
-            let class = if j.predicted.as_deref() == Some(j.reproduced.label()) {
-                "yes"
-            } else if j.predicted.is_some() {
-                "no"
-            } else {
-                verdict_class(j.reproduced)
+            let class = match came_true(j) {
+                Some(true) => "yes",
+                Some(false) => "no",
+                None => verdict_class(j.reproduced),
             };
             out += &format!(
                 "<li><code>{}</code> {}: <span class=\"{class}\"><b>{}</b></span></li>\n",
