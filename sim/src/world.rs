@@ -11,7 +11,7 @@ use rand_distr::{Distribution, Normal, StandardNormal};
 
 use super::actuators::{ArmState, Encoders, Servos};
 use super::config::{ObjectStart, PhysicsParams, RigSetup, SimConfig};
-use super::curl::{CurlContact, CurlLimits};
+use super::curl::{ApproachAxis, CurlGrasp, CurlInput, CurlLimits};
 use super::grasp::{
     pinch_normal_forces, share_stuck_load, Contact, ContactLaw, StuckShare, MAX_CONTACTS,
 };
@@ -200,7 +200,12 @@ pub(crate) struct World {
     rolled_at_n: [f64; 3],
     full_slip_mm: [f64; 3],
     /// Each fingertip's own slip along the object as its finger curls ([`crate::curl`]).
-    curls: [CurlContact; 3],
+    curl: CurlGrasp,
+    /// Each contact's load along the approach axis (on the object, `+y` of
+    /// [`crate::statics`]) and along the slip axis, N: how the curl's load combines with
+    /// the grasp's in the friction circle.
+    approach_n: [f64; 3],
+    slip_axis_n: [f64; 3],
     /// Tangential, normal and across-slip load each stuck patch's shear was last worked
     /// out for.
     stuck_load: [Option<(f64, f64, f64)>; 3],
@@ -439,7 +444,9 @@ impl World {
             statics_solved: Cell::new(None),
             rolled_at_n: [f64::NAN; 3],
             full_slip_mm: [0.0; 3],
-            curls: [CurlContact::default(); 3],
+            curl: CurlGrasp::default(),
+            approach_n: [0.0; 3],
+            slip_axis_n: [0.0; 3],
             sensors,
             markers,
             events: TruthEvents {
@@ -703,11 +710,17 @@ impl World {
 
         let mut tangential = [0.0; MAX_CONTACTS];
         let mut local_slip = [false; MAX_CONTACTS];
+        let (mut approach, mut slip_axis) = ([0.0; 3], [0.0; 3]);
         if self.stuck {
             match self.stuck_share(need_n, contacts) {
                 Some(share) => {
                     tangential = share.tangential_n;
                     local_slip = share.local_slip;
+                    for i in 0..3 {
+                        let (whole, y) = (tangential[i], share.across_n[i]);
+                        approach[i] = y;
+                        slip_axis[i] = (whole * whole - y * y).max(0.0).sqrt();
+                    }
                     self.z_mm += hand_dz;
                     self.vz_mm_s = hand_v;
                     self.accel_mm_s2 = hand_a;
@@ -780,6 +793,7 @@ impl World {
                         }
                     }
                     tangential[..3].copy_from_slice(&step.each_n);
+                    approach = step.across_n;
                     turn_accel = self.vertical_turn_accel_mm_s2(gravity, before, dt);
                 }
             }
@@ -795,6 +809,7 @@ impl World {
                 tangential[i] = direction * c.mu_kinetic * c.normal_n;
                 up_n += tangential[i];
             }
+            slip_axis.copy_from_slice(&tangential[..3]);
             // The centre of mass moves as the forces say; the grasp point less what the
             // turn moves the centre of mass relative to it.
             let a = (up_n / m - g) * 1000.0 - turn_accel;
@@ -833,6 +848,8 @@ impl World {
             self.events.drop_s = Some(now);
         }
         self.tangential_n.copy_from_slice(&tangential[..3]);
+        self.approach_n = approach;
+        self.slip_axis_n = slip_axis;
         self.local_slip.copy_from_slice(&local_slip[..3]);
         self.update_curls(true);
         self.update_skins(dt);
@@ -909,19 +926,20 @@ impl World {
     }
 
     /// The under-actuated fingers curl as they press past first touch, so each fingertip
-    /// moves along the object and shears its skin, and slips along the object on its own
-    /// where friction, after the load it carries for the grasp, cannot hold that shear
-    /// ([`crate::curl`]). `record`: note each patch that breaks free while the grasp holds
-    /// (false when the grasp is set before the simulation starts).
+    /// moves along the object and shears its skin, less what the object's own move along
+    /// the approach axis takes up (a fingertip-held object is free along it; the rail's
+    /// guides hold it), and slips along the object on its own where friction, after the
+    /// load it carries for the grasp, cannot hold that shear ([`crate::curl`]). `record`:
+    /// note each patch that breaks free while the grasp holds (false when the grasp is set
+    /// before the simulation starts).
     fn update_curls(&mut self, record: bool) {
         let ratio = self.cfg.physics.finger_roll_ratio;
         let (mu_s, mu_k) = (self.object.mu_static, self.object.mu_kinetic);
         let now = self.now_s();
-        for i in 0..self.sensors.len() {
+        let mut inputs = [None; 3];
+        for (i, input) in inputs.iter_mut().enumerate().take(self.sensors.len()) {
             let n = self.normal_n[i];
             if n <= 0.0 || !self.in_grasp {
-                self.curls[i].lift_off();
-                self.roll_target_mm[i] = 0.0;
                 continue;
             }
             // The power law of the patch's stiffness costs most of this: only a change of
@@ -930,18 +948,27 @@ impl World {
                 self.rolled_at_n[i] = n;
                 self.full_slip_mm[i] = self.sensors[i].skin.full_slip_shear_mm(n, mu_s);
             }
-            let limits = CurlLimits {
-                full_slip_mm: self.full_slip_mm[i],
-                load_share: self.tangential_n[i].abs() / (mu_s * n),
-                kinetic_ratio: mu_k / mu_s,
-            };
-            let demand = ratio * self.pressed_mm[i];
-            if !record {
-                self.curls[i].settle(demand, &limits);
-            }
-            let (shear, slide) = self.curls[i].step(demand, &limits);
-            self.roll_target_mm[i] = shear;
-            if slide.is_some() && self.stuck {
+            let friction = mu_s * n;
+            *input = Some(CurlInput {
+                demand_mm: ratio * self.pressed_mm[i],
+                limits: CurlLimits {
+                    full_slip_mm: self.full_slip_mm[i],
+                    // the curl pulls the object towards the palm, -y
+                    along_share: -self.approach_n[i] / friction,
+                    across_share: self.slip_axis_n[i].abs() / friction,
+                    kinetic_ratio: mu_k / mu_s,
+                },
+                stiffness: n / self.full_slip_mm[i].max(1e-12),
+            });
+        }
+        let axis = match self.geometry {
+            Geometry::Hand { .. } => ApproachAxis::Free,
+            Geometry::Rail { .. } => ApproachAxis::Held,
+        };
+        let outcomes = self.curl.step(&inputs, axis, !record);
+        for (i, outcome) in outcomes.iter().enumerate().take(self.sensors.len()) {
+            self.roll_target_mm[i] = outcome.shear_mm;
+            if outcome.slide_mm.is_some() && self.stuck {
                 let e = &mut self.events;
                 e.contact_slips[i] += 1;
                 e.contact_first_slip_s[i].get_or_insert(now);
@@ -1202,7 +1229,9 @@ impl World {
             finger_positions: self.present_positions(),
             servo_positions: self.servos.position,
             turn_deg: self.turn_rad.to_degrees(),
-            contact_slid_mm: self.curls[..n].iter().map(|c| c.travelled_mm()).collect(),
+            contact_slid_mm: (0..n)
+                .map(|i| self.curl.contact(i).travelled_mm())
+                .collect(),
         }
     }
 }

@@ -913,6 +913,24 @@ mod tests {
         assert!(r.pipeline_check.len() >= 5);
         assert!(!r.in_view.is_empty());
         assert!(!r.prediction.is_empty());
+        // every band names a measure a finding reads, so the page can show what was found
+        let read: Vec<String> = paper()
+            .iter()
+            .flat_map(|f| f.rule.metrics().into_iter().map(str::to_string))
+            .collect();
+        for (n, p) in r.prediction.iter().enumerate() {
+            for metric in p.bands.keys() {
+                assert!(
+                    read.contains(metric),
+                    "prediction {}'s band names `{metric}`, which no finding reads",
+                    n + 1
+                );
+            }
+        }
+        // and every prediction is of a mechanism
+        for n in 1..=r.prediction.len() {
+            assert!(r.mechanism_of(n).is_some(), "prediction {n} names no mechanism");
+        }
     }
 
     /// Issue 53: a row counted as evidence must have been shown able to fail in this

@@ -133,6 +133,22 @@ pub struct Prediction {
     pub reasoning: String,
     /// The expected verdict of each finding, by id.
     pub expect: BTreeMap<String, String>,
+    /// The band each measure is expected within, `[lo, hi]`, by metric (the prediction's
+    /// tolerances: issue 70). A verdict says which side of a rule a value fell; a band
+    /// says how far the change was expected to move it.
+    #[serde(default)]
+    pub bands: BTreeMap<String, [f64; 2]>,
+}
+
+/// A mechanism of the simulator and the predictions that expected something of it: one
+/// mechanism's rows are one piece of evidence, however many rows it decides.
+#[derive(Debug, Clone, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Mechanism {
+    /// What it is, in a few words (the headline's name for it).
+    pub name: String,
+    /// Its `[[prediction]]`s, counting from 1 in the file's order.
+    pub predictions: Vec<usize>,
 }
 
 /// Expectations a prediction gave of the verdict a row already had in the run before it:
@@ -181,9 +197,19 @@ pub struct Records {
     pub unchanged_expectation: Vec<UnchangedExpectation>,
     #[serde(default)]
     pub switch: Vec<Switch>,
+    #[serde(default)]
+    pub mechanism: Vec<Mechanism>,
 }
 
 impl Records {
+    /// The mechanism prediction `number` (counting from 1) is of, if a record names it.
+    pub fn mechanism_of(&self, number: usize) -> Option<&str> {
+        self.mechanism
+            .iter()
+            .find(|m| m.predictions.contains(&number))
+            .map(|m| m.name.as_str())
+    }
+
     /// The predictions that pre-register `id`, the latest first: those that expect a
     /// verdict of it, leaving out an expectation of the verdict it already had.
     /// Each with its number (counting from 1 in the file's order).
@@ -270,6 +296,34 @@ pub fn parse(text: &str, origin: &str, ids: &[&str]) -> Result<Records, RecordsE
             if !VERDICTS.contains(&verdict.as_str()) {
                 return Err(bad(format!(
                     "a prediction expects `{verdict}` of `{id}`: expected one of {VERDICTS:?}"
+                )));
+            }
+        }
+    }
+    for (n, p) in r.prediction.iter().enumerate() {
+        for (metric, [lo, hi]) in &p.bands {
+            if !(lo.is_finite() && hi.is_finite() && lo <= hi) {
+                return Err(bad(format!(
+                    "prediction {}'s band of `{metric}` is [{lo}, {hi}]: expected finite bounds, the lower first",
+                    n + 1
+                )));
+            }
+        }
+    }
+    let mut mechanism_of = vec![None::<&str>; r.prediction.len()];
+    for m in &r.mechanism {
+        for &n in &m.predictions {
+            let Some(slot) = n.checked_sub(1).and_then(|i| mechanism_of.get_mut(i)) else {
+                return Err(bad(format!(
+                    "the mechanism `{}` names prediction {n}: expected 1 to {}",
+                    m.name,
+                    r.prediction.len()
+                )));
+            };
+            if let Some(other) = slot.replace(&m.name) {
+                return Err(bad(format!(
+                    "prediction {n} is named by two mechanisms, `{other}` and `{}`: expected one",
+                    m.name
                 )));
             }
         }
@@ -402,14 +456,21 @@ pub fn pre_registered_by(id: &str, records: &Records) -> Option<PredictionRef> {
         .map(|(number, p)| PredictionRef {
             number,
             change: p.change.clone(),
+            mechanism: records.mechanism_of(number).map(str::to_string),
+            bands: p.bands.clone(),
         })
 }
 
-/// A `[[prediction]]` of docs/standings.toml by number, with its change in words.
-#[derive(Debug, Clone, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+/// A `[[prediction]]` of docs/standings.toml by number, with its change in words, the
+/// mechanism it is of and its tolerances.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct PredictionRef {
     pub number: usize,
     pub change: String,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub mechanism: Option<String>,
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    pub bands: BTreeMap<String, [f64; 2]>,
 }
 
 /// The expected verdict the latest prediction committed for `id`, if any.
@@ -523,7 +584,9 @@ why = "both verdicts as in the run before"
             pre_registered_by("b", &r),
             Some(PredictionRef {
                 number: 1,
-                change: "first".into()
+                change: "first".into(),
+                mechanism: None,
+                bands: BTreeMap::new(),
             })
         );
         assert_eq!(predicted("b", &r), Some("no"));
@@ -624,5 +687,41 @@ findings = "all"
         )
         .unwrap_err();
         assert!(e.to_string().contains("maybe"), "{e}");
+    }
+
+    #[test]
+    fn a_prediction_carries_its_bands_and_the_mechanism_it_is_of() {
+        let text = |bands: &str, mechanisms: &str| {
+            format!("[[prediction]]\nchange = \"c\"\nvalues = \"v\"\nreasoning = \"r\"\nexpect = {{ a = \"yes\" }}\n{bands}\n\n[[prediction]]\nchange = \"d\"\nvalues = \"v\"\nreasoning = \"r\"\nexpect = {{ b = \"no\" }}\n\n{mechanisms}")
+        };
+        let r = parse(
+            &text(
+                "bands = { \"x.fp\" = [0.0, 0.1] }",
+                "[[mechanism]]\nname = \"the curl\"\npredictions = [1, 2]\n",
+            ),
+            "f",
+            &IDS,
+        )
+        .unwrap();
+        let by = pre_registered_by("a", &r).unwrap();
+        assert_eq!(by.mechanism.as_deref(), Some("the curl"));
+        assert_eq!(by.bands["x.fp"], [0.0, 0.1]);
+        assert_eq!(r.mechanism_of(2), Some("the curl"));
+        let wrong = |bands: &str, mechanisms: &str| {
+            parse(&text(bands, mechanisms), "f", &IDS)
+                .unwrap_err()
+                .to_string()
+        };
+        assert!(wrong("bands = { \"x.fp\" = [0.2, 0.1] }", "")
+            .contains("prediction 1's band of `x.fp` is [0.2, 0.1]: expected finite bounds"));
+        assert!(
+            wrong("", "[[mechanism]]\nname = \"m\"\npredictions = [3]\n")
+                .contains("the mechanism `m` names prediction 3: expected 1 to 2")
+        );
+        assert!(wrong(
+            "",
+            "[[mechanism]]\nname = \"m\"\npredictions = [1]\n\n[[mechanism]]\nname = \"n\"\npredictions = [1]\n"
+        )
+        .contains("prediction 1 is named by two mechanisms, `m` and `n`"));
     }
 }
