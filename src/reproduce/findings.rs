@@ -929,7 +929,10 @@ mod tests {
         }
         // and every prediction is of a mechanism
         for n in 1..=r.prediction.len() {
-            assert!(r.mechanism_of(n).is_some(), "prediction {n} names no mechanism");
+            assert!(
+                r.mechanism_of(n).is_some(),
+                "prediction {n} names no mechanism"
+            );
         }
     }
 

@@ -45,6 +45,9 @@ pub struct Written {
     pub seed_noise: Option<(usize, usize)>,
     /// A user's model that stood in for the hand's global model (`--hand-model`).
     pub hand_model: Option<super::hand_model::HandModel>,
+    /// The evidence by mechanism, in the headline's words
+    /// ([`page_evidence::mechanism_summary`]).
+    pub mechanisms: Option<String>,
 }
 
 /// `yes Y, no N, ...` of a tally, the kinds it has.
@@ -68,6 +71,9 @@ impl Written {
             "evidence (pre-registered or never-seen findings): {} rows",
             shape.total
         );
+        if let Some(by) = &self.mechanisms {
+            s += &format!(" ({by})");
+        }
         if shape.total > 0 {
             s += &format!(", rule {}; value {}", tally_text(shape), tally_text(value));
         }
@@ -484,7 +490,13 @@ fn caveats(preset: Preset, judged: &[Judged], w: &Written) -> Vec<String> {
     out
 }
 
-fn markdown(preset: Preset, judged: &[Judged], w: &Written, tables: &str) -> String {
+fn markdown(
+    preset: Preset,
+    judged: &[Judged],
+    measures: &Measures,
+    w: &Written,
+    tables: &str,
+) -> String {
     let mut out = format!(
         "# tmo reproduce: findings against the paper (preset `{}`)\n\n**{}.**\n\n",
         preset.name(),
@@ -497,7 +509,7 @@ fn markdown(preset: Preset, judged: &[Judged], w: &Written, tables: &str) -> Str
     for line in w.lead_paragraphs() {
         out += &format!("{line}\n\n");
     }
-    out += &page_evidence::markdown(judged);
+    out += &page_evidence::markdown(judged, measures);
     out += "## How to read the verdicts\n\n";
     for c in caveats(preset, judged, w) {
         out += &format!("- {c}\n");
@@ -531,6 +543,7 @@ fn markdown(preset: Preset, judged: &[Judged], w: &Written, tables: &str) -> Str
 fn html_page(
     preset: Preset,
     judged: &[Judged],
+    measures: &Measures,
     w: &Written,
     tables: &[crate::report::Table],
 ) -> String {
@@ -547,7 +560,7 @@ fn html_page(
     for line in w.lead_paragraphs() {
         body += &format!("<p>{}</p>\n", html::inline_markdown(&line));
     }
-    body += &page_evidence::html_section(judged);
+    body += &page_evidence::html_section(judged, measures);
     body += "<h2>How to read the verdicts</h2>\n<ul>\n";
     for c in caveats(preset, judged, w) {
         body += &format!("<li>{}</li>\n", html::inline_markdown(&c));
@@ -770,10 +783,11 @@ pub fn write_findings(
         truth_agreement,
         seed_noise: seed_noise(&judged),
         hand_model: super::hand_model::HandModel::recorded(&first.join(Step::HandModels.dir())),
+        mechanisms: page_evidence::mechanism_summary(&judged),
     };
     let md_tables = crate::report::render(&tables, crate::report::Format::Md)
         .map_err(|e| ReproduceError::step("findings", e))?;
-    let mut md = markdown(*preset, &judged, &written, &md_tables);
+    let mut md = markdown(*preset, &judged, &measures, &written, &md_tables);
     if let Some(table) = &sensitivity_md {
         md += "\n";
         md += &table.replacen("# Sensitivity", "## Sensitivity", 1);
@@ -783,6 +797,7 @@ pub fn write_findings(
         "preset": preset.name(),
         "replicates": written.replicates,
         "headline": written.summary_line(),
+        "mechanisms": page_evidence::by_mechanism(&judged),
         "all": written.all,
         "values": Tally::of_values(&judged),
         "evidence": {"rule": written.evidence.0, "value": written.evidence.1},
@@ -800,7 +815,7 @@ pub fn write_findings(
             .as_bytes(),
     )
     .map_err(io(&written.json))?;
-    let page = html_page(*preset, &judged, &written, &tables);
+    let page = html_page(*preset, &judged, &measures, &written, &tables);
     crate::output::atomic::write_atomic(&written.html, page.as_bytes())
         .map_err(io(&written.html))?;
     written.figures.retain(|p| p.exists());

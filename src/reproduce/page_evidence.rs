@@ -4,9 +4,120 @@
 //! this, before the central claims, because only these rows count as the simulator
 //! predicting the paper.
 
-use super::findings::{Judged, Reproduced};
+use super::findings::{Judged, Measures, Reproduced};
 use super::standing::{PredictionRef, Standing};
 use crate::report::html;
+
+/// One mechanism's evidence: the rows its predictions decided and how many of their
+/// expectations came true. One mechanism's rows are one piece of evidence (issue 70): they
+/// hang on the same physics, so they do not count as independent.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct MechanismCount {
+    pub name: String,
+    pub rows: Vec<String>,
+    pub came_true: usize,
+}
+
+/// The evidence rows that predictions decided, by the mechanism each prediction is of (a
+/// prediction no mechanism names stands for its own), in the predictions' order.
+pub fn by_mechanism(judged: &[Judged]) -> Vec<MechanismCount> {
+    let mut out: Vec<MechanismCount> = Vec::new();
+    for g in groups(judged) {
+        let Some(p) = g.prediction else { continue };
+        let name = p
+            .mechanism
+            .clone()
+            .unwrap_or_else(|| format!("prediction {}", p.number));
+        let at = match out.iter().position(|m| m.name == name) {
+            Some(at) => at,
+            None => {
+                out.push(MechanismCount {
+                    name,
+                    rows: Vec::new(),
+                    came_true: 0,
+                });
+                out.len() - 1
+            }
+        };
+        let m = &mut out[at];
+        m.rows.extend(g.rows.iter().map(|j| j.finding.id.clone()));
+        m.came_true += g.rows.iter().filter(|j| came_true(j) == Some(true)).count();
+    }
+    out
+}
+
+/// The headline's words for the evidence by mechanism: how many mechanisms were
+/// predicted, how many of their expectations came true, and the never-seen rows apart.
+pub fn mechanism_summary(judged: &[Judged]) -> Option<String> {
+    let mechanisms = by_mechanism(judged);
+    let never_seen = judged
+        .iter()
+        .filter(|j| j.standing == Standing::NeverSeen)
+        .count();
+    let mut parts = Vec::new();
+    if !mechanisms.is_empty() {
+        let rows: usize = mechanisms.iter().map(|m| m.rows.len()).sum();
+        let held: usize = mechanisms.iter().map(|m| m.came_true).sum();
+        parts.push(format!(
+            "{} predicted by {} mechanism{}, {held} of {rows} expectations came true",
+            rows,
+            mechanisms.len(),
+            if mechanisms.len() == 1 { "" } else { "s" }
+        ));
+    }
+    if never_seen > 0 {
+        parts.push(format!("{never_seen} never seen"));
+    }
+    (!parts.is_empty()).then(|| parts.join(", "))
+}
+
+/// What was found of one band of a prediction: the measure's pooled value, and whether it
+/// fell inside (`None`: not measured in this run).
+fn band_outcome(metric: &str, [lo, hi]: [f64; 2], measures: &Measures) -> (String, Option<bool>) {
+    match measures.get(metric).map(|m| m.value) {
+        Some(v) => {
+            let inside = (lo..=hi).contains(&v);
+            (
+                format!(
+                    "`{metric}` expected {lo}-{hi}, found {}: {}",
+                    significant(v),
+                    if inside { "inside" } else { "outside" }
+                ),
+                Some(inside),
+            )
+        }
+        None => (format!("`{metric}` expected {lo}-{hi}, not measured"), None),
+    }
+}
+
+/// A value to three significant figures (the bands' own precision at most).
+fn significant(v: f64) -> String {
+    let digits = if v.abs() >= 100.0 {
+        0
+    } else if v.abs() >= 10.0 {
+        1
+    } else if v.abs() >= 1.0 {
+        2
+    } else {
+        3
+    };
+    format!("{v:.digits$}")
+}
+
+/// Each band of a prediction, what was found and whether inside; and how many were.
+fn bands(p: &PredictionRef, measures: &Measures) -> (Vec<(String, Option<bool>)>, String) {
+    let lines: Vec<(String, Option<bool>)> = p
+        .bands
+        .iter()
+        .map(|(metric, band)| band_outcome(metric, *band, measures))
+        .collect();
+    let inside = lines.iter().filter(|(_, i)| *i == Some(true)).count();
+    let measured = lines.iter().filter(|(_, i)| i.is_some()).count();
+    (
+        lines,
+        format!("{inside} of {measured} measured values inside their bands"),
+    )
+}
 
 /// Why a prediction that did not come true is kept among the evidence, in the page's words.
 pub const WHY_A_MISS_COUNTS: &str = "A prediction that did not come true counts as evidence all the same: it was committed before its run, and a configuration was run under which its row fails, so the row was free to go either way. The miss measures where the simulator's physics, or our reasoning about it, departs from the paper's rig; keeping only the predictions that came true would count only what flatters the simulator.";
@@ -95,13 +206,17 @@ fn tally(rows: &[&Judged]) -> String {
 }
 
 /// The section as Markdown (empty when there is no evidence row).
-pub fn markdown(judged: &[Judged]) -> String {
+pub fn markdown(judged: &[Judged], measures: &Measures) -> String {
     let groups = groups(judged);
     if groups.is_empty() {
         return String::new();
     }
     let mut out = "## Evidence: each prediction and what came of it\n\n".to_string();
     out += &format!("{WHY_A_MISS_COUNTS}\n\n");
+    for m in by_mechanism(judged) {
+        out += &format!("- {}\n", mechanism_line(&m));
+    }
+    out += &format!("\n{ONE_MECHANISM}\n\n");
     for g in &groups {
         out += &format!("### {}\n\n", heading(g));
         if let Some(p) = g.prediction {
@@ -115,6 +230,13 @@ pub fn markdown(judged: &[Judged]) -> String {
                 outcome(j)
             );
         }
+        if let Some(p) = g.prediction.filter(|p| !p.bands.is_empty()) {
+            let (lines, count) = bands(p, measures);
+            out += &format!("\nIts tolerances ({count}):\n\n");
+            for (line, _) in lines {
+                out += &format!("- {line}\n");
+            }
+        }
         out += "\n";
     }
     out
@@ -122,13 +244,17 @@ pub fn markdown(judged: &[Judged]) -> String {
 
 /// The section as HTML (empty when there is no evidence row): each prediction under its
 /// own anchor, which the rows' details link to.
-pub fn html_section(judged: &[Judged]) -> String {
+pub fn html_section(judged: &[Judged], measures: &Measures) -> String {
     let groups = groups(judged);
     if groups.is_empty() {
         return String::new();
     }
     let mut out = "<h2>Evidence: each prediction and what came of it</h2>\n".to_string();
-    out += &format!("<p>{}</p>\n", html::escape(WHY_A_MISS_COUNTS));
+    out += &format!("<p>{}</p>\n<ul>\n", html::escape(WHY_A_MISS_COUNTS));
+    for m in by_mechanism(judged) {
+        out += &format!("<li>{}</li>\n", html::inline_markdown(&mechanism_line(&m)));
+    }
+    out += &format!("</ul>\n<p>{}</p>\n", html::escape(ONE_MECHANISM));
     for g in &groups {
         let id = g
             .prediction
@@ -157,8 +283,41 @@ pub fn html_section(judged: &[Judged]) -> String {
             );
         }
         out += "</ul>\n";
+        if let Some(p) = g.prediction.filter(|p| !p.bands.is_empty()) {
+            let (lines, count) = bands(p, measures);
+            out += &format!("<p>Its tolerances ({}):</p>\n<ul>\n", html::escape(&count));
+            for (line, inside) in lines {
+                let class = match inside {
+                    Some(true) => "yes",
+                    Some(false) => "no",
+                    None => "not_measured",
+                };
+                out += &format!(
+                    "<li><span class=\"{class}\">{}</span></li>\n",
+                    html::inline_markdown(&line)
+                );
+            }
+            out += "</ul>\n";
+        }
     }
     out
+}
+
+/// Why the page counts mechanisms, in its words.
+pub const ONE_MECHANISM: &str = "Rows one mechanism decides hang on the same physics (and often the same estimate): they are one piece of evidence, not independent ones.";
+
+fn mechanism_line(m: &MechanismCount) -> String {
+    format!(
+        "**{}**: {} of {} expectations came true ({})",
+        m.name,
+        m.came_true,
+        m.rows.len(),
+        m.rows
+            .iter()
+            .map(|r| format!("`{r}`"))
+            .collect::<Vec<_>>()
+            .join(", ")
+    )
 }
 
 /// The CSS class of a verdict's colour.
@@ -213,12 +372,12 @@ mod tests {
             }
         }
         // the change is stated once in the section, not in each row's details
-        let md = markdown(&judged);
+        let md = markdown(&judged, &Measures::new());
         let change = &groups[0].prediction.unwrap().change;
         assert_eq!(md.matches(change.as_str()).count(), 1, "{md}");
         assert!(md.starts_with("## Evidence"), "{md}");
         assert!(md.contains(WHY_A_MISS_COUNTS));
-        let html = html_section(&judged);
+        let html = html_section(&judged, &Measures::new());
         assert!(html.contains(&format!(
             "id=\"{}\"",
             anchor(groups[0].prediction.unwrap().number)
@@ -240,5 +399,101 @@ mod tests {
         assert_eq!(outcome(&j), "expected yes, found no: did not come true");
         j.standing = Standing::NeverSeen;
         assert_eq!(outcome(&j), "no prediction; found no");
+    }
+
+    /// One mechanism's rows are counted once, under its name, with how many of their
+    /// expectations came true; the headline says how many mechanisms.
+    #[test]
+    fn the_evidence_is_counted_by_mechanism() {
+        let mut judged = shipped_judged();
+        let predicted: Vec<String> = judged
+            .iter()
+            .filter(|j| j.standing.is_evidence() && j.prediction.is_some())
+            .map(|j| j.finding.id.clone())
+            .collect();
+        let mechanisms = by_mechanism(&judged);
+        let mut counted: Vec<String> = mechanisms.iter().flat_map(|m| m.rows.clone()).collect();
+        counted.sort();
+        let mut expected = predicted.clone();
+        expected.sort();
+        assert_eq!(counted, expected);
+        // two rows of one mechanism, one expectation true: one mechanism, 1 of 2
+        let rows: Vec<usize> = judged
+            .iter()
+            .enumerate()
+            .filter(|(_, j)| j.standing == Standing::PreRegistered)
+            .map(|(i, _)| i)
+            .take(2)
+            .collect();
+        assert_eq!(rows.len(), 2, "two pre-registered rows shipped");
+        for (k, &i) in rows.iter().enumerate() {
+            let j = &mut judged[i];
+            j.prediction.as_mut().unwrap().mechanism = Some("m".into());
+            j.predicted = Some("yes".into());
+            j.reproduced = if k == 0 {
+                Reproduced::Yes
+            } else {
+                Reproduced::No
+            };
+        }
+        judged.retain(|j| {
+            j.standing != Standing::PreRegistered
+                || j.prediction.as_ref().unwrap().mechanism.as_deref() == Some("m")
+        });
+        let m = by_mechanism(&judged);
+        assert_eq!(m.len(), 1, "{m:?}");
+        assert_eq!(
+            (m[0].name.as_str(), m[0].rows.len(), m[0].came_true),
+            ("m", 2, 1)
+        );
+        let summary = mechanism_summary(&judged).unwrap();
+        assert!(
+            summary.starts_with("2 predicted by 1 mechanism, 1 of 2 expectations came true"),
+            "{summary}"
+        );
+        let md = markdown(&judged, &Measures::new());
+        assert!(
+            md.contains("- **m**: 1 of 2 expectations came true"),
+            "{md}"
+        );
+        assert!(md.contains(ONE_MECHANISM));
+    }
+
+    #[test]
+    fn a_band_says_what_was_found_and_whether_it_fell_inside() {
+        let mut measures = Measures::new();
+        measures.insert("a".into(), crate::reproduce::findings::Measure::exact(0.05));
+        measures.insert(
+            "b".into(),
+            crate::reproduce::findings::Measure::exact(12.345),
+        );
+        let p = PredictionRef {
+            number: 5,
+            change: "c".into(),
+            mechanism: None,
+            bands: [("a", [0.0, 0.1]), ("b", [0.0, 10.0]), ("c", [1.0, 2.0])]
+                .map(|(k, v)| (k.to_string(), v))
+                .into(),
+        };
+        let (lines, count) = bands(&p, &measures);
+        assert_eq!(count, "1 of 2 measured values inside their bands");
+        assert_eq!(
+            lines[0],
+            (
+                "`a` expected 0-0.1, found 0.050: inside".to_string(),
+                Some(true)
+            )
+        );
+        assert_eq!(
+            lines[1],
+            (
+                "`b` expected 0-10, found 12.3: outside".to_string(),
+                Some(false)
+            )
+        );
+        assert_eq!(
+            lines[2],
+            ("`c` expected 1-2, not measured".to_string(), None)
+        );
     }
 }
