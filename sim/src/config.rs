@@ -219,6 +219,7 @@ impl SimConfig {
             ),
             ("tactip.contact_offset_px", t.contact_offset_px, zero, 1e5),
             ("tactip.unit_variation", t.unit_variation, zero, 0.9),
+            ("tactip.mount_scatter_deg", t.mount_scatter_deg, zero, 90.0),
             (
                 "tactip.shear_spread_factor",
                 t.shear_spread_factor,
@@ -246,6 +247,7 @@ impl SimConfig {
                 Low(1.0, false),
                 10.0,
             ),
+            ("operator.lift_start_gap", o.lift_start_gap, zero, 1.0),
         ]);
         let f = &self.faults;
         fields.extend([
@@ -272,6 +274,7 @@ impl SimConfig {
                     Low(1.0, false),
                     100.0,
                 ),
+                ("rig.guide_load_share", r.guide_load_share, zero, 100.0),
                 ("rig.end_stop_mm", r.end_stop_mm, positive, 1e4),
                 ("rig.finger_closure", r.finger_closure, zero, 1.0),
                 ("rig.press_in_mm", r.press_in_mm, zero, 100.0),
@@ -489,6 +492,9 @@ pub struct RailSetup {
     /// of the grasp's static capacity is `rail_static_factor * rail_mu * N`. A factor, so
     /// that either can be varied alone.
     pub rail_static_factor: f64,
+    /// The guides' weight in sharing the stuck object's load with the finger (the finger's
+    /// is 1): each carries a share in proportion to weight times normal force.
+    pub guide_load_share: f64,
     /// The rail's end stop, mm below the start height.
     pub end_stop_mm: f64,
     /// Finger position, 0..1 (the finger holds still; the arm sets the normal force).
@@ -509,6 +515,7 @@ impl Default for RailSetup {
             preload_mm: 0.0,
             rail_mu: 0.11,
             rail_static_factor: 1.0,
+            guide_load_share: 0.2,
             end_stop_mm: 150.0,
             finger_closure: 0.5,
             press_in_mm: 7.5,
@@ -699,6 +706,9 @@ pub struct TactipParams {
     /// How much wider than the carried region the patch's shear spreads in the image: the
     /// shear field falls as `exp(-r^2 / 2 (f rho_c)^2)`.
     pub shear_spread_factor: f64,
+    /// Each sensor's mounting error about its axis (standard deviation, deg): its image's
+    /// directions sit this far off nominal, unit by unit.
+    pub mount_scatter_deg: f64,
 }
 
 impl Default for TactipParams {
@@ -720,6 +730,7 @@ impl Default for TactipParams {
             contact_offset_px: 20.0,
             unit_variation: 0.25,
             shear_spread_factor: 1.3,
+            mount_scatter_deg: 5.0,
         }
     }
 }
@@ -736,6 +747,9 @@ pub struct OperatorParams {
     /// The rice pour's starting grasp, as a factor on the grasp that just holds the empty
     /// can ("a light grasp").
     pub pour_grip_safety: f64,
+    /// How far open of the contact (fraction of the closing range) the fingers stand when
+    /// a lift starts, the object on the table: the lift's approach closes from there.
+    pub lift_start_gap: f64,
 }
 
 impl Default for OperatorParams {
@@ -743,6 +757,7 @@ impl Default for OperatorParams {
         Self {
             release_grip_safety: [1.2, 1.8],
             pour_grip_safety: 1.2,
+            lift_start_gap: 0.04,
         }
     }
 }

@@ -9,8 +9,9 @@
 //! only by the fingertips (free along the approach axis) goes where their shears balance,
 //! the stiffness-weighted mean curl, and each skin keeps only its curl's difference from
 //! that, `u = ratio * pressed - object - slid`, where `slid` is how far the patch has slid
-//! over the object. On the slip rail the guides hold the object along that axis, so the
-//! finger's skin keeps its whole curl.
+//! over the object. On the slip rail the guides hold the object along that axis, and the
+//! table's friction does while the object rests on it, so there each skin keeps its whole
+//! curl.
 //!
 //! Friction is a circle (Coulomb): the load that holds the object, `T = (T_y, T_w)`, is
 //! set by the grasp's statics (force-driven: the object falls if it is not carried), while

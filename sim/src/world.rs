@@ -141,6 +141,8 @@ enum Geometry {
         finger_touch: f64,
         rail_mu: f64,
         rail_mu_static: f64,
+        /// The guides' weight in sharing the stuck object's load (the finger's is 1).
+        guide_share: f64,
     },
 }
 
@@ -296,6 +298,7 @@ impl World {
                     finger_touch: r.finger_closure,
                     rail_mu: r.rail_mu,
                     rail_mu_static: r.rail_mu * r.rail_static_factor,
+                    guide_share: r.guide_load_share,
                 },
                 [r.finger_closure, 0.0, 0.0, 0.0],
                 Some(hand_z - r.end_stop_mm),
@@ -337,9 +340,10 @@ impl World {
                 let mut srng = ChaCha8Rng::seed_from_u64(cfg.seed);
                 srng.set_stream(10 + i as u64);
                 let vary = |r: &mut ChaCha8Rng| 1.0 + t.unit_variation * r.gen_range(-1.0..=1.0);
-                let angle =
-                    (mount_deg[i] + grasp_deg + 5.0 * srng.sample::<f64, _>(StandardNormal))
-                        .to_radians();
+                let angle = (mount_deg[i]
+                    + grasp_deg
+                    + t.mount_scatter_deg * srng.sample::<f64, _>(StandardNormal))
+                .to_radians();
                 let optics = SensorOptics::new(
                     rest.clone(),
                     [
@@ -599,6 +603,7 @@ impl World {
             Geometry::Rail {
                 rail_mu,
                 rail_mu_static,
+                guide_share,
                 ..
             } => {
                 c[0] = Contact {
@@ -611,7 +616,7 @@ impl World {
                 // sliders' friction is low, and higher at rest than sliding.
                 c[1] = Contact {
                     normal_n: self.normal_n[0],
-                    weight: 0.2,
+                    weight: guide_share,
                     mu_static: rail_mu_static,
                     mu_kinetic: rail_mu,
                 };
@@ -961,9 +966,13 @@ impl World {
                 stiffness: n / self.full_slip_mm[i].max(1e-12),
             });
         }
+        // Held by the fingertips alone the object is free along the approach axis; the
+        // rail's guides hold it there, and so does the table's friction while it rests on
+        // the table (before a lift, or once it has fallen back).
+        let on_support = self.support_mm.is_some_and(|s| self.z_mm <= s + 1e-9);
         let axis = match self.geometry {
-            Geometry::Hand { .. } => ApproachAxis::Free,
-            Geometry::Rail { .. } => ApproachAxis::Held,
+            Geometry::Hand { .. } if !on_support => ApproachAxis::Free,
+            _ => ApproachAxis::Held,
         };
         let outcomes = self.curl.step(&inputs, axis, !record);
         for (i, outcome) in outcomes.iter().enumerate().take(self.sensors.len()) {

@@ -102,7 +102,7 @@ pub fn world_for(plan: &Plan, planned: &PlannedTrial) -> Result<SimConfig, Batch
                 .0
         }
         KindParams::FirstTimeLift(_) | KindParams::CalibrateLift(_) => {
-            on_table_rig(&base, planned, 0.04)?
+            on_table_rig(&base, planned, base.operator.lift_start_gap)?
         }
     })
     .and_then(|mut config| {
