@@ -297,11 +297,11 @@ fn a_held_centred_object_loads_thumb_and_fingers_alike_at_0_and_180_degrees() {
     // Each unit's skin differs a little, so the fingers press a little unequally and their
     // moments move a little load between thumb and fingers, one way at 0 deg and the
     // other way at 180 deg.
-    // The hand's own weight (issue 54, mechanism 2): at 0 and 180 deg gravity lies along
-    // the pinch grasp's finger joints' axes (the fingers flex in the pinch and approach
-    // axes' plane; gravity is along the third), so the fingers' and fingertips' weight puts
-    // no torque on any joint and changes no normal force, whatever their masses: the
-    // statics' prediction is no change, and the normal forces are the same.
+    // The pinch's normal forces come from the fingers' springs and the skins alone, not
+    // from where gravity points: rolling the hand changes none of them. (This is not a test
+    // of the hand's own weight, issue 54's mechanism 2: the model gives the fingers no
+    // mass, so nothing here could show that argument; docs/simulator.md keeps it as
+    // reasoning.)
     assert_eq!(normals[0], normals[1]);
     let (at0, at180) = (thumb_shares[0], thumb_shares[1]);
     assert!((at0 - 0.5).abs() < 0.01, "thumb carries {at0} at 0 deg");

@@ -128,19 +128,24 @@ pub fn build(
             holding_closure(&cfg, &object, 0.0, 1.3)?,
             ObjectStart::InHand,
             Script::Release {
-                speed_per_s: 0.01,
+                // the paper's release: 0.5 % of the fingers' maximum speed
+                speed_per_s: 0.005 * cfg.servo.reference_speed_per_s,
                 hold_s: 0.5,
             },
         ),
-        Preset::Lift => (
-            (contact - 0.03).max(0.0),
-            ObjectStart::OnTable,
-            Script::Lift {
-                deformation_px: 0.5,
-                close_speed_per_s: 0.02,
-                lift_speed_mm_s: 17.0,
-            },
-        ),
+        Preset::Lift => {
+            // as the lifts' protocols close and raise (`protocol.lift.*`)
+            let lift = crate::protocol::FirstTimeLift::default();
+            (
+                (contact - cfg.operator.lift_start_gap).max(0.0),
+                ObjectStart::OnTable,
+                Script::Lift {
+                    deformation_px: 0.5,
+                    close_speed_per_s: lift.approach_speed_of_max * cfg.servo.reference_speed_per_s,
+                    lift_speed_mm_s: lift.lift_speed_mm_s,
+                },
+            )
+        }
         Preset::Pour => (
             holding_closure(&cfg, &object, 0.0, cfg.operator.pour_grip_safety)?,
             ObjectStart::InHand,
