@@ -72,7 +72,7 @@ impl Written {
             shape.total
         );
         if let Some(by) = &self.mechanisms {
-            s += &format!(" ({by})");
+            s += by;
         }
         if shape.total > 0 {
             s += &format!(", rule {}; value {}", tally_text(shape), tally_text(value));

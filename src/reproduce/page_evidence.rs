@@ -46,29 +46,30 @@ pub fn by_mechanism(judged: &[Judged]) -> Vec<MechanismCount> {
     out
 }
 
-/// The headline's words for the evidence by mechanism: how many mechanisms were
-/// predicted, how many of their expectations came true, and the never-seen rows apart.
+/// The headline's words for the evidence by mechanism, to follow "N rows": how many
+/// mechanisms were predicted and how many of their expectations came true, and the
+/// never-seen rows apart (`None` when no prediction decided a row).
 pub fn mechanism_summary(judged: &[Judged]) -> Option<String> {
     let mechanisms = by_mechanism(judged);
+    if mechanisms.is_empty() {
+        return None;
+    }
     let never_seen = judged
         .iter()
         .filter(|j| j.standing == Standing::NeverSeen)
         .count();
-    let mut parts = Vec::new();
-    if !mechanisms.is_empty() {
-        let rows: usize = mechanisms.iter().map(|m| m.rows.len()).sum();
-        let held: usize = mechanisms.iter().map(|m| m.came_true).sum();
-        parts.push(format!(
-            "{} predicted by {} mechanism{}, {held} of {rows} expectations came true",
-            rows,
-            mechanisms.len(),
-            if mechanisms.len() == 1 { "" } else { "s" }
-        ));
-    }
-    if never_seen > 0 {
-        parts.push(format!("{never_seen} never seen"));
-    }
-    (!parts.is_empty()).then(|| parts.join(", "))
+    let rows: usize = mechanisms.iter().map(|m| m.rows.len()).sum();
+    let held: usize = mechanisms.iter().map(|m| m.came_true).sum();
+    let from = format!(
+        "from {} mechanism{} ({held} of {rows} expectations came true)",
+        mechanisms.len(),
+        if mechanisms.len() == 1 { "" } else { "s" }
+    );
+    Some(if never_seen > 0 {
+        format!(": {rows} {from}, {never_seen} never seen")
+    } else {
+        format!(" {from}")
+    })
 }
 
 /// What was found of one band of a prediction: the measure's pooled value, and whether it
@@ -447,10 +448,7 @@ mod tests {
             ("m", 2, 1)
         );
         let summary = mechanism_summary(&judged).unwrap();
-        assert!(
-            summary.starts_with("2 predicted by 1 mechanism, 1 of 2 expectations came true"),
-            "{summary}"
-        );
+        assert_eq!(summary, " from 1 mechanism (1 of 2 expectations came true)");
         let md = markdown(&judged, &Measures::new());
         assert!(
             md.contains("- **m**: 1 of 2 expectations came true"),

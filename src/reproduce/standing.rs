@@ -473,8 +473,13 @@ pub struct PredictionRef {
     pub bands: BTreeMap<String, [f64; 2]>,
 }
 
-/// The expected verdict the latest prediction committed for `id`, if any.
+/// The expected verdict a prediction committed for `id`, if any: the one that
+/// pre-registers it (so the page judges a row against the prediction it is listed under),
+/// else the latest (an expectation of a verdict the row already had).
 pub fn predicted<'a>(id: &str, records: &'a Records) -> Option<&'a str> {
+    if let Some((_, p)) = records.pre_registering_numbered(id).next() {
+        return p.expect.get(id).map(String::as_str);
+    }
     records
         .prediction
         .iter()
@@ -575,8 +580,8 @@ why = "both verdicts as in the run before"
         );
         // c: only an unchanged expectation names it, so it stays in view
         assert_eq!(of("c", &[], &r).0, Standing::InView);
-        // b: the first prediction still pre-registers it; the page shows the latest
-        // expectation
+        // b: the first prediction still pre-registers it, and the page judges it by that
+        // prediction's expectation
         let (standing, said) = of("b", &[], &r);
         assert_eq!(standing, Standing::PreRegistered);
         assert!(said.contains("under prediction 1"), "{said}");
@@ -589,7 +594,9 @@ why = "both verdicts as in the run before"
                 bands: BTreeMap::new(),
             })
         );
-        assert_eq!(predicted("b", &r), Some("no"));
+        // the row is judged against the prediction it is listed under, not the later
+        // expectation of the verdict it already had
+        assert_eq!(predicted("b", &r), Some("yes"));
         let wrong = |u: &str| {
             parse(
                 &format!("[[prediction]]\nchange = \"c\"\nvalues = \"v\"\nreasoning = \"r\"\nexpect = {{ a = \"yes\" }}\n\n[[unchanged_expectation]]\n{u}why = \"w\"\n"),
