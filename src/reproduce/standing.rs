@@ -476,7 +476,7 @@ pub struct PredictionRef {
 /// The expected verdict a prediction committed for `id`, if any: the one that
 /// pre-registers it (so the page judges a row against the prediction it is listed under),
 /// else the latest (an expectation of a verdict the row already had).
-pub fn predicted<'a>(id: &str, records: &'a Records) -> Option<&'a str> {
+pub fn predicted<'a>(id: &'a str, records: &'a Records) -> Option<&'a str> {
     if let Some((_, p)) = records.pre_registering_numbered(id).next() {
         return p.expect.get(id).map(String::as_str);
     }
