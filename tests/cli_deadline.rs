@@ -212,7 +212,12 @@ fn a_cpu_hog_beside_a_served_run_leaves_every_trial_on_time_or_faulted_never_lat
             assert!(max <= 1e3 / 60.0 + 1e-6, "{t:?}");
             assert!(late <= 0.01 * frames, "{t:?}");
         } else {
-            assert!(o["fault"].contains("deadline"), "{o:?}");
+            // faulted, not scored: on its deadline, or (the hog starving the served rig's
+            // cameras past its watchdog) on a silent sensor
+            assert!(
+                o["fault"].contains("deadline") || o["fault"].contains("silent_sensor"),
+                "{o:?}"
+            );
         }
     }
 }
