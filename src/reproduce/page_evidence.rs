@@ -81,7 +81,7 @@ fn band_outcome(metric: &str, [lo, hi]: [f64; 2], measures: &Measures) -> (Strin
             (
                 format!(
                     "`{metric}` expected {lo}-{hi}, found {}: {}",
-                    significant(v),
+                    super::show::number(v),
                     if inside { "inside" } else { "outside" }
                 ),
                 Some(inside),
@@ -89,20 +89,6 @@ fn band_outcome(metric: &str, [lo, hi]: [f64; 2], measures: &Measures) -> (Strin
         }
         None => (format!("`{metric}` expected {lo}-{hi}, not measured"), None),
     }
-}
-
-/// A value to three significant figures (the bands' own precision at most).
-fn significant(v: f64) -> String {
-    let digits = if v.abs() >= 100.0 {
-        0
-    } else if v.abs() >= 10.0 {
-        1
-    } else if v.abs() >= 1.0 {
-        2
-    } else {
-        3
-    };
-    format!("{v:.digits$}")
 }
 
 /// Each band of a prediction, what was found and whether inside; and how many were.

@@ -69,7 +69,8 @@ fn prefix(metric: &str) -> String {
     }
 }
 
-fn number(x: f64) -> String {
+/// A value as the page shows it (three decimals, one from 10 up).
+pub(super) fn number(x: f64) -> String {
     if x.abs() >= 10.0 {
         format!("{x:.1}")
     } else {
