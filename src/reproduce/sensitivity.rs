@@ -36,6 +36,10 @@ pub struct Variant {
     /// The noise reference: no parameter changed, the seeds of other replicates.
     #[serde(skip_serializing_if = "std::ops::Not::not")]
     pub reseeded: bool,
+    /// A switch's further settings, made together with the first (`A=1+B=2`): the null
+    /// simulator, for one, is a mechanism off and the pin noise matched at once.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub also: Vec<(String, f64)>,
 }
 
 /// The noise reference's directory name under `<out>/sensitivity/`.
@@ -53,6 +57,7 @@ impl Variant {
             value: 0.0,
             default: 0.0,
             reseeded: true,
+            also: Vec::new(),
         }
     }
 
@@ -62,7 +67,11 @@ impl Variant {
             return RESEEDED.into();
         }
         if self.end == SWITCH {
-            return format!("{}={}", self.parameter, self.value);
+            return std::iter::once((&self.parameter, self.value))
+                .chain(self.also.iter().map(|(n, v)| (n, *v)))
+                .map(|(n, v)| format!("{n}={v}"))
+                .collect::<Vec<_>>()
+                .join("+");
         }
         format!("{}@{}", self.parameter, self.end)
     }
@@ -93,7 +102,9 @@ impl Variant {
         if self.reseeded {
             return BTreeMap::new();
         }
-        [(self.parameter.clone(), self.value)].into()
+        std::iter::once((self.parameter.clone(), self.value))
+            .chain(self.also.iter().cloned())
+            .collect()
     }
 }
 
@@ -185,6 +196,7 @@ pub fn variants(records: &[ParameterRecord], only: &[String]) -> Result<Vec<Vari
                     value,
                     default,
                     reseeded: false,
+                    also: Vec::new(),
                 });
             }
         }
@@ -193,8 +205,37 @@ pub fn variants(records: &[ParameterRecord], only: &[String]) -> Result<Vec<Vari
 }
 
 /// A switch, `NAME=VALUE`: the parameter (any the study could vary, or any setting the
-/// protocols take) at the given value, which may lie outside its plausible range.
+/// protocols take) at the given value, which may lie outside its plausible range. Several
+/// settings made at once are joined by `+` (`NAME=VALUE+NAME2=VALUE2`), each checked alike.
 pub fn switch(records: &[ParameterRecord], given: &str) -> Result<Variant, String> {
+    // a `+` joins settings only before a name: `1e+3` stays one number
+    let mut starts = vec![0];
+    starts.extend(
+        given
+            .char_indices()
+            .zip(given.chars().skip(1))
+            .filter(|((_, c), next)| *c == '+' && next.is_ascii_alphabetic())
+            .map(|((i, _), _)| i + 1),
+    );
+    let ends = starts.iter().skip(1).map(|s| s - 1).chain([given.len()]);
+    let mut parts = starts
+        .iter()
+        .zip(ends)
+        .map(|(&a, b)| one_setting(records, &given[a..b]));
+    let mut first = parts.next().expect("split gives at least one part")?;
+    for part in parts {
+        let part = part?;
+        if part.parameter == first.parameter || first.also.iter().any(|(n, _)| *n == part.parameter)
+        {
+            return Err(format!("`{given}`: `{}` is set twice", part.parameter));
+        }
+        first.also.push((part.parameter, part.value));
+    }
+    Ok(first)
+}
+
+/// One `NAME=VALUE` of a switch.
+fn one_setting(records: &[ParameterRecord], given: &str) -> Result<Variant, String> {
     let (name, value) = given
         .split_once('=')
         .ok_or_else(|| format!("`{given}`: expected NAME=VALUE"))?;
@@ -225,6 +266,7 @@ pub fn switch(records: &[ParameterRecord], given: &str) -> Result<Variant, Strin
             value,
             default,
             reseeded: false,
+            also: Vec::new(),
         }),
     }
 }
@@ -431,6 +473,11 @@ pub fn markdown(baseline: &[Judged], outcomes: &[Outcome]) -> String {
             .collect();
         let (name, value) = if o.variant.reseeded {
             (format!("({RESEEDED})"), "other seeds".to_string())
+        } else if !o.variant.also.is_empty() {
+            (
+                o.variant.dir_name(),
+                "switch (several settings)".to_string(),
+            )
         } else {
             (
                 o.variant.parameter.clone(),
@@ -569,6 +616,7 @@ mod tests {
             value: 0.1,
             default: 0.05,
             reseeded: false,
+            also: Vec::new(),
         };
         let outcomes = vec![
             compare(variant("low"), &baseline, &at(375)),
@@ -593,6 +641,7 @@ mod tests {
                 value: 0.2,
                 default: 0.5,
                 reseeded: false,
+                also: Vec::new(),
             },
             "step hand_collect: out of limits".into(),
         ));
@@ -630,6 +679,27 @@ mod tests {
         assert!(!s.in_range() && plan[0].reseeded);
         // a protocol value may be switched too
         assert!(switch(&records, "protocol.lift.lift_speed_mm_s=100").is_ok());
+        // several settings at once: the null simulator's mechanism off and noise matched
+        let null = switch(&records, "physics.finger_roll_ratio=0+tactip.noise_px=1e-1").unwrap();
+        assert_eq!(
+            null.dir_name(),
+            "physics.finger_roll_ratio=0+tactip.noise_px=0.1"
+        );
+        assert_eq!(
+            null.sim(),
+            [
+                ("physics.finger_roll_ratio".to_string(), 0.0),
+                ("tactip.noise_px".to_string(), 0.1)
+            ]
+            .into()
+        );
+        assert_eq!(switch(&records, "tactip.noise_px=1e+0").unwrap().value, 1.0);
+        assert!(switch(&records, "tactip.noise_px=0.1+tactip.noise_px=0.2")
+            .unwrap_err()
+            .contains("set twice"));
+        assert!(switch(&records, "tactip.noise_px=0.1+nonsense=1")
+            .unwrap_err()
+            .contains("`nonsense` is not a simulator parameter"));
         // refusals, each naming what is wrong
         assert!(switch(&records, "tactip.noise_px")
             .unwrap_err()
@@ -654,6 +724,7 @@ mod tests {
             value: 0.6,
             default: 0.11,
             reseeded: false,
+            also: Vec::new(),
         };
         let outcomes = vec![compare(switched, &baseline, &at(100))];
         assert_eq!(
@@ -681,6 +752,7 @@ mod tests {
             value: 0.1,
             default: 0.05,
             reseeded: false,
+            also: Vec::new(),
         };
         let reference = Variant::reseeded();
         assert_eq!(reference.dir_name(), RESEEDED);
