@@ -411,6 +411,10 @@ pub struct Judged {
     /// Whether the study's noise reference (other seeds, same parameters) changes its
     /// verdict; `None` where none was run.
     pub changes_with_seeds: Option<bool>,
+    /// Its verdict under each recorded switch (docs/standings.toml `[[switch]]`): the
+    /// null simulator, the configurations in and out of the plausible ranges.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub switches: Vec<super::standing::SwitchOutcome>,
 }
 
 /// Judges every finding against the pooled measures `m`, counting in how many of the
@@ -437,6 +441,7 @@ pub fn judge_all(findings: &[Finding], m: &Measures, replicates: &[Measures]) ->
                 standing_why: String::new(),
                 predicted: None,
                 prediction: None,
+                switches: Vec::new(),
                 held_in: (
                     counted.iter().filter(|r| f.rule.holds_at_point(r)).count() as u32,
                     counted.len() as u32,
@@ -542,6 +547,7 @@ pub fn mark_standings(judged: &mut [Judged], records: &super::standing::Records)
         j.prediction = (standing == super::standing::Standing::PreRegistered)
             .then(|| super::standing::pre_registered_by(&j.finding.id, records))
             .flatten();
+        j.switches = super::standing::switch_outcomes(&j.finding.id, records);
     }
 }
 

@@ -15,6 +15,7 @@ pub mod evidence;
 pub mod findings;
 pub mod hand_model;
 pub mod measure;
+pub mod outside;
 pub mod page;
 pub mod page_evidence;
 pub mod screen;

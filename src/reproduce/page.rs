@@ -510,6 +510,7 @@ fn markdown(
         out += &format!("{line}\n\n");
     }
     out += &page_evidence::markdown(judged, measures);
+    out += &super::outside::markdown(&super::outside::shipped());
     out += "## How to read the verdicts\n\n";
     for c in caveats(preset, judged, w) {
         out += &format!("- {c}\n");
@@ -561,6 +562,7 @@ fn html_page(
         body += &format!("<p>{}</p>\n", html::inline_markdown(&line));
     }
     body += &page_evidence::html_section(judged, measures);
+    body += &super::outside::html_section(&super::outside::shipped());
     body += "<h2>How to read the verdicts</h2>\n<ul>\n";
     for c in caveats(preset, judged, w) {
         body += &format!("<li>{}</li>\n", html::inline_markdown(&c));

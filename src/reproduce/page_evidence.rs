@@ -216,6 +216,9 @@ pub fn markdown(judged: &[Judged], measures: &Measures) -> String {
                 j.finding.measured,
                 outcome(j)
             );
+            if let Some(line) = switch_line(j) {
+                out += &format!("  - {line}\n");
+            }
         }
         if let Some(p) = g.prediction.filter(|p| !p.bands.is_empty()) {
             let (lines, count) = bands(p, measures);
@@ -262,8 +265,16 @@ pub fn html_section(judged: &[Judged], measures: &Measures) -> String {
                 Some(false) => "no",
                 None => verdict_class(j.reproduced),
             };
+            let switches = switch_line(j)
+                .map(|l| {
+                    format!(
+                        "<br><span class=\"details\">{}</span>",
+                        html::inline_markdown(&l)
+                    )
+                })
+                .unwrap_or_default();
             out += &format!(
-                "<li><code>{}</code> {}: <span class=\"{class}\"><b>{}</b></span></li>\n",
+                "<li><code>{}</code> {}: <span class=\"{class}\"><b>{}</b></span>{switches}</li>\n",
                 html::escape(&j.finding.id),
                 html::escape(&j.finding.measured),
                 html::escape(&outcome(j))
@@ -288,6 +299,36 @@ pub fn html_section(judged: &[Judged], measures: &Measures) -> String {
         }
     }
     out
+}
+
+/// A row's verdicts under the recorded switches, each beside its own baseline (same seeds,
+/// same size): the null simulator first, then the configurations a rig could have, then
+/// those outside the plausible ranges (`None`: no switch recorded the row).
+pub fn switch_line(j: &Judged) -> Option<String> {
+    use super::standing::SwitchKind;
+    if j.switches.is_empty() {
+        return None;
+    }
+    let mut parts = Vec::new();
+    for kind in [
+        SwitchKind::Null,
+        SwitchKind::InRange,
+        SwitchKind::OutOfRange,
+    ] {
+        for o in j.switches.iter().filter(|o| o.kind == kind) {
+            parts.push(format!(
+                "{} `{}`: {} -> {}",
+                kind.label(),
+                o.switch,
+                o.verdicts[0],
+                o.verdicts[1]
+            ));
+        }
+    }
+    Some(format!(
+        "under other configurations (baseline -> there): {}",
+        parts.join("; ")
+    ))
 }
 
 /// Why the page counts mechanisms, in its words.

@@ -172,11 +172,49 @@ pub struct UnchangedExpectation {
 pub struct Switch {
     /// What was switched, e.g. `tactip.noise_px=0.6`.
     pub switch: String,
+    /// What kind of configuration it is (out of range unless said).
+    #[serde(default)]
+    pub kind: SwitchKind,
     /// The run: preset, replicates, commit, date, where its outputs were.
     pub run: String,
     /// Each finding's verdict `[baseline, switched]`.
     pub verdicts: BTreeMap<String, [String; 2]>,
     pub why: String,
+}
+
+/// What a switch's configuration says of a row's standing (issue 70, items 1 and 2).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Deserialize, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum SwitchKind {
+    /// Some value outside its plausible range (a broken rig): it shows only that the row
+    /// can fail at all.
+    #[default]
+    OutOfRange,
+    /// Every value inside its plausible range (`sim/data/parameters.toml`): a rig could
+    /// be so, so a verdict it changes is one the physics could have given either way.
+    InRange,
+    /// The null simulator: the row's mechanism off and the pin noise matched to the pin
+    /// motion the mechanism made. A verdict that holds there is not the mechanism's.
+    Null,
+}
+
+impl SwitchKind {
+    pub fn label(self) -> &'static str {
+        match self {
+            SwitchKind::OutOfRange => "out of range",
+            SwitchKind::InRange => "in range",
+            SwitchKind::Null => "null simulator",
+        }
+    }
+}
+
+/// A row's verdict under one switch, beside its baseline with the same seeds.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct SwitchOutcome {
+    pub switch: String,
+    pub kind: SwitchKind,
+    /// `[baseline, switched]`.
+    pub verdicts: [String; 2],
 }
 
 /// Everything `docs/standings.toml` records.
@@ -370,6 +408,43 @@ pub fn can_fail(id: &str, records: &Records) -> bool {
         sw.verdicts
             .get(id)
             .is_some_and(|[baseline, switched]| baseline != "yes" || switched != "yes")
+    })
+}
+
+/// Row `id`'s verdict under every switch that recorded it, in the file's order.
+pub fn switch_outcomes(id: &str, records: &Records) -> Vec<SwitchOutcome> {
+    records
+        .switch
+        .iter()
+        .filter_map(|sw| {
+            sw.verdicts.get(id).map(|v| SwitchOutcome {
+                switch: sw.switch.clone(),
+                kind: sw.kind,
+                verdicts: v.clone(),
+            })
+        })
+        .collect()
+}
+
+/// Whether the null simulator was run for row `id` and did not give its verdict: the
+/// row's verdict is its mechanism's, not one pin noise or a definition would give.
+pub fn null_differs(id: &str, records: &Records) -> bool {
+    switch_outcomes(id, records)
+        .iter()
+        .any(|o| o.kind == SwitchKind::Null && o.verdicts[0] != o.verdicts[1])
+}
+
+/// Whether a configuration a rig could have (every value in its plausible range) changes
+/// row `id`'s verdict: a "yes" row fails there, a "no" row passes, a "not resolved" row
+/// resolves. A row with no such switch is not evidence (issue 70, item 2).
+pub fn plausibly_changed(id: &str, records: &Records) -> bool {
+    switch_outcomes(id, records).iter().any(|o| {
+        o.kind == SwitchKind::InRange
+            && match o.verdicts[0].as_str() {
+                "yes" => o.verdicts[1] != "yes",
+                "no" => o.verdicts[1] == "yes",
+                _ => o.verdicts[1] == "yes" || o.verdicts[1] == "no",
+            }
     })
 }
 
