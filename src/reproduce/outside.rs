@@ -75,7 +75,7 @@ pub fn parse(text: &str, origin: &str) -> Result<Vec<OutsideRow>, String> {
     for (n, r) in f.outside.iter().enumerate() {
         let at = format!("{origin}: [[outside]] {} (`{}`)", n + 1, r.quantity);
         let [x, lo, hi] = r.simulator;
-        if !(lo <= x && x <= hi) || !x.is_finite() {
+        if !(lo <= x && x <= hi && x.is_finite()) {
             return Err(format!(
                 "{at}: simulator = [estimate, low, high] expects low <= estimate <= high, found {:?}",
                 r.simulator
