@@ -85,7 +85,13 @@ pub struct TruthEvents {
     /// held, and how many times it did ([`crate::curl`]).
     pub contact_first_slip_s: Vec<Option<f64>>,
     pub contact_slips: Vec<u32>,
+    /// Per fingertip: when each of its first [`MAX_SLIP_TIMES`] break-frees was, so a
+    /// reaction can be set against the break-free it followed, not only the first.
+    pub contact_slip_times_s: Vec<Vec<f64>>,
 }
+
+/// How many break-free times a fingertip's truth keeps (a trial's log stays small).
+pub const MAX_SLIP_TIMES: usize = 32;
 
 /// The fall (mm, relative to the hand) below which a slip counts as not measurable: the
 /// marker scorer's default drop threshold (a slip is only detected once the object is 1 mm
@@ -456,6 +462,7 @@ impl World {
             events: TruthEvents {
                 contact_first_slip_s: vec![None; sensor_count],
                 contact_slips: vec![0; sensor_count],
+                contact_slip_times_s: vec![Vec::new(); sensor_count],
                 ..TruthEvents::default()
             },
             held_relative_mm: None,
@@ -981,6 +988,9 @@ impl World {
                 let e = &mut self.events;
                 e.contact_slips[i] += 1;
                 e.contact_first_slip_s[i].get_or_insert(now);
+                if e.contact_slip_times_s[i].len() < MAX_SLIP_TIMES {
+                    e.contact_slip_times_s[i].push(now);
+                }
             }
         }
     }

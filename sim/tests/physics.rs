@@ -583,6 +583,13 @@ fn one_finger_opening_slips_one_fingertip_on_its_own_while_the_object_stays_put(
         events.contact_first_slip_s[1].unwrap() < onset - 0.1,
         "{e:?}"
     );
+    // the truth keeps every break-free's time (up to its cap), the first among them
+    for i in 0..3 {
+        let times = &e.contact_slip_times_s[i];
+        assert_eq!(times.len(), (e.contact_slips[i] as usize).min(32), "{e:?}");
+        assert_eq!(times.first().copied(), e.contact_first_slip_s[i], "{e:?}");
+        assert!(times.windows(2).all(|w| w[0] <= w[1]), "{times:?}");
+    }
 }
 
 /// Releases all three fingers of a grasp of `object` at the paper's speed until it slips;

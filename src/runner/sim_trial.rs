@@ -291,6 +291,22 @@ pub(crate) fn put_truth(put: &mut impl FnMut(&str, String), events: &tmo_sim::Tr
             .collect::<Vec<_>>()
             .join(","),
     );
+    // every break-free's time (up to tmo_sim's MAX_SLIP_TIMES a fingertip): fingertips
+    // apart by `;`, times by `,`
+    put(
+        "sim_truth_contact_slip_times_s",
+        events
+            .contact_slip_times_s
+            .iter()
+            .map(|ts| {
+                ts.iter()
+                    .map(|t| format!("{t:.4}"))
+                    .collect::<Vec<_>>()
+                    .join(",")
+            })
+            .collect::<Vec<_>>()
+            .join(";"),
+    );
     put(
         "sim_truth_contact_slips",
         events
