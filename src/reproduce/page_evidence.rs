@@ -203,7 +203,7 @@ pub fn markdown(judged: &[Judged], measures: &Measures) -> String {
     for m in by_mechanism(judged) {
         out += &format!("- {}\n", mechanism_line(&m));
     }
-    out += &format!("\n{ONE_MECHANISM}\n\n");
+    out += &format!("\n{ONE_MECHANISM}\n\n{SWITCHES_EXPLAINED}\n\n");
     for g in &groups {
         out += &format!("### {}\n\n", heading(g));
         if let Some(p) = g.prediction {
@@ -244,7 +244,11 @@ pub fn html_section(judged: &[Judged], measures: &Measures) -> String {
     for m in by_mechanism(judged) {
         out += &format!("<li>{}</li>\n", html::inline_markdown(&mechanism_line(&m)));
     }
-    out += &format!("</ul>\n<p>{}</p>\n", html::escape(ONE_MECHANISM));
+    out += &format!(
+        "</ul>\n<p>{}</p>\n<p>{}</p>\n",
+        html::escape(ONE_MECHANISM),
+        html::inline_markdown(SWITCHES_EXPLAINED)
+    );
     for g in &groups {
         let id = g
             .prediction
@@ -331,6 +335,9 @@ pub fn switch_line(j: &Judged) -> Option<String> {
     ))
 }
 
+/// What the switch line under each row says, in the page's words.
+pub const SWITCHES_EXPLAINED: &str = "Under each row, its verdict under the configurations recorded in docs/standings.toml, each beside a baseline with the same seeds and size: the **null simulator** (the row's mechanism off, the pin noise raised to match the pin motion it made) must not give the row's verdict, or the verdict would be the definitions' or the noise's, not the mechanism's; a configuration **in range** (every value inside its plausible range) shows the physics a rig could have decides it either way; one **out of range** shows only that it can fail at all.";
+
 /// Why the page counts mechanisms, in its words.
 pub const ONE_MECHANISM: &str = "Rows one mechanism decides hang on the same physics (and often the same estimate): they are one piece of evidence, not independent ones.";
 
@@ -368,6 +375,39 @@ mod tests {
         let mut judged = judge_all(&paper(), &Default::default(), &[]);
         mark_standings(&mut judged, &shipped_standings());
         judged
+    }
+
+    /// Each evidence row's switch line lists the null simulator first, then the in-range
+    /// configurations, then the rest, each beside its own baseline; the page shows it.
+    #[test]
+    fn an_evidence_rows_switch_line_puts_the_null_simulator_first() {
+        use crate::reproduce::standing::{SwitchKind, SwitchOutcome};
+        let mut judged = shipped_judged();
+        let j = judged
+            .iter_mut()
+            .find(|j| j.standing.is_evidence())
+            .expect("an evidence row");
+        let outcome = |switch: &str, kind, v: [&str; 2]| SwitchOutcome {
+            switch: switch.into(),
+            kind,
+            verdicts: v.map(str::to_string),
+        };
+        j.switches = vec![
+            outcome("noise=9", SwitchKind::OutOfRange, ["yes", "no"]),
+            outcome("ratio=0.1", SwitchKind::InRange, ["yes", "not resolved"]),
+            outcome("ratio=0", SwitchKind::Null, ["yes", "no"]),
+        ];
+        let id = j.finding.id.clone();
+        let line = switch_line(j).unwrap();
+        let at = |s: &str| line.find(s).unwrap_or_else(|| panic!("{s} in {line}"));
+        assert!(at("null simulator `ratio=0`: yes -> no") < at("in range `ratio=0.1`"));
+        assert!(at("in range `ratio=0.1`: yes -> not resolved") < at("out of range `noise=9`"));
+        let page = markdown(&judged, &Default::default());
+        let row = page.find(&format!("`{id}`")).unwrap();
+        assert!(page[row..].contains("null simulator `ratio=0`"), "{page}");
+        let mut bare = shipped_judged();
+        bare.iter_mut().for_each(|j| j.switches.clear());
+        assert!(bare.iter().all(|j| switch_line(j).is_none()));
     }
 
     /// Every evidence row sits under one heading, its prediction's (stated once) or the

@@ -718,6 +718,61 @@ why = "w"
     }
 
     #[test]
+    fn the_null_simulator_and_the_in_range_switches_argue_a_rows_standing() {
+        let r = records(
+            r#"
+[[switch]]
+switch = "null"
+kind = "null"
+run = "test"
+verdicts = { a = ["yes", "no"], b = ["no", "no"] }
+why = "w"
+
+[[switch]]
+switch = "p=0.1"
+kind = "in_range"
+run = "test"
+verdicts = { a = ["yes", "not resolved"], b = ["no", "not resolved"], c = ["not resolved", "no"] }
+why = "w"
+
+[[switch]]
+switch = "p=9"
+run = "test"
+verdicts = { b = ["no", "yes"] }
+why = "w"
+"#,
+        );
+        assert!(
+            null_differs("a", &r),
+            "yes in the simulator, no in the null"
+        );
+        assert!(!null_differs("b", &r), "the null gives its verdict alike");
+        assert!(!null_differs("c", &r), "no null run");
+        assert!(plausibly_changed("a", &r), "a yes row fails in range");
+        assert!(
+            !plausibly_changed("b", &r),
+            "a no row must pass in range; passing out of range does not count"
+        );
+        assert!(plausibly_changed("c", &r), "a not-resolved row resolves");
+        let outcomes = switch_outcomes("b", &r);
+        assert_eq!(
+            outcomes.iter().map(|o| o.kind).collect::<Vec<_>>(),
+            [
+                SwitchKind::Null,
+                SwitchKind::InRange,
+                SwitchKind::OutOfRange
+            ]
+        );
+        let e = parse(
+            "[[switch]]\nswitch = \"s\"\nkind = \"plausible\"\nrun = \"r\"\nverdicts = {}\nwhy = \"w\"\n",
+            "f",
+            &IDS,
+        )
+        .unwrap_err();
+        assert!(e.to_string().contains("plausible"), "{e}");
+    }
+
+    #[test]
     fn a_withdrawn_pipeline_check_leaves_the_row_to_its_next_standing() {
         let text = r#"
 [[pipeline_check]]
