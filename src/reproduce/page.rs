@@ -302,7 +302,17 @@ fn details(j: &Judged) -> String {
     } else if !j.standing_why.is_empty() {
         s += &format!(": {}", j.standing_why);
     }
+    if let Some(line) = unshown_switches(j) {
+        s += &format!("; {line}");
+    }
     s
+}
+
+/// An unshown row's verdicts under its switches: why the page does not count it.
+fn unshown_switches(j: &Judged) -> Option<String> {
+    (j.standing == super::standing::Standing::Unshown)
+        .then(|| page_evidence::switch_line(j))
+        .flatten()
 }
 
 /// [`details`] as HTML: the prediction's link a real anchor.
@@ -316,6 +326,9 @@ fn details_html(j: &Judged) -> String {
         );
     } else if !j.standing_why.is_empty() {
         s += &format!(": {}", html::inline_markdown(&j.standing_why));
+    }
+    if let Some(line) = unshown_switches(j) {
+        s += &format!("; {}", html::inline_markdown(&line));
     }
     s
 }

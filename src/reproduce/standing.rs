@@ -28,6 +28,10 @@ pub enum Standing {
     /// Never seen while a simulator value or mechanism was chosen.
     #[default]
     NeverSeen,
+    /// Pre-registered or never seen, but not shown to be its physics' (issue 70, items 1
+    /// and 2): the null simulator gives its verdict alike, or no configuration inside the
+    /// plausible ranges changes it, beyond what other seeds alone change.
+    Unshown,
     /// Shown in a table while a value or mechanism was chosen, though not its target.
     InView,
     /// A simulator value or mechanism was chosen to move it.
@@ -38,9 +42,10 @@ pub enum Standing {
 
 impl Standing {
     /// Every standing, evidence first (the page's order).
-    pub const ALL: [Standing; 5] = [
+    pub const ALL: [Standing; 6] = [
         Standing::PreRegistered,
         Standing::NeverSeen,
+        Standing::Unshown,
         Standing::InView,
         Standing::Calibrated,
         Standing::PipelineCheck,
@@ -54,6 +59,7 @@ impl Standing {
         match self {
             Standing::PreRegistered => "pre-registered",
             Standing::NeverSeen => "never seen",
+            Standing::Unshown => "unshown",
             Standing::InView => "in view",
             Standing::Calibrated => "calibrated",
             Standing::PipelineCheck => "pipeline check",
@@ -65,6 +71,7 @@ impl Standing {
         match self {
             Standing::PreRegistered => "its expected verdict under a simulator change was committed, with the change's sourced values and reasoning, before the run that judged it: evidence",
             Standing::NeverSeen => "never shown while a simulator value or mechanism was chosen: evidence",
+            Standing::Unshown => "pre-registered or never seen, but not shown to be decided by its physics: the null simulator (its mechanism off, the pin noise matched) gives its verdict alike, or no configuration inside the plausible ranges changes it beyond what other seeds alone change: not evidence",
             Standing::InView => "shown in a table while a simulator value or mechanism was chosen, though not its target: not evidence",
             Standing::Calibrated => "a simulator value or mechanism was chosen to move it: not evidence",
             Standing::PipelineCheck => "the simulator as built cannot fail it: it checks the pipeline, not the physics; never evidence",
@@ -196,6 +203,10 @@ pub enum SwitchKind {
     /// The null simulator: the row's mechanism off and the pin noise matched to the pin
     /// motion the mechanism made. A verdict that holds there is not the mechanism's.
     Null,
+    /// The noise reference run beside switches: their baseline's parameters, other seeds.
+    /// A verdict it changes is not decided at that size, so no switch of the same run
+    /// shows anything of it.
+    OtherSeeds,
 }
 
 impl SwitchKind {
@@ -204,6 +215,7 @@ impl SwitchKind {
             SwitchKind::OutOfRange => "out of range",
             SwitchKind::InRange => "in range",
             SwitchKind::Null => "null simulator",
+            SwitchKind::OtherSeeds => "other seeds",
         }
     }
 }
@@ -429,23 +441,56 @@ pub fn switch_outcomes(id: &str, records: &Records) -> Vec<SwitchOutcome> {
 /// Whether the null simulator was run for row `id` and did not give its verdict: the
 /// row's verdict is its mechanism's, not one pin noise or a definition would give.
 pub fn null_differs(id: &str, records: &Records) -> bool {
-    switch_outcomes(id, records)
-        .iter()
-        .any(|o| o.kind == SwitchKind::Null && o.verdicts[0] != o.verdicts[1])
+    records.switch.iter().any(|sw| {
+        sw.kind == SwitchKind::Null
+            && sw.verdicts.get(id).is_some_and(|v| v[0] != v[1])
+            && !seeds_change(id, &sw.run, records)
+    })
+}
+
+/// Whether the noise reference of run `run` (a `kind = "other_seeds"` record with the same
+/// `run`) changes row `id`'s verdict: at that size the verdict is not decided.
+fn seeds_change(id: &str, run: &str, records: &Records) -> bool {
+    records.switch.iter().any(|sw| {
+        sw.kind == SwitchKind::OtherSeeds
+            && sw.run == run
+            && sw.verdicts.get(id).is_some_and(|v| v[0] != v[1])
+    })
 }
 
 /// Whether a configuration a rig could have (every value in its plausible range) changes
 /// row `id`'s verdict: a "yes" row fails there, a "no" row passes, a "not resolved" row
 /// resolves. A row with no such switch is not evidence (issue 70, item 2).
 pub fn plausibly_changed(id: &str, records: &Records) -> bool {
-    switch_outcomes(id, records).iter().any(|o| {
-        o.kind == SwitchKind::InRange
-            && match o.verdicts[0].as_str() {
-                "yes" => o.verdicts[1] != "yes",
-                "no" => o.verdicts[1] == "yes",
-                _ => o.verdicts[1] == "yes" || o.verdicts[1] == "no",
-            }
+    records.switch.iter().any(|sw| {
+        sw.kind == SwitchKind::InRange
+            && !seeds_change(id, &sw.run, records)
+            && sw.verdicts.get(id).is_some_and(|v| match v[0].as_str() {
+                "yes" => v[1] != "yes",
+                "no" => v[1] == "yes",
+                _ => v[1] == "yes" || v[1] == "no",
+            })
     })
+}
+
+/// Test records that show every row in `ids` to be its physics': a null simulator and an
+/// in-range configuration that each turn it from yes to no. Tests of the other standings
+/// add these so that their evidence rows stay evidence.
+#[cfg(test)]
+pub fn shown_switches(ids: &[&str]) -> String {
+    let verdicts: Vec<String> = ids
+        .iter()
+        .map(|id| format!("\"{id}\" = [\"yes\", \"no\"]"))
+        .collect();
+    let verdicts = verdicts.join(", ");
+    ["null", "in_range"]
+        .iter()
+        .map(|kind| {
+            format!(
+                "\n[[switch]]\nswitch = \"{kind}\"\nkind = \"{kind}\"\nrun = \"test\"\nverdicts = {{ {verdicts} }}\nwhy = \"w\"\n"
+            )
+        })
+        .collect()
 }
 
 /// The shipped records, checked against the findings whose ids are `ids` (the shipped
@@ -457,6 +502,38 @@ pub fn shipped(ids: &[&str]) -> Records {
 /// The standing of finding `id`, with the record that gave it, in words; `parameters` are
 /// the simulator parameters calibrated against it.
 pub fn of(id: &str, parameters: &[String], records: &Records) -> (Standing, String) {
+    let (standing, why) = seen_or_chosen(id, parameters, records);
+    if !standing.is_evidence() {
+        return (standing, why);
+    }
+    match unshown_because(id, records) {
+        None => (standing, why),
+        Some(because) => (
+            Standing::Unshown,
+            format!("{} ({because})", standing.label()),
+        ),
+    }
+}
+
+/// Why an otherwise-evidence row is not shown to be its physics' (`None`: it is shown):
+/// the null simulator must change its verdict and a configuration inside the plausible
+/// ranges must change it (a yes row fails, a no row passes, a not-resolved row resolves),
+/// each beyond what the same run's other seeds change (a verdict other seeds change is
+/// not decided at that size, so a switch that changes it says nothing).
+pub fn unshown_because(id: &str, records: &Records) -> Option<String> {
+    let mut missing = Vec::new();
+    if !null_differs(id, records) {
+        missing.push("the null simulator has not been shown to change its verdict beyond what other seeds change");
+    }
+    if !plausibly_changed(id, records) {
+        missing.push("no configuration inside the plausible ranges has been shown to change it beyond what other seeds change");
+    }
+    (!missing.is_empty()).then(|| missing.join("; "))
+}
+
+/// The standing from the records of what was seen and chosen, before the rows' switches
+/// are asked whether the physics decides them.
+fn seen_or_chosen(id: &str, parameters: &[String], records: &Records) -> (Standing, String) {
     let withdrawn = |p: &&PipelineCheck| {
         records
             .withdrawn_pipeline_check
@@ -568,8 +645,49 @@ mod tests {
 
     const IDS: [&str; 4] = ["a", "b", "c", "d"];
 
-    fn records(text: &str) -> Records {
+    /// The records in `text` alone.
+    fn bare(text: &str) -> Records {
         parse(text, "test", &IDS).unwrap()
+    }
+
+    /// The records in `text`, with switches that show every row its physics' (so the rows
+    /// these tests expect as evidence are).
+    fn records(text: &str) -> Records {
+        parse(&format!("{text}{}", shown_switches(&IDS)), "test", &IDS).unwrap()
+    }
+
+    #[test]
+    fn a_row_not_shown_to_be_its_physics_is_unshown_not_evidence() {
+        let bare = parse("", "test", &IDS).unwrap();
+        let (standing, why) = of("d", &[], &bare);
+        assert_eq!(standing, Standing::Unshown);
+        assert!(!standing.is_evidence());
+        assert!(
+            why.starts_with("never seen (") && why.contains("null simulator"),
+            "{why}"
+        );
+        // shown by its null simulator alone: still unshown, for want of a plausible rig
+        let null_only = parse(
+            "[[switch]]\nswitch = \"n\"\nkind = \"null\"\nrun = \"r\"\nverdicts = { d = [\"yes\", \"no\"] }\nwhy = \"w\"\n",
+            "test",
+            &IDS,
+        )
+        .unwrap();
+        let (standing, why) = of("d", &[], &null_only);
+        assert_eq!(standing, Standing::Unshown);
+        assert!(
+            !why.contains("null simulator") && why.contains("plausible"),
+            "{why}"
+        );
+        assert_eq!(of("d", &[], &records("")).0, Standing::NeverSeen);
+        // other seeds of the same run changing it: the switches show nothing of it
+        let seeds = format!(
+            "{}\n[[switch]]\nswitch = \"s\"\nkind = \"other_seeds\"\nrun = \"test\"\nverdicts = {{ d = [\"yes\", \"not resolved\"] }}\nwhy = \"w\"\n",
+            shown_switches(&IDS)
+        );
+        let seeds = parse(&seeds, "test", &IDS).unwrap();
+        assert_eq!(of("d", &[], &seeds).0, Standing::Unshown);
+        assert_eq!(of("c", &[], &seeds).0, Standing::NeverSeen);
     }
 
     #[test]
@@ -687,7 +805,7 @@ why = "both verdicts as in the run before"
 
     #[test]
     fn a_switch_shows_a_row_can_fail_where_it_is_not_yes_under_the_switch_or_in_its_baseline() {
-        let r = records(
+        let r = bare(
             r#"
 [[switch]]
 switch = "p=2"
@@ -700,7 +818,7 @@ why = "w"
         assert!(!can_fail("b", &r), "yes under the switch too");
         assert!(can_fail("c", &r), "no as it stands");
         assert!(can_fail("d", &r), "not measured is not yes");
-        assert!(!can_fail("a", &records("")), "no record");
+        assert!(!can_fail("a", &bare("")), "no record");
         let e = parse(
             "[[switch]]\nswitch = \"s\"\nrun = \"r\"\nverdicts = { a = [\"yes\", \"perhaps\"] }\nwhy = \"w\"\n",
             "f",
@@ -719,7 +837,7 @@ why = "w"
 
     #[test]
     fn the_null_simulator_and_the_in_range_switches_argue_a_rows_standing() {
-        let r = records(
+        let r = bare(
             r#"
 [[switch]]
 switch = "null"
