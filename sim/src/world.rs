@@ -85,7 +85,7 @@ pub struct TruthEvents {
     /// held, and how many times it did ([`crate::curl`]).
     pub contact_first_slip_s: Vec<Option<f64>>,
     pub contact_slips: Vec<u32>,
-    /// Per fingertip: when each of its first [`MAX_SLIP_TIMES`] break-frees was, so a
+    /// Per fingertip: when each of its first `MAX_SLIP_TIMES` (32) break-frees was, so a
     /// reaction can be set against the break-free it followed, not only the first.
     pub contact_slip_times_s: Vec<Vec<f64>>,
 }
