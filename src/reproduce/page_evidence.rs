@@ -317,6 +317,7 @@ pub fn switch_line(j: &Judged) -> Option<String> {
     for kind in [
         SwitchKind::Null,
         SwitchKind::InRange,
+        SwitchKind::OtherSeeds,
         SwitchKind::OutOfRange,
     ] {
         for o in j.switches.iter().filter(|o| o.kind == kind) {
@@ -408,12 +409,14 @@ mod tests {
             outcome("noise=9", SwitchKind::OutOfRange, ["yes", "no"]),
             outcome("ratio=0.1", SwitchKind::InRange, ["yes", "not resolved"]),
             outcome("ratio=0", SwitchKind::Null, ["yes", "no"]),
+            outcome("reseeded", SwitchKind::OtherSeeds, ["yes", "yes"]),
         ];
         let id = j.finding.id.clone();
         let line = switch_line(j).unwrap();
         let at = |s: &str| line.find(s).unwrap_or_else(|| panic!("{s} in {line}"));
         assert!(at("null simulator `ratio=0`: yes -> no") < at("in range `ratio=0.1`"));
-        assert!(at("in range `ratio=0.1`: yes -> not resolved") < at("out of range `noise=9`"));
+        assert!(at("in range `ratio=0.1`: yes -> not resolved") < at("other seeds `reseeded`"));
+        assert!(at("other seeds `reseeded`: yes -> yes") < at("out of range `noise=9`"));
         let page = markdown(&judged, &Default::default());
         let row = page.find(&format!("`{id}`")).unwrap();
         assert!(page[row..].contains("null simulator `ratio=0`"), "{page}");
