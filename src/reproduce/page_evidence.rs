@@ -196,7 +196,7 @@ fn tally(rows: &[&Judged]) -> String {
 pub fn markdown(judged: &[Judged], measures: &Measures) -> String {
     let groups = groups(judged);
     if groups.is_empty() {
-        return String::new();
+        return none_shown_markdown(judged);
     }
     let mut out = "## Evidence: each prediction and what came of it\n\n".to_string();
     out += &format!("{WHY_A_MISS_COUNTS}\n\n");
@@ -237,7 +237,7 @@ pub fn markdown(judged: &[Judged], measures: &Measures) -> String {
 pub fn html_section(judged: &[Judged], measures: &Measures) -> String {
     let groups = groups(judged);
     if groups.is_empty() {
-        return String::new();
+        return none_shown_html(judged);
     }
     let mut out = "<h2>Evidence: each prediction and what came of it</h2>\n".to_string();
     out += &format!("<p>{}</p>\n<ul>\n", html::escape(WHY_A_MISS_COUNTS));
@@ -336,6 +336,74 @@ pub fn switch_line(j: &Judged) -> Option<String> {
     ))
 }
 
+/// The rows a prediction or no sight of them would have made evidence but that are not
+/// shown to be their physics.
+fn unshown(judged: &[Judged]) -> Vec<&Judged> {
+    judged
+        .iter()
+        .filter(|j| j.standing == Standing::Unshown)
+        .collect()
+}
+
+/// Why the section lists unshown rows when no row is evidence, in the page's words.
+pub const NONE_SHOWN: &str = "No row is evidence: each row a prediction or no sight of it would have made evidence is not shown to be decided by its physics (docs/reproduce.md, \"Standings\"). Those rows, with what was found:";
+
+const NONE_SHOWN_HEADING: &str = "Evidence: none shown yet";
+
+/// The section when no row is evidence: the unshown rows and why (empty without them).
+fn none_shown_markdown(judged: &[Judged]) -> String {
+    let rows = unshown(judged);
+    if rows.is_empty() {
+        return String::new();
+    }
+    let mut out = format!("## {NONE_SHOWN_HEADING}\n\n{SWITCHES_EXPLAINED}\n\n{NONE_SHOWN}\n\n");
+    for j in rows {
+        out += &format!(
+            "- `{}` {}: **{}**; {}\n",
+            j.finding.id,
+            j.finding.measured,
+            j.reproduced.label(),
+            j.standing_why
+        );
+        if let Some(line) = switch_line(j) {
+            out += &format!("  - {line}\n");
+        }
+    }
+    out + "\n"
+}
+
+/// [`none_shown_markdown`] as HTML.
+fn none_shown_html(judged: &[Judged]) -> String {
+    let rows = unshown(judged);
+    if rows.is_empty() {
+        return String::new();
+    }
+    let mut out = format!(
+        "<h2>{NONE_SHOWN_HEADING}</h2>\n<p>{}</p>\n<p>{}</p>\n<ul>\n",
+        html::inline_markdown(SWITCHES_EXPLAINED),
+        html::escape(NONE_SHOWN)
+    );
+    for j in rows {
+        let switches = switch_line(j)
+            .map(|l| {
+                format!(
+                    "<br><span class=\"details\">{}</span>",
+                    html::inline_markdown(&l)
+                )
+            })
+            .unwrap_or_default();
+        out += &format!(
+            "<li><code>{}</code> {}: <span class=\"{}\"><b>{}</b></span>; {}{switches}</li>\n",
+            html::escape(&j.finding.id),
+            html::escape(&j.finding.measured),
+            verdict_class(j.reproduced),
+            html::escape(j.reproduced.label()),
+            html::inline_markdown(&j.standing_why)
+        );
+    }
+    out + "</ul>\n"
+}
+
 /// What the switch line under each row says, in the page's words.
 pub const SWITCHES_EXPLAINED: &str = "Under each row, its verdict under the configurations recorded in docs/standings.toml, each beside a baseline with the same seeds and size: the **null simulator** (the row's mechanism off, the pin noise raised to match the pin motion it made) must not give the row's verdict, or the verdict would be the definitions' or the noise's, not the mechanism's; a configuration **in range** (every value inside its plausible range) shows the physics a rig could have decides it either way; one **out of range** shows only that it can fail at all.";
 
@@ -423,6 +491,34 @@ mod tests {
         let mut bare = shipped_judged();
         bare.iter_mut().for_each(|j| j.switches.clear());
         assert!(bare.iter().all(|j| switch_line(j).is_none()));
+    }
+
+    /// With no evidence row (the shipped records, 2026-12-08) the section still leads the
+    /// page: it lists the unshown rows, each with why and its switches.
+    #[test]
+    fn with_no_evidence_the_section_lists_the_unshown_rows() {
+        let mut judged = judge_all(&paper(), &Default::default(), &[]);
+        mark_standings(&mut judged, &shipped_standings());
+        assert!(groups(&judged).is_empty());
+        let md = markdown(&judged, &Default::default());
+        assert!(md.starts_with("## Evidence: none shown yet"), "{md}");
+        for id in [
+            "wh-thumb-best",
+            "wh-harder-than-one-finger",
+            "wh-fp-sensitive-strategy",
+        ] {
+            assert!(md.contains(&format!("- `{id}`")), "{id}: {md}");
+        }
+        assert!(
+            md.contains("null simulator `physics.finger_roll_ratio=0"),
+            "{md}"
+        );
+        let html = html_section(&judged, &Default::default());
+        assert!(
+            html.starts_with("<h2>Evidence: none shown yet</h2>"),
+            "{html}"
+        );
+        assert!(html.contains("<code>wh-thumb-best</code>"), "{html}");
     }
 
     /// Every evidence row sits under one heading, its prediction's (stated once) or the
